@@ -1,0 +1,30 @@
+!> Public API of the tmafm library: a facade that re-exports what users call.
+!>
+!> Read a namelist with read_config, run it with simulate, write it with
+!> write_trajectory_file; or build a model_t directly and call run_trajectory.
+module tmafm
+   use tmafm_kinds, only: dp, i8
+   use tmafm_errors, only: ok, err_input, err_file, err_blowup, err_runtime, errmsg_len
+   use tmafm_version, only: tmafm_version_string
+   use tmafm_modes, only: max_modes, beam_roots, mode_shape
+   use tmafm_scene, only: scene_t, physical_t, scene_from_physical
+   use tmafm_errata, only: errata_t, errata_for_convention
+   use tmafm_contact, only: law_hertz, law_dmt, contact_brackets_t, contact_brackets
+   use tmafm_model, only: model_t, init_model
+   use tmafm_driver, only: run_settings_t, trajectory_t, run_trajectory
+   use tmafm_config, only: config_t, path_len
+   use tmafm_namelist, only: read_config, write_config
+   use tmafm_simulation, only: build_model, simulate
+   use tmafm_output, only: write_trajectory_file
+   implicit none
+   private
+
+   public :: dp, i8, ok, err_input, err_file, err_blowup, err_runtime, errmsg_len
+   public :: tmafm_version_string, max_modes, beam_roots, mode_shape
+   public :: scene_t, physical_t, scene_from_physical, errata_t, errata_for_convention
+   public :: law_hertz, law_dmt, contact_brackets_t, contact_brackets
+   public :: model_t, init_model, run_settings_t, trajectory_t, run_trajectory
+   public :: config_t, path_len, read_config, write_config, build_model, simulate
+   public :: write_trajectory_file
+
+end module tmafm

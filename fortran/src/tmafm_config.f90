@@ -1,0 +1,41 @@
+!> The fully resolved input of a run: every namelist key, defaults included.
+module tmafm_config
+   use tmafm_kinds, only: dp
+   use tmafm_modes, only: max_modes
+   use tmafm_scene, only: scene_t, physical_t
+   use tmafm_driver, only: run_settings_t
+   implicit none
+   private
+
+   public :: config_t, path_len
+
+   !> Longest file path tmafm accepts.
+   integer, parameter :: path_len = 1024
+
+   !> One run's input: &model, &scene or &physical, &initial, &solver and &output.
+   type :: config_t
+      !> &model n_modes: number of Galerkin modes, 1 to max_modes.
+      integer :: n_modes = 4
+      !> &model contact_law: 'hertz' or 'dmt'.
+      character(len=64) :: contact_law = 'hertz'
+      !> &model convention: 'paper' (printed equations) or 'consistent' (corrected).
+      character(len=64) :: convention = 'paper'
+      !> &model errata: corrections applied, resolved to a list such as 'E1,E3' or 'none'.
+      character(len=64) :: errata = 'convention'
+      !> .true. when the scene was given in SI units (&physical) and converted.
+      logical :: from_physical = .false.
+      !> The dimensionless scene (given, or derived from &physical).
+      type(scene_t) :: scene
+      !> The physical inputs, when from_physical.
+      type(physical_t) :: physical
+      !> &initial a0: initial modal amplitudes (first n_modes used).
+      real(dp) :: a0(max_modes) = 0
+      !> &initial adot0: initial modal velocities (first n_modes used).
+      real(dp) :: adot0(max_modes) = 0
+      !> &solver settings, plus &output sample_dtau.
+      type(run_settings_t) :: solver
+      !> &output file: where the executable writes the trajectory.
+      character(len=path_len) :: output_file = 'tmafm_output.dat'
+   end type config_t
+
+end module tmafm_config

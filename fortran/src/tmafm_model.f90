@@ -1,0 +1,284 @@
+!> The Galerkin equations of motion M a'' + C a' + K a = F, spec section 5,
+!> paper Eqs. (15)-(23), in both phases and with each erratum as one named switch.
+!>
+!> Out of contact:  M = I + alpha1 m m^T, C = alpha3 I, K = Lambda,
+!>                  F = alpha2 Omega^2 (alpha1 m + q) sin(Omega tau) - alpha2 alpha3 Omega q cos(Omega tau).
+!> In contact:      C += alpha4 p p^T, K -= P2 G,
+!>                  F += F_damp + (L/d) P1 p + (g0/d) P2 r.
+!> M is constant: it is factored once (LAPACK dpotrf) and M^-1 is applied to every
+!> constant matrix and vector at set-up, so an evaluation costs a few N x N products.
+module tmafm_model
+   use tmafm_kinds, only: dp
+   use tmafm_errors, only: ok, err_runtime
+   use tmafm_modes, only: beam_roots, mode_shape
+   use tmafm_galerkin, only: mode_integrals_closed_form, axial_matrix_closed_form, &
+      axial_matrix_quadrature, quadrature_panels
+   use tmafm_contact, only: contact_brackets_t, contact_brackets, law_hertz
+   use tmafm_scene, only: scene_t
+   use tmafm_errata, only: errata_t
+   implicit none
+   private
+
+   public :: model_t, init_model
+
+   !> Everything fixed for a run: the scene, the Galerkin data and M^-1 applied to them.
+   type :: model_t
+      !> Number of Galerkin modes N.
+      integer :: n_modes = 0
+      !> Contact law (law_hertz or law_dmt).
+      integer :: law = law_hertz
+      !> The dimensionless scene.
+      type(scene_t) :: scene
+      !> Which printed forms are corrected.
+      type(errata_t) :: errata
+      !> Scale of the normal force in the brackets (alpha5, or alpha5/2 under E4).
+      real(dp) :: kappa5 = 0
+      !> Scale of the friction force in the brackets (alpha6, or alpha6/2 under E4).
+      real(dp) :: kappa6 = 0
+      !> Mode roots beta_j.
+      real(dp), allocatable :: beta(:)
+      !> Lambda = beta^4, the modal stiffnesses.
+      real(dp), allocatable :: eigen(:)
+      !> p = phi(xi0): where the contact acts and V_T is measured.
+      real(dp), allocatable :: tip(:)
+      !> s = phi'(xi0): tip slopes.
+      real(dp), allocatable :: slope(:)
+      !> m: where the tip mass sits, phi(1) (printed) or phi(xi0) (E6).
+      real(dp), allocatable :: mass_point(:)
+      !> r: the moment shape, phi''(xi0) (printed) or phi'(xi0) (E3).
+      real(dp), allocatable :: moment_shape(:)
+      !> q = int_0^1 phi.
+      real(dp), allocatable :: integral(:)
+      !> G_ij = int phi_i phi_j'' over [0,1], or [0, xi0] under E2.
+      real(dp), allocatable :: axial(:, :)
+      !> M = I + alpha1 m m^T.
+      real(dp), allocatable :: mass(:, :)
+      !> M^-1.
+      real(dp), allocatable :: inv_mass(:, :)
+      !> M^-1 Lambda.
+      real(dp), allocatable :: inv_mass_eigen(:, :)
+      !> M^-1 G.
+      real(dp), allocatable :: inv_mass_axial(:, :)
+      !> M^-1 p.
+      real(dp), allocatable :: inv_mass_tip(:)
+      !> M^-1 r.
+      real(dp), allocatable :: inv_mass_moment(:)
+      !> M^-1 (alpha1 m + q): the inertial drive direction.
+      real(dp), allocatable :: inv_mass_inertial(:)
+      !> M^-1 q: the damping drive direction.
+      real(dp), allocatable :: inv_mass_integral(:)
+   contains
+      !> Time derivative (a', a'') of the state y = (a, a') in a given phase.
+      procedure :: derivative => model_derivative
+      !> The tip gap V_T = p.a + alpha2 sin(Omega tau) + delta_hat.
+      procedure :: tip_gap => model_tip_gap
+      !> The tip gap rate dV_T/dtau = p.a' + alpha2 Omega cos(Omega tau).
+      procedure :: tip_gap_rate => model_tip_gap_rate
+      !> The contact state (angle, radius, brackets) for displacements a at time tau.
+      procedure :: contact => model_contact
+      !> The explicit M, C, K, F of Eq. (15) at one state, for checks and analysis.
+      procedure :: matrices => model_matrices
+   end type model_t
+
+contains
+
+   !> Build the model for n_modes modes of a scene, a contact law and a set of corrections.
+   subroutine init_model(model, n_modes, scene, law, errata, ierr, errmsg)
+      type(model_t), intent(out) :: model
+      integer, intent(in) :: n_modes
+      type(scene_t), intent(in) :: scene
+      integer, intent(in) :: law
+      type(errata_t), intent(in) :: errata
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      real(dp) :: rhs(n_modes, 3*n_modes + 4), axial_end
+      integer :: n, j, info
+
+      ierr = ok
+      errmsg = ''
+      n = n_modes
+      model%n_modes = n
+      model%law = law
+      model%scene = scene
+      model%errata = errata
+
+      model%beta = beam_roots(n)
+      model%eigen = model%beta**4
+      model%tip = mode_shape(model%beta, scene%xi0, 0)
+      model%slope = mode_shape(model%beta, scene%xi0, 1)
+      model%integral = mode_integrals_closed_form(model%beta)
+
+      if (errata%e6_tip_mass_at_xi0) then
+         model%mass_point = model%tip
+      else
+         model%mass_point = mode_shape(model%beta, 1.0_dp, 0)
+      end if
+
+      if (errata%e3_moment_through_slope) then
+         model%moment_shape = model%slope
+      else
+         model%moment_shape = mode_shape(model%beta, scene%xi0, 2)
+      end if
+
+      if (errata%e4_half_force_scales) then
+         model%kappa5 = scene%alpha5/2
+         model%kappa6 = scene%alpha6/2
+      else
+         model%kappa5 = scene%alpha5
+         model%kappa6 = scene%alpha6
+      end if
+
+      if (errata%e2_axial_span_to_tip .and. scene%xi0 < 1.0_dp) then
+         axial_end = scene%xi0
+         model%axial = axial_matrix_quadrature(model%beta, axial_end, &
+            quadrature_panels(model%beta(n), axial_end))
+      else
+         model%axial = axial_matrix_closed_form(model%beta)
+      end if
+
+      allocate (model%mass(n, n))
+      model%mass = scene%alpha1*spread(model%mass_point, 2, n)*spread(model%mass_point, 1, n)
+      do j = 1, n
+         model%mass(j, j) = model%mass(j, j) + 1.0_dp
+      end do
+
+      ! Columns: I | Lambda | G | p | r | alpha1 m + q | q, all solved with one factorisation.
+      rhs = 0
+      do j = 1, n
+         rhs(j, j) = 1.0_dp
+         rhs(j, n + j) = model%eigen(j)
+      end do
+      rhs(:, 2*n + 1:3*n) = model%axial
+      rhs(:, 3*n + 1) = model%tip
+      rhs(:, 3*n + 2) = model%moment_shape
+      rhs(:, 3*n + 3) = scene%alpha1*model%mass_point + model%integral
+      rhs(:, 3*n + 4) = model%integral
+      block
+         real(dp) :: factor(n, n)
+         factor = model%mass
+         call dpotrf('L', n, factor, n, info)
+         if (info == 0) call dpotrs('L', n, size(rhs, 2), factor, n, rhs, n, info)
+      end block
+      if (info /= 0) then
+         ierr = err_runtime
+         write (errmsg, '(a,i0)') 'mass matrix factorisation failed: LAPACK info = ', info
+         return
+      end if
+      model%inv_mass = rhs(:, 1:n)
+      model%inv_mass_eigen = rhs(:, n + 1:2*n)
+      model%inv_mass_axial = rhs(:, 2*n + 1:3*n)
+      model%inv_mass_tip = rhs(:, 3*n + 1)
+      model%inv_mass_moment = rhs(:, 3*n + 2)
+      model%inv_mass_inertial = rhs(:, 3*n + 3)
+      model%inv_mass_integral = rhs(:, 3*n + 4)
+   end subroutine init_model
+
+   pure function model_tip_gap(self, tau, y) result(vt)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: y(:)
+      real(dp) :: vt
+      vt = dot_product(self%tip, y(1:self%n_modes)) &
+           + self%scene%alpha2*sin(self%scene%omega*tau) + self%scene%delta_hat
+   end function model_tip_gap
+
+   pure function model_tip_gap_rate(self, tau, y) result(vtdot)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: y(:)
+      real(dp) :: vtdot
+      integer :: n
+      n = self%n_modes
+      vtdot = dot_product(self%tip, y(n + 1:2*n)) &
+              + self%scene%alpha2*self%scene%omega*cos(self%scene%omega*tau)
+   end function model_tip_gap_rate
+
+   pure function model_contact(self, tau, a) result(state)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: a(:)
+      type(contact_brackets_t) :: state
+      real(dp) :: vt, scaled_slope
+      vt = dot_product(self%tip, a) + self%scene%alpha2*sin(self%scene%omega*tau) &
+           + self%scene%delta_hat
+      scaled_slope = dot_product(self%slope, a)/self%scene%l_over_d
+      state = contact_brackets(vt, scaled_slope, self%scene%theta, self%scene%beta, self%law, &
+                               self%kappa5, self%kappa6, self%errata%e7_signed_slope)
+   end function model_contact
+
+   !> The contact-damping base term: -alpha2 alpha4 sin(Omega tau) (printed) or E1's velocity form.
+   pure function base_damping(self, tau) result(value)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp) :: value
+      associate (s => self%scene)
+         if (self%errata%e1_base_damping_velocity) then
+            value = -s%alpha2*s%alpha4*s%omega*cos(s%omega*tau)
+         else
+            value = -s%alpha2*s%alpha4*sin(s%omega*tau)
+         end if
+      end associate
+   end function base_damping
+
+   pure subroutine model_derivative(self, tau, y, in_contact, dydt)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: y(:)
+      logical, intent(in) :: in_contact
+      real(dp), intent(out) :: dydt(:)
+      type(contact_brackets_t) :: state
+      real(dp) :: tip_push
+      integer :: n
+
+      n = self%n_modes
+      associate (a => y(1:n), adot => y(n + 1:2*n), s => self%scene)
+         dydt(1:n) = adot
+         dydt(n + 1:2*n) = -s%alpha3*matmul(self%inv_mass, adot) - matmul(self%inv_mass_eigen, a) &
+            + s%alpha2*s%omega**2*sin(s%omega*tau)*self%inv_mass_inertial &
+            - s%alpha2*s%alpha3*s%omega*cos(s%omega*tau)*self%inv_mass_integral
+         if (in_contact) then
+            state = self%contact(tau, a)
+            ! Everything that acts along p: contact damping, its base term, and P1.
+            tip_push = -s%alpha4*dot_product(self%tip, adot) + base_damping(self, tau) &
+                       + s%l_over_d*state%transverse
+            dydt(n + 1:2*n) = dydt(n + 1:2*n) + tip_push*self%inv_mass_tip &
+               + state%axial*matmul(self%inv_mass_axial, a) &
+               + s%g0_over_d*state%axial*self%inv_mass_moment
+         end if
+      end associate
+   end subroutine model_derivative
+
+   pure subroutine model_matrices(self, tau, a, in_contact, mass, damping, stiffness, force)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: a(:)
+      logical, intent(in) :: in_contact
+      real(dp), intent(out) :: mass(:, :)
+      real(dp), intent(out) :: damping(:, :)
+      real(dp), intent(out) :: stiffness(:, :)
+      real(dp), intent(out) :: force(:)
+      type(contact_brackets_t) :: state
+      integer :: n, j
+
+      n = self%n_modes
+      mass = self%mass
+      damping = 0
+      stiffness = 0
+      do j = 1, n
+         damping(j, j) = self%scene%alpha3
+         stiffness(j, j) = self%eigen(j)
+      end do
+      associate (s => self%scene)
+         force = s%alpha2*s%omega**2*(s%alpha1*self%mass_point + self%integral)*sin(s%omega*tau) &
+                 - s%alpha2*s%alpha3*s%omega*self%integral*cos(s%omega*tau)
+         if (in_contact) then
+            state = self%contact(tau, a)
+            damping = damping + s%alpha4*spread(self%tip, 2, n)*spread(self%tip, 1, n)
+            stiffness = stiffness - state%axial*self%axial
+            force = force + (base_damping(self, tau) + s%l_over_d*state%transverse)*self%tip &
+                    + s%g0_over_d*state%axial*self%moment_shape
+         end if
+      end associate
+   end subroutine model_matrices
+
+end module tmafm_model

@@ -1,0 +1,129 @@
+!> The dimensionless scene (spec section 1, paper Eqs. (10), (12), (24)) and its
+!> conversion from physical SI inputs.
+!>
+!> Defaults are the paper's Sec. 3 values.  The physical defaults describe the same
+!> scene: a silicon cantilever on polystyrene, with the tip mass, damping, drive
+!> amplitude and frequency chosen so that alpha1 = 0.05, alpha3 = alpha4 = 0.4,
+!> alpha2 = 5e-4 and Omega = 2.
+module tmafm_scene
+   use tmafm_kinds, only: dp
+   implicit none
+   private
+
+   public :: scene_t, physical_t, scene_from_physical
+
+   real(dp), parameter :: pi = acos(-1.0_dp)
+
+   !> Dimensionless groups that define a scene.
+   type :: scene_t
+      !> alpha1 = M/(m L): tip mass over beam mass.
+      real(dp) :: alpha1 = 0.05_dp
+      !> alpha2 = f/d: drive amplitude over gap.
+      real(dp) :: alpha2 = 5.0e-4_dp
+      !> alpha3: beam viscous damping.
+      real(dp) :: alpha3 = 0.4_dp
+      !> alpha4: contact (Kelvin-Voigt) damping.
+      real(dp) :: alpha4 = 0.4_dp
+      !> alpha5 = 3 pi gamma R L^2/(E1 I): normal-force scale (Eq. 12).
+      real(dp) :: alpha5 = 6.7665e-5_dp
+      !> alpha6: friction scale (Eq. 12).
+      real(dp) :: alpha6 = 0.7413_dp
+      !> beta: contact-radius scale (Eq. 11).
+      real(dp) :: beta = 1.128e-4_dp
+      !> Omega: drive frequency in units of sqrt(E1 I/(m L^4)).
+      real(dp) :: omega = 2.0_dp
+      !> theta: tilt of the cantilever (rad).
+      real(dp) :: theta = pi/12
+      !> L/d: beam length over gap.
+      real(dp) :: l_over_d = 60.0_dp
+      !> g0/d: tip length over gap.
+      real(dp) :: g0_over_d = 1.0_dp
+      !> delta_hat = delta/(d cos theta): static tip-sample offset over gap.
+      real(dp) :: delta_hat = 0.0_dp
+      !> xi0 = x0/L: tip position along the beam.
+      real(dp) :: xi0 = 1.0_dp
+   end type scene_t
+
+   !> Physical inputs in SI units; converted to a scene_t by Eq. (12).
+   type :: physical_t
+      !> Beam length L (m).
+      real(dp) :: length = 300.0e-6_dp
+      !> Beam width b (m).
+      real(dp) :: width = 30.0e-6_dp
+      !> Beam thickness h (m).
+      real(dp) :: thickness = 3.0e-6_dp
+      !> Beam mass density rho (kg/m^3); sets m = rho b h and the time scale.
+      real(dp) :: density = 2330.0_dp
+      !> Young's modulus E1 of the beam and tip (Pa).
+      real(dp) :: youngs_modulus_tip = 130.0e9_dp
+      !> Poisson ratio nu1 of the beam and tip.
+      real(dp) :: poisson_ratio_tip = 0.27_dp
+      !> Young's modulus E2 of the sample (Pa).
+      real(dp) :: youngs_modulus_sample = 1.2e9_dp
+      !> Poisson ratio nu2 of the sample.
+      real(dp) :: poisson_ratio_sample = 0.3_dp
+      !> Tip radius R (m).
+      real(dp) :: tip_radius = 20.0e-9_dp
+      !> Adhesion energy gamma (J/m^2).
+      real(dp) :: adhesion_energy = 0.035_dp
+      !> Tilt theta of the cantilever (rad).
+      real(dp) :: tilt = pi/12
+      !> Gap d between beam axis and sample (m).
+      real(dp) :: gap = 5.0e-6_dp
+      !> Tip length g0 (m).
+      real(dp) :: tip_length = 5.0e-6_dp
+      !> Static tip-sample offset delta (m); d = g0 + delta/cos(theta) must hold.
+      real(dp) :: static_offset = 0.0_dp
+      !> Tip position x0 along the beam, from the clamp (m).
+      real(dp) :: tip_position = 300.0e-6_dp
+      !> Tip mass M (kg).
+      real(dp) :: tip_mass = 3.1455e-12_dp
+      !> Beam viscous damping C per unit length (N s/m^2).
+      real(dp) :: beam_damping = 6.028930253369996e-3_dp
+      !> Tip-sample contact damping C1 (N s/m).
+      real(dp) :: contact_damping = 1.8086790760109988e-6_dp
+      !> Base drive amplitude f (m).
+      real(dp) :: drive_amplitude = 2.5e-9_dp
+      !> Base drive angular frequency omega (rad/s).
+      real(dp) :: drive_angular_frequency = 143751.31743848347_dp
+   end type physical_t
+
+contains
+
+   !> The dimensionless groups of Eq. (10)-(12) for a physical scene (E8 corrected in alpha4).
+   pure function scene_from_physical(phys) result(scene)
+      type(physical_t), intent(in) :: phys
+      type(scene_t) :: scene
+      real(dp) :: inertia, mass_per_length, rigidity, e_star, g_tip, g_sample, g_star
+      real(dp) :: time_scale, d
+
+      d = phys%gap
+      inertia = phys%width*phys%thickness**3/12
+      mass_per_length = phys%density*phys%width*phys%thickness
+      rigidity = phys%youngs_modulus_tip*inertia
+      e_star = 1.0_dp/((1 - phys%poisson_ratio_tip**2)/phys%youngs_modulus_tip &
+                     + (1 - phys%poisson_ratio_sample**2)/phys%youngs_modulus_sample)
+      g_tip = phys%youngs_modulus_tip/(2*(1 + phys%poisson_ratio_tip))
+      g_sample = phys%youngs_modulus_sample/(2*(1 + phys%poisson_ratio_sample))
+      g_star = 1.0_dp/((2 - phys%poisson_ratio_tip)/g_tip + (2 - phys%poisson_ratio_sample)/g_sample)
+      ! sqrt(L^4/(E1 I m)) is the time unit of tau; Omega = omega times it.
+      time_scale = sqrt(phys%length**4/(rigidity*mass_per_length))
+
+      scene%alpha1 = phys%tip_mass/(mass_per_length*phys%length)
+      scene%alpha2 = phys%drive_amplitude/d
+      scene%alpha3 = phys%beam_damping*time_scale
+      scene%alpha4 = phys%contact_damping/phys%length*time_scale
+      scene%alpha5 = 3*pi*phys%adhesion_energy*phys%tip_radius*phys%length**2/rigidity
+      scene%alpha6 = 8*g_star*d*phys%tip_radius*phys%length**2/rigidity &
+                     *(9*pi*phys%adhesion_energy/(e_star*phys%tip_radius))**(1.0_dp/3)
+      scene%beta = ((9*pi/8)*phys%adhesion_energy/(e_star*d))**(2.0_dp/3) &
+                   *(phys%tip_radius/d)**(1.0_dp/3)
+      scene%omega = phys%drive_angular_frequency*time_scale
+      scene%theta = phys%tilt
+      scene%l_over_d = phys%length/d
+      scene%g0_over_d = phys%tip_length/d
+      scene%delta_hat = phys%static_offset/(d*cos(phys%tilt))
+      scene%xi0 = phys%tip_position/phys%length
+   end function scene_from_physical
+
+end module tmafm_scene

@@ -200,21 +200,21 @@ contains
       real(dp), intent(in) :: y(:)
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
-      real(dp) :: largest
+      character(len=64) :: what
       character(len=*), parameter :: phase_name(2) = ['free   ', 'contact']
 
       ierr = ok
       if (all(ieee_is_finite(y))) then
-         largest = maxval(abs(y(1:model%n_modes)))
-         if (largest <= settings%blowup_limit) return
+         if (maxval(abs(y(1:model%n_modes))) <= settings%blowup_limit) return
+         write (what, '(a,es9.2,a,es9.2)') 'max|a_j| = ', maxval(abs(y(1:model%n_modes))), &
+            ' > &solver blowup_limit = ', settings%blowup_limit
       else
-         largest = huge(1.0_dp)
+         what = 'the state is NaN or Inf'
       end if
       ierr = err_blowup
-      write (errmsg, '(a,g0.6,a,es10.3,a,g0.4,a,es10.3,3a)') 'blow-up at tau = ', tau, &
-         ': max|a_j| = ', largest, ' exceeds &solver blowup_limit = ', settings%blowup_limit, &
-         ' after a step of ', h, ' (', trim(phase_name(merge(2, 1, in_contact))), &
-         '); the step is past the stability limit, reduce &solver dtau'
+      write (errmsg, '(a,f0.6,4a,es9.2,3a)') 'blow-up at tau = ', tau, ': ', trim(what), &
+         ', after a ', 'step of ', h, ' (', trim(phase_name(merge(2, 1, in_contact))), &
+         ' phase); the step is past the stability limit: reduce &solver dtau'
    end subroutine check_blowup
 
    !> Write one line per tenth of the run to `unit`.

@@ -1,0 +1,181 @@
+! Flat entry points for the Python package, compiled by numpy.f2py into tmafm._core.
+!
+! Only scalars, strings and explicit-shape arrays cross this boundary, so the wrapper
+! stays plain: every routine returns ierr (0 on success, the tmafm_errors codes
+! otherwise) and a one-line errmsg, and never stops.  No physics lives here: each
+! routine reads the input through the library and calls it.
+
+!> Read and validate a namelist; write the resolved input to resolved_path (if not blank).
+subroutine resolve(path, resolved_path, n_modes, n_samples, scene, ierr, errmsg)
+   use tmafm, only: config_t, read_config, write_config, ok, err_file
+   use tmafm_driver, only: sample_count
+   use tmafm_kinds, only: dp
+   implicit none
+   character(len=*), intent(in) :: path
+   character(len=*), intent(in) :: resolved_path
+   integer, intent(out) :: n_modes
+   integer, intent(out) :: n_samples
+   real(dp), intent(out) :: scene(13)
+   integer, intent(out) :: ierr
+   character(len=512), intent(out) :: errmsg
+   type(config_t) :: config
+   integer :: unit, iostat
+
+   n_modes = 0
+   n_samples = 0
+   scene = 0
+   call read_config(path, config, ierr, errmsg)
+   if (ierr /= ok) return
+   n_modes = config%n_modes
+   n_samples = sample_count(config%solver)
+   associate (s => config%scene)
+      scene = [s%alpha1, s%alpha2, s%alpha3, s%alpha4, s%alpha5, s%alpha6, s%beta, s%omega, &
+               s%theta, s%l_over_d, s%g0_over_d, s%delta_hat, s%xi0]
+   end associate
+   if (len_trim(resolved_path) == 0) return
+   open (newunit=unit, file=resolved_path, status='replace', action='write', iostat=iostat)
+   if (iostat /= 0) then
+      ierr = err_file
+      errmsg = 'cannot write '''//trim(resolved_path)//''''
+      return
+   end if
+   call write_config(unit, config, '')
+   close (unit)
+end subroutine resolve
+
+!> Run a namelist; the arrays are sized by resolve's n_samples and n_modes.
+subroutine run(path, n_samples, n_modes, tau, vt, vtdot, contact, a, adot, counters, ierr, errmsg)
+   use tmafm, only: config_t, trajectory_t, read_config, simulate, ok, err_runtime
+   use tmafm_kinds, only: dp, i8
+   implicit none
+   character(len=*), intent(in) :: path
+   integer, intent(in) :: n_samples
+   integer, intent(in) :: n_modes
+   real(dp), intent(out) :: tau(n_samples)
+   real(dp), intent(out) :: vt(n_samples)
+   real(dp), intent(out) :: vtdot(n_samples)
+   integer, intent(out) :: contact(n_samples)
+   real(dp), intent(out) :: a(n_samples, n_modes)
+   real(dp), intent(out) :: adot(n_samples, n_modes)
+   integer(i8), intent(out) :: counters(4)
+   integer, intent(out) :: ierr
+   character(len=512), intent(out) :: errmsg
+   type(config_t) :: config
+   type(trajectory_t) :: traj
+
+   tau = 0; vt = 0; vtdot = 0; contact = 0; a = 0; adot = 0; counters = 0
+   call read_config(path, config, ierr, errmsg)
+   if (ierr /= ok) return
+   call simulate(config, traj, ierr, errmsg)
+   if (ierr /= ok) return
+   if (size(traj%tau) /= n_samples .or. config%n_modes /= n_modes) then
+      ierr = err_runtime
+      errmsg = 'internal: array sizes do not match the input (call resolve first)'
+      return
+   end if
+   tau = traj%tau
+   vt = traj%vt
+   vtdot = traj%vtdot
+   contact = traj%contact
+   a = traj%a
+   adot = traj%adot
+   counters = [traj%steps, traj%contact_steps, traj%rhs_evaluations, traj%phase_switches]
+end subroutine run
+
+!> The explicit M, C, K, F of Eq. (15) and the state derivative for one state of a namelist's model.
+subroutine model_terms(path, n_modes, tau, a, adot, in_contact, mass, damping, stiffness, force, &
+                       rate, ierr, errmsg)
+   use tmafm, only: config_t, model_t, read_config, build_model, ok, err_input
+   use tmafm_kinds, only: dp
+   implicit none
+   character(len=*), intent(in) :: path
+   integer, intent(in) :: n_modes
+   real(dp), intent(in) :: tau
+   real(dp), intent(in) :: a(n_modes)
+   real(dp), intent(in) :: adot(n_modes)
+   logical, intent(in) :: in_contact
+   real(dp), intent(out) :: mass(n_modes, n_modes)
+   real(dp), intent(out) :: damping(n_modes, n_modes)
+   real(dp), intent(out) :: stiffness(n_modes, n_modes)
+   real(dp), intent(out) :: force(n_modes)
+   real(dp), intent(out) :: rate(2*n_modes)
+   integer, intent(out) :: ierr
+   character(len=512), intent(out) :: errmsg
+   type(config_t) :: config
+   type(model_t) :: model
+
+   mass = 0; damping = 0; stiffness = 0; force = 0; rate = 0
+   call read_config(path, config, ierr, errmsg)
+   if (ierr /= ok) return
+   if (config%n_modes /= n_modes) then
+      ierr = err_input
+      errmsg = 'n_modes of the call does not match &model n_modes'
+      return
+   end if
+   call build_model(config, model, ierr, errmsg)
+   if (ierr /= ok) return
+   call model%matrices(tau, a, in_contact, mass, damping, stiffness, force)
+   call model%derivative(tau, [a, adot], in_contact, rate)
+end subroutine model_terms
+
+!> Contact state [theta1, A, f_c, h, P1, P2] for one gap and slope; law 1 Hertz, 2 DMT.
+subroutine contact_state(vt, scaled_slope, theta, beta, law, kappa5, kappa6, signed_slope, state)
+   use tmafm, only: contact_brackets_t, contact_brackets
+   use tmafm_kinds, only: dp
+   implicit none
+   real(dp), intent(in) :: vt
+   real(dp), intent(in) :: scaled_slope
+   real(dp), intent(in) :: theta
+   real(dp), intent(in) :: beta
+   integer, intent(in) :: law
+   real(dp), intent(in) :: kappa5
+   real(dp), intent(in) :: kappa6
+   logical, intent(in) :: signed_slope
+   real(dp), intent(out) :: state(6)
+   type(contact_brackets_t) :: s
+   s = contact_brackets(vt, scaled_slope, theta, beta, law, kappa5, kappa6, signed_slope)
+   state = [s%theta1, s%radius, s%normal, s%friction, s%transverse, s%axial]
+end subroutine contact_state
+
+!> Mode roots beta(n) and the derivative of order `order` of each mode at the points xi(nx).
+subroutine modes(n, nx, xi, order, beta, values)
+   use tmafm, only: beam_roots, mode_shape
+   use tmafm_kinds, only: dp
+   implicit none
+   integer, intent(in) :: n
+   integer, intent(in) :: nx
+   real(dp), intent(in) :: xi(nx)
+   integer, intent(in) :: order
+   real(dp), intent(out) :: beta(n)
+   real(dp), intent(out) :: values(nx, n)
+   integer :: j
+   beta = beam_roots(n)
+   do j = 1, n
+      values(:, j) = mode_shape(beta(j), xi, order)
+   end do
+end subroutine modes
+
+!> Galerkin integrals of n modes, closed form and quadrature (G over [0, xi_end]), plus the Gram matrix.
+subroutine galerkin(n, xi_end, q_closed, g_closed, q_quadrature, g_quadrature, gram)
+   use tmafm, only: beam_roots
+   use tmafm_galerkin, only: mode_integrals_closed_form, axial_matrix_closed_form, &
+      mode_integrals_quadrature, axial_matrix_quadrature, mass_matrix_quadrature, quadrature_panels
+   use tmafm_kinds, only: dp
+   implicit none
+   integer, intent(in) :: n
+   real(dp), intent(in) :: xi_end
+   real(dp), intent(out) :: q_closed(n)
+   real(dp), intent(out) :: g_closed(n, n)
+   real(dp), intent(out) :: q_quadrature(n)
+   real(dp), intent(out) :: g_quadrature(n, n)
+   real(dp), intent(out) :: gram(n, n)
+   real(dp) :: beta(n)
+   integer :: panels
+   beta = beam_roots(n)
+   panels = quadrature_panels(beta(n), 1.0_dp)
+   q_closed = mode_integrals_closed_form(beta)
+   g_closed = axial_matrix_closed_form(beta)
+   q_quadrature = mode_integrals_quadrature(beta, panels)
+   g_quadrature = axial_matrix_quadrature(beta, xi_end, quadrature_panels(beta(n), xi_end))
+   gram = mass_matrix_quadrature(beta, panels)
+end subroutine galerkin

@@ -1,0 +1,42 @@
+"""Typed exceptions for everything that can go wrong in a tmafm run.
+
+The Fortran core reports failures as an integer code and a one-line message
+(``fortran/src/tmafm_errors.f90``); :func:`raise_for` maps each code to one class.
+"""
+
+__all__ = ["TmafmError", "InputError", "InputFileError", "BlowUpError", "SolverError",
+           "raise_for"]
+
+
+class TmafmError(Exception):
+    """Base class of every tmafm error."""
+
+
+class InputError(TmafmError, ValueError):
+    """A namelist key is unknown, a value has the wrong type, or a value is out of range."""
+
+
+class InputFileError(TmafmError, FileNotFoundError):
+    """An input or output file is missing or cannot be read or written."""
+
+
+class SolverError(TmafmError, RuntimeError):
+    """A run failed inside the solver."""
+
+
+class BlowUpError(SolverError, ArithmeticError):
+    """The integration blew up: NaN, Inf or a runaway amplitude (usually a step past the
+    stability limit)."""
+
+
+_BY_CODE = {2: InputError, 3: InputFileError, 4: BlowUpError, 5: SolverError}
+
+
+def raise_for(ierr: int, errmsg) -> None:
+    """Raise the exception for a Fortran error code; do nothing when ``ierr == 0``."""
+    if ierr == 0:
+        return
+    if isinstance(errmsg, (bytes, bytearray)):
+        errmsg = errmsg.decode("utf-8", "replace")
+    message = str(errmsg).strip()
+    raise _BY_CODE.get(int(ierr), SolverError)(message)

@@ -68,7 +68,7 @@ contains
       integer, intent(in) :: code
       character(len=*), intent(in) :: message
       write (error_unit, '(a)') 'tmafm: error: '//trim(message)
-      error stop code, quiet=.true.
+      stop code, quiet=.true.
    end subroutine fail
 
    subroutine print_help()

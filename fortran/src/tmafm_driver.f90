@@ -212,7 +212,7 @@ contains
          what = 'the state is NaN or Inf'
       end if
       ierr = err_blowup
-      write (errmsg, '(a,f0.6,4a,es9.2,3a)') 'blow-up at tau = ', tau, ': ', trim(what), &
+      write (errmsg, '(a,es12.5,4a,es9.2,3a)') 'blow-up at tau = ', tau, ': ', trim(what), &
          ', after a ', 'step of ', h, ' (', trim(phase_name(merge(2, 1, in_contact))), &
          ' phase); the step is past the stability limit: reduce &solver dtau'
    end subroutine check_blowup

@@ -95,7 +95,7 @@ contains
       type(physical_t), intent(in) :: phys
       type(scene_t) :: scene
       real(dp) :: inertia, mass_per_length, rigidity, e_star, g_tip, g_sample, g_star
-      real(dp) :: time_scale, d
+      real(dp) :: damping_scale, time_unit, d
 
       d = phys%gap
       inertia = phys%width*phys%thickness**3/12
@@ -106,19 +106,20 @@ contains
       g_tip = phys%youngs_modulus_tip/(2*(1 + phys%poisson_ratio_tip))
       g_sample = phys%youngs_modulus_sample/(2*(1 + phys%poisson_ratio_sample))
       g_star = 1.0_dp/((2 - phys%poisson_ratio_tip)/g_tip + (2 - phys%poisson_ratio_sample)/g_sample)
-      ! sqrt(L^4/(E1 I m)) is the time unit of tau; Omega = omega times it.
-      time_scale = sqrt(phys%length**4/(rigidity*mass_per_length))
+      ! tau = t/time_unit (Eq. 10); the damping groups carry sqrt(L^4/(E1 I m)) (Eq. 12).
+      time_unit = sqrt(mass_per_length*phys%length**4/rigidity)
+      damping_scale = sqrt(phys%length**4/(rigidity*mass_per_length))
 
       scene%alpha1 = phys%tip_mass/(mass_per_length*phys%length)
       scene%alpha2 = phys%drive_amplitude/d
-      scene%alpha3 = phys%beam_damping*time_scale
-      scene%alpha4 = phys%contact_damping/phys%length*time_scale
+      scene%alpha3 = phys%beam_damping*damping_scale
+      scene%alpha4 = phys%contact_damping/phys%length*damping_scale
       scene%alpha5 = 3*pi*phys%adhesion_energy*phys%tip_radius*phys%length**2/rigidity
       scene%alpha6 = 8*g_star*d*phys%tip_radius*phys%length**2/rigidity &
                      *(9*pi*phys%adhesion_energy/(e_star*phys%tip_radius))**(1.0_dp/3)
       scene%beta = ((9*pi/8)*phys%adhesion_energy/(e_star*d))**(2.0_dp/3) &
                    *(phys%tip_radius/d)**(1.0_dp/3)
-      scene%omega = phys%drive_angular_frequency*time_scale
+      scene%omega = phys%drive_angular_frequency*time_unit
       scene%theta = phys%tilt
       scene%l_over_d = phys%length/d
       scene%g0_over_d = phys%tip_length/d

@@ -1,0 +1,38 @@
+"""Shared fixtures: the installed executable, the repository's inputs, and namelist helpers."""
+
+import subprocess
+from pathlib import Path
+
+import f90nml
+import pytest
+
+import tmafm
+
+REPO = Path(__file__).resolve().parent.parent
+INPUTS = REPO / "inputs"
+
+
+@pytest.fixture(scope="session")
+def exe() -> str:
+    """Path of the installed tmafm executable."""
+    return tmafm.executable()
+
+
+@pytest.fixture
+def run_exe(exe, tmp_path):
+    """Run the executable in tmp_path; returns the CompletedProcess."""
+    def _run(*args):
+        return subprocess.run([exe, *map(str, args)], cwd=tmp_path, capture_output=True,
+                              text=True, timeout=600)
+    return _run
+
+
+def write_nml(path: Path, base=None, **groups) -> Path:
+    """Write a namelist file: the groups of `base` (a path) patched by `groups`."""
+    merged = {}
+    if base is not None:
+        merged = {g: dict(v) for g, v in f90nml.read(str(base)).items()}
+    for group, values in groups.items():
+        merged.setdefault(group, {}).update(values)
+    f90nml.write(f90nml.Namelist(merged), str(path), force=True)
+    return path

@@ -53,9 +53,13 @@ class Result:
 
 
 def _merge(base: Mapping, overrides: Mapping) -> dict:
-    merged = {g.lower(): dict(v) for g, v in base.items()}
-    for group, values in overrides.items():
-        merged.setdefault(group.lower(), {}).update(values)
+    """Groups of `base` patched key by key with those of `overrides`."""
+    merged = {}
+    for source in (base, overrides):
+        for group, values in source.items():
+            if not isinstance(values, Mapping):
+                raise InputError(f"&{group}: a group must be a dict of keys, got {values!r}")
+            merged.setdefault(str(group).lower(), {}).update(values)
     return merged
 
 
@@ -82,9 +86,6 @@ class _NamelistFile:
         else:
             raise TypeError(f"nml must be a path or a dict of groups, not {type(nml).__name__}")
         groups = _merge(groups, overrides or {})
-        for group, values in groups.items():
-            if not isinstance(values, Mapping):
-                raise InputError(f"&{group}: a group must be a dict of keys, got {values!r}")
         handle = tempfile.NamedTemporaryFile("w", suffix=".nml", delete=False)
         handle.close()
         self._temporary = handle.name

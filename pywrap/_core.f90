@@ -8,7 +8,7 @@
 !> Read and validate a namelist; write the resolved input to resolved_path (if not blank).
 subroutine resolve(path, resolved_path, n_modes, n_samples, scene, ierr, errmsg)
    use tmafm, only: config_t, read_config, write_config, ok, err_file
-   use tmafm_driver, only: sample_count
+   use tmafm_settings, only: sample_count
    use tmafm_kinds, only: dp
    implicit none
    character(len=*), intent(in) :: path
@@ -57,7 +57,7 @@ subroutine run(path, n_samples, n_modes, tau, vt, vtdot, contact, a, adot, count
    integer, intent(out) :: contact(n_samples)
    real(dp), intent(out) :: a(n_samples, n_modes)
    real(dp), intent(out) :: adot(n_samples, n_modes)
-   integer(i8), intent(out) :: counters(4)
+   integer(i8), intent(out) :: counters(5)
    integer, intent(out) :: ierr
    character(len=512), intent(out) :: errmsg
    type(config_t) :: config
@@ -79,7 +79,8 @@ subroutine run(path, n_samples, n_modes, tau, vt, vtdot, contact, a, adot, count
    contact = traj%contact
    a = traj%a
    adot = traj%adot
-   counters = [traj%steps, traj%contact_steps, traj%rhs_evaluations, traj%phase_switches]
+   counters = [traj%steps, traj%contact_steps, traj%rejected_steps, traj%rhs_evaluations, &
+               int(traj%n_switches, i8)]
 end subroutine run
 
 !> The explicit M, C, K, F of Eq. (15) and the state derivative for one state of a namelist's model.

@@ -11,7 +11,9 @@ module tmafm
    use tmafm_errata, only: errata_t, errata_for_convention
    use tmafm_contact, only: law_hertz, law_dmt, contact_brackets_t, contact_brackets
    use tmafm_model, only: model_t, init_model
-   use tmafm_driver, only: run_settings_t, trajectory_t, run_trajectory
+   use tmafm_settings, only: run_settings_t
+   use tmafm_trajectory, only: trajectory_t
+   use tmafm_driver, only: run_trajectory
    use tmafm_config, only: config_t, path_len
    use tmafm_namelist, only: read_config, write_config
    use tmafm_simulation, only: build_model, simulate

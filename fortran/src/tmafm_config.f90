@@ -3,7 +3,7 @@ module tmafm_config
    use tmafm_kinds, only: dp
    use tmafm_modes, only: max_modes
    use tmafm_scene, only: scene_t, physical_t
-   use tmafm_driver, only: run_settings_t
+   use tmafm_settings, only: run_settings_t
    implicit none
    private
 

@@ -11,7 +11,8 @@ module tmafm_namelist
    use tmafm_errors, only: ok, err_input, err_file
    use tmafm_modes, only: max_modes
    use tmafm_scene, only: scene_t, physical_t, scene_from_physical
-   use tmafm_driver, only: run_settings_t, method_rk4_paper, known_methods, sample_count
+   use tmafm_settings, only: run_settings_t, method_rk4_paper, method_rk4_event, method_dopri5, &
+      method_flight_exact, known_methods, sample_count
    use tmafm_errata, only: errata_t, errata_for_convention, parse_errata, errata_label
    use tmafm_config, only: config_t
    implicit none
@@ -390,23 +391,26 @@ contains
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       character(len=64) :: method
-      real(dp) :: dtau, tau_end, blowup_limit
+      real(dp) :: dtau, tau_end, blowup_limit, rtol, atol
       integer :: contact_refine, iostat
       character(len=256) :: iomsg
-      namelist /solver/ method, dtau, contact_refine, tau_end, blowup_limit
+      namelist /solver/ method, dtau, contact_refine, rtol, atol, tau_end, blowup_limit
 
       method = config%solver%method
       dtau = config%solver%dtau
       contact_refine = config%solver%contact_refine
       tau_end = config%solver%tau_end
       blowup_limit = config%solver%blowup_limit
+      rtol = config%solver%rtol
+      atol = config%solver%atol
       rewind (unit)
       read (unit, nml=solver, iostat=iostat, iomsg=iomsg)
       call check_read(iostat, iomsg, path, 'solver', ierr, errmsg)
       if (ierr /= ok) return
 
       method = lower(adjustl(method))
-      if (method /= method_rk4_paper) then
+      if (all(method /= [character(len=64) :: method_rk4_paper, method_rk4_event, method_dopri5, &
+                         method_flight_exact])) then
          call choice_error(path, 'solver', 'method', method, known_methods, ierr, errmsg)
          return
       end if
@@ -414,6 +418,8 @@ contains
       call check_range(path, 'solver', 'tau_end', tau_end, 0.0_dp, 1.0e7_dp, .false., ierr, errmsg)
       call check_range(path, 'solver', 'blowup_limit', blowup_limit, 0.0_dp, 1.0e10_dp, .false., &
                        ierr, errmsg)
+      call check_range(path, 'solver', 'rtol', rtol, 1.0e-15_dp, 1.0e-1_dp, .true., ierr, errmsg)
+      call check_range(path, 'solver', 'atol', atol, 0.0_dp, 1.0_dp, .true., ierr, errmsg)
       if (ierr /= ok) return
       if (contact_refine < 1 .or. contact_refine > 100000) then
          ierr = err_input
@@ -426,6 +432,8 @@ contains
       config%solver%contact_refine = contact_refine
       config%solver%tau_end = tau_end
       config%solver%blowup_limit = blowup_limit
+      config%solver%rtol = rtol
+      config%solver%atol = atol
    end subroutine read_solver
 
    subroutine read_output(unit, path, config, ierr, errmsg)
@@ -585,6 +593,8 @@ contains
       write (unit, '(a)') c//'    method = '''//trim(config%solver%method)//''''
       call put(c, 'dtau', config%solver%dtau)
       write (unit, '(a,i0)') c//'    contact_refine = ', config%solver%contact_refine
+      call put(c, 'rtol', config%solver%rtol)
+      call put(c, 'atol', config%solver%atol)
       call put(c, 'tau_end', config%solver%tau_end)
       call put(c, 'blowup_limit', config%solver%blowup_limit)
       write (unit, '(a)') c//'/'

@@ -6,7 +6,7 @@
 module tmafm_output
    use, intrinsic :: iso_c_binding, only: c_char, c_int, c_null_char
    use tmafm_errors, only: ok, err_file
-   use tmafm_driver, only: trajectory_t
+   use tmafm_trajectory, only: trajectory_t
    use tmafm_config, only: config_t
    use tmafm_namelist, only: write_config
    use tmafm_version, only: tmafm_version_string
@@ -54,9 +54,9 @@ contains
       write (unit, '(a)', iostat=iostat) '# tmafm '//tmafm_version_string
       write (unit, '(a)', iostat=iostat) '# input: '//trim(input_path)
       call write_config(unit, config, '# ')
-      write (unit, '(a,4(i0,a))', iostat=iostat) '# counters: steps = ', traj%steps, &
-         ', contact_steps = ', traj%contact_steps, ', rhs_evaluations = ', traj%rhs_evaluations, &
-         ', phase_switches = ', traj%phase_switches, ''
+      write (unit, '(a,5(i0,a))', iostat=iostat) '# counters: steps = ', traj%steps, &
+         ', contact_steps = ', traj%contact_steps, ', rejected_steps = ', traj%rejected_steps, &
+         ', rhs_evaluations = ', traj%rhs_evaluations, ', phase_switches = ', traj%n_switches, ''
       write (unit, '(a)', advance='no', iostat=iostat) '# columns: tau vt vtdot contact'
       write (unit, '(*(a,i0))', advance='no', iostat=iostat) (' a_', j, j=1, n)
       write (unit, '(*(a,i0))', iostat=iostat) (' adot_', j, j=1, n)

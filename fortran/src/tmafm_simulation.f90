@@ -3,7 +3,8 @@ module tmafm_simulation
    use tmafm_errors, only: ok
    use tmafm_contact, only: law_hertz, law_dmt
    use tmafm_model, only: model_t, init_model
-   use tmafm_driver, only: trajectory_t, run_trajectory
+   use tmafm_driver, only: run_trajectory
+   use tmafm_trajectory, only: trajectory_t
    use tmafm_config, only: config_t
    use tmafm_namelist, only: config_errata
    implicit none

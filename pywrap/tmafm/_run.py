@@ -140,5 +140,6 @@ def run(nml: NamelistLike, **overrides) -> Result:
     return Result(
         tau=tau, vt=vt, vtdot=vtdot, contact=contact.astype(np.int8), a=a, adot=adot,
         resolved=resolved, scene=scene,
-        counters=dict(zip(("steps", "contact_steps", "rhs_evaluations", "phase_switches"),
+        counters=dict(zip(("steps", "contact_steps", "rejected_steps", "rhs_evaluations",
+                           "phase_switches"),
                           map(int, counters))))

@@ -1,0 +1,150 @@
+!> The Dormand-Prince 5(4) pair with its fourth-order dense output (Hairer, Norsett and
+!> Wanner, Solving ODEs I, Sec. II.5-6), and the step-size controller, kept separate.
+!>
+!> The phase is frozen over a step, as in every tmafm stepper; switches are found by the
+!> caller on the dense output.  Registers are allocated once by `init`.
+module tmafm_dopri5
+   use tmafm_kinds, only: dp
+   use tmafm_model, only: model_t
+   implicit none
+   private
+
+   public :: dopri5_stepper_t, step_controller_t, error_norm
+
+   ! Butcher tableau.
+   real(dp), parameter :: c2 = 1.0_dp/5, c3 = 3.0_dp/10, c4 = 4.0_dp/5, c5 = 8.0_dp/9
+   real(dp), parameter :: a21 = 1.0_dp/5
+   real(dp), parameter :: a31 = 3.0_dp/40, a32 = 9.0_dp/40
+   real(dp), parameter :: a41 = 44.0_dp/45, a42 = -56.0_dp/15, a43 = 32.0_dp/9
+   real(dp), parameter :: a51 = 19372.0_dp/6561, a52 = -25360.0_dp/2187, &
+                          a53 = 64448.0_dp/6561, a54 = -212.0_dp/729
+   real(dp), parameter :: a61 = 9017.0_dp/3168, a62 = -355.0_dp/33, a63 = 46732.0_dp/5247, &
+                          a64 = 49.0_dp/176, a65 = -5103.0_dp/18656
+   real(dp), parameter :: a71 = 35.0_dp/384, a73 = 500.0_dp/1113, a74 = 125.0_dp/192, &
+                          a75 = -2187.0_dp/6784, a76 = 11.0_dp/84
+   ! Error weights: fifth-order minus embedded fourth-order solution.
+   real(dp), parameter :: e1 = 71.0_dp/57600, e3 = -71.0_dp/16695, e4 = 71.0_dp/1920, &
+                          e5 = -17253.0_dp/339200, e6 = 22.0_dp/525, e7 = -1.0_dp/40
+   ! Dense output (Shampine's continuous extension, as in Hairer's DOPRI5).
+   real(dp), parameter :: d1 = -12715105075.0_dp/11282082432.0_dp, d3 = 87487479700.0_dp/32700410799.0_dp, &
+                          d4 = -10690763975.0_dp/1880347072.0_dp, d5 = 701980252875.0_dp/199316789632.0_dp, &
+                          d6 = -1453857185.0_dp/822651844.0_dp, d7 = 69997945.0_dp/29380423.0_dp
+
+   !> Stage registers and the dense-output coefficients of the last step.
+   type :: dopri5_stepper_t
+      real(dp), allocatable :: k2(:), k3(:), k4(:), k5(:), k6(:), stage(:), error(:)
+      !> Dense output: y(theta) = r1 + theta (r2 + (1-theta) (r3 + theta (r4 + (1-theta) r5))).
+      real(dp), allocatable :: r1(:), r2(:), r3(:), r4(:), r5(:)
+   contains
+      !> Allocate the registers for a state of size n_state.
+      procedure :: init => dopri5_init
+      !> One step of length h in a frozen phase; f0 = f(tau, y) in, f_new = f(tau+h, y_new) out.
+      procedure :: step => dopri5_step
+      !> Prepare the dense output of the last step (call after accepting it).
+      procedure :: prepare_dense => dopri5_prepare_dense
+      !> The dense-output state at fraction theta of the last step.
+      procedure :: dense => dopri5_dense
+   end type dopri5_stepper_t
+
+   !> The classical step-size controller for an embedded pair of order 5(4).
+   type :: step_controller_t
+      !> Safety factor on the optimal step.
+      real(dp) :: safety = 0.9_dp
+      !> Smallest allowed ratio of a new step to the old one.
+      real(dp) :: shrink_limit = 0.2_dp
+      !> Largest allowed ratio of a new step to the old one.
+      real(dp) :: grow_limit = 5.0_dp
+      !> Smallest step before the run fails (relative to max(1, tau)).
+      real(dp) :: h_min_relative = 1.0e-14_dp
+   contains
+      !> The next step from the error norm of the last attempt.
+      procedure :: next_step => controller_next_step
+   end type step_controller_t
+
+contains
+
+   subroutine dopri5_init(self, n_state)
+      class(dopri5_stepper_t), intent(inout) :: self
+      integer, intent(in) :: n_state
+      allocate (self%k2(n_state), self%k3(n_state), self%k4(n_state), self%k5(n_state), &
+                self%k6(n_state), self%stage(n_state), self%error(n_state), self%r1(n_state), &
+                self%r2(n_state), self%r3(n_state), self%r4(n_state), self%r5(n_state))
+   end subroutine dopri5_init
+
+   subroutine dopri5_step(self, model, tau, y, h, in_contact, f0, y_new, f_new)
+      class(dopri5_stepper_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: y(:)
+      real(dp), intent(in) :: h
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: f0(:)
+      real(dp), intent(out) :: y_new(:)
+      real(dp), intent(out) :: f_new(:)
+
+      associate (k2 => self%k2, k3 => self%k3, k4 => self%k4, k5 => self%k5, k6 => self%k6, &
+                 stage => self%stage)
+         stage = y + h*a21*f0
+         call model%derivative(tau + c2*h, stage, in_contact, k2)
+         stage = y + h*(a31*f0 + a32*k2)
+         call model%derivative(tau + c3*h, stage, in_contact, k3)
+         stage = y + h*(a41*f0 + a42*k2 + a43*k3)
+         call model%derivative(tau + c4*h, stage, in_contact, k4)
+         stage = y + h*(a51*f0 + a52*k2 + a53*k3 + a54*k4)
+         call model%derivative(tau + c5*h, stage, in_contact, k5)
+         stage = y + h*(a61*f0 + a62*k2 + a63*k3 + a64*k4 + a65*k5)
+         call model%derivative(tau + h, stage, in_contact, k6)
+         y_new = y + h*(a71*f0 + a73*k3 + a74*k4 + a75*k5 + a76*k6)
+         call model%derivative(tau + h, y_new, in_contact, f_new)
+         self%error = h*(e1*f0 + e3*k3 + e4*k4 + e5*k5 + e6*k6 + e7*f_new)
+      end associate
+   end subroutine dopri5_step
+
+   subroutine dopri5_prepare_dense(self, y, y_new, h, f0, f_new)
+      class(dopri5_stepper_t), intent(inout) :: self
+      real(dp), intent(in) :: y(:)
+      real(dp), intent(in) :: y_new(:)
+      real(dp), intent(in) :: h
+      real(dp), intent(in) :: f0(:)
+      real(dp), intent(in) :: f_new(:)
+      self%r1 = y
+      self%r2 = y_new - y
+      self%r3 = h*f0 - self%r2
+      self%r4 = self%r2 - h*f_new - self%r3
+      self%r5 = h*(d1*f0 + d3*self%k3 + d4*self%k4 + d5*self%k5 + d6*self%k6 + d7*f_new)
+   end subroutine dopri5_prepare_dense
+
+   pure subroutine dopri5_dense(self, theta, y)
+      class(dopri5_stepper_t), intent(in) :: self
+      real(dp), intent(in) :: theta
+      real(dp), intent(out) :: y(:)
+      real(dp) :: rest
+      rest = 1 - theta
+      y = self%r1 + theta*(self%r2 + rest*(self%r3 + theta*(self%r4 + rest*self%r5)))
+   end subroutine dopri5_dense
+
+   !> Weighted RMS norm of an error estimate, scaled by atol + rtol max(|y|, |y_new|).
+   pure function error_norm(error, y, y_new, rtol, atol) result(norm)
+      real(dp), intent(in) :: error(:)
+      real(dp), intent(in) :: y(:)
+      real(dp), intent(in) :: y_new(:)
+      real(dp), intent(in) :: rtol
+      real(dp), intent(in) :: atol
+      real(dp) :: norm
+      norm = sqrt(sum((error/(atol + rtol*max(abs(y), abs(y_new))))**2)/size(error))
+   end function error_norm
+
+   pure function controller_next_step(self, h, norm) result(h_next)
+      class(step_controller_t), intent(in) :: self
+      real(dp), intent(in) :: h
+      real(dp), intent(in) :: norm
+      real(dp) :: h_next, factor
+      if (norm <= 0) then
+         factor = self%grow_limit
+      else
+         factor = min(self%grow_limit, max(self%shrink_limit, self%safety*norm**(-0.2_dp)))
+      end if
+      h_next = h*factor
+   end function controller_next_step
+
+end module tmafm_dopri5

@@ -1,0 +1,163 @@
+!> The sampled trajectory of a run, its work counters, and the checks made on each new state.
+!>
+!> Memory is O(samples + switches): the trajectory never holds the steps.
+module tmafm_trajectory
+   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+   use tmafm_kinds, only: dp, i8
+   use tmafm_errors, only: ok, err_blowup
+   use tmafm_model, only: model_t
+   use tmafm_settings, only: run_settings_t, sample_count
+   implicit none
+   private
+
+   public :: trajectory_t, init_trajectory, check_blowup, progress_t
+
+   !> The sampled trajectory and the work counters of one run.
+   type :: trajectory_t
+      !> Sample times tau_k = (k-1) sample_dtau.
+      real(dp), allocatable :: tau(:)
+      !> Tip gap V_T at the samples.
+      real(dp), allocatable :: vt(:)
+      !> Tip gap rate dV_T/dtau at the samples.
+      real(dp), allocatable :: vtdot(:)
+      !> 1 where V_T <= 0 (in contact) at the sample, else 0.
+      integer, allocatable :: contact(:)
+      !> Modal amplitudes, samples x N.
+      real(dp), allocatable :: a(:, :)
+      !> Modal velocities, samples x N.
+      real(dp), allocatable :: adot(:, :)
+      !> Times of the phase changes (located switches, or step starts for rk4_paper).
+      real(dp), allocatable :: switch_tau(:)
+      !> Number of entries of switch_tau in use.
+      integer :: n_switches = 0
+      !> Index of the next sample to fill.
+      integer :: next_sample = 1
+      !> Steps accepted, in all and in contact.
+      integer(i8) :: steps = 0, contact_steps = 0
+      !> Steps rejected by an error controller.
+      integer(i8) :: rejected_steps = 0
+      !> Right-hand-side evaluations.
+      integer(i8) :: rhs_evaluations = 0
+   contains
+      !> Store the state y at sample time tau in the next free sample.
+      procedure :: store => trajectory_store
+      !> The time of the next sample still to fill (huge when all are filled).
+      procedure :: next_time => trajectory_next_time
+      !> .true. once every sample is filled.
+      procedure :: complete => trajectory_complete
+      !> Record a phase change at tau.
+      procedure :: add_switch => trajectory_add_switch
+   end type trajectory_t
+
+   !> A progress reporter that writes a line per tenth of the run.
+   type :: progress_t
+      !> Output unit; no output when negative.
+      integer :: unit = -1
+      !> Next tenth to report.
+      integer :: mark = 1
+   contains
+      !> Report if tau passed the next tenth of tau_end.
+      procedure :: update => progress_update
+   end type progress_t
+
+contains
+
+   !> Allocate a trajectory for a run of `settings` with n_modes modes.
+   subroutine init_trajectory(traj, settings, n_modes)
+      type(trajectory_t), intent(out) :: traj
+      type(run_settings_t), intent(in) :: settings
+      integer, intent(in) :: n_modes
+      integer :: n, k
+      n = sample_count(settings)
+      allocate (traj%tau(n), traj%vt(n), traj%vtdot(n), traj%contact(n), traj%a(n, n_modes), &
+                traj%adot(n, n_modes), traj%switch_tau(64))
+      traj%tau = [(real(k - 1, dp)*settings%sample_dtau, k = 1, n)]
+   end subroutine init_trajectory
+
+   pure function trajectory_next_time(self) result(tau)
+      class(trajectory_t), intent(in) :: self
+      real(dp) :: tau
+      if (self%next_sample > size(self%tau)) then
+         tau = huge(1.0_dp)
+      else
+         tau = self%tau(self%next_sample)
+      end if
+   end function trajectory_next_time
+
+   pure function trajectory_complete(self) result(done)
+      class(trajectory_t), intent(in) :: self
+      logical :: done
+      done = self%next_sample > size(self%tau)
+   end function trajectory_complete
+
+   pure subroutine trajectory_store(self, model, y)
+      class(trajectory_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: y(:)
+      integer :: n, k
+      real(dp) :: tau
+      n = model%n_modes
+      k = self%next_sample
+      tau = self%tau(k)
+      self%a(k, :) = y(1:n)
+      self%adot(k, :) = y(n + 1:2*n)
+      self%vt(k) = model%tip_gap(tau, y)
+      self%vtdot(k) = model%tip_gap_rate(tau, y)
+      self%contact(k) = merge(1, 0, self%vt(k) <= 0)
+      self%next_sample = k + 1
+   end subroutine trajectory_store
+
+   pure subroutine trajectory_add_switch(self, tau)
+      class(trajectory_t), intent(inout) :: self
+      real(dp), intent(in) :: tau
+      real(dp), allocatable :: grown(:)
+      if (self%n_switches == size(self%switch_tau)) then
+         allocate (grown(2*size(self%switch_tau)))
+         grown(1:self%n_switches) = self%switch_tau
+         call move_alloc(grown, self%switch_tau)
+      end if
+      self%n_switches = self%n_switches + 1
+      self%switch_tau(self%n_switches) = tau
+   end subroutine trajectory_add_switch
+
+   !> Fail with err_blowup if the new state is not finite or an amplitude ran away.
+   subroutine check_blowup(model, settings, tau, h, in_contact, y, ierr, errmsg)
+      type(model_t), intent(in) :: model
+      type(run_settings_t), intent(in) :: settings
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: h
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: y(:)
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      character(len=64) :: what
+      character(len=*), parameter :: phase_name(2) = ['free   ', 'contact']
+
+      ierr = ok
+      if (all(ieee_is_finite(y))) then
+         if (maxval(abs(y(1:model%n_modes))) <= settings%blowup_limit) return
+         write (what, '(a,es9.2,a,es9.2)') 'max|a_j| = ', maxval(abs(y(1:model%n_modes))), &
+            ' > &solver blowup_limit = ', settings%blowup_limit
+      else
+         what = 'the state is NaN or Inf'
+      end if
+      ierr = err_blowup
+      write (errmsg, '(a,es12.5,4a,es9.2,3a)') 'blow-up at tau = ', tau, ': ', trim(what), &
+         ', after a ', 'step of ', h, ' (', trim(phase_name(merge(2, 1, in_contact))), &
+         ' phase); the step is past the stability limit: reduce &solver dtau'
+   end subroutine check_blowup
+
+   subroutine progress_update(self, tau, tau_end)
+      class(progress_t), intent(inout) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: tau_end
+      if (self%unit < 0) return
+      if (tau >= self%mark*tau_end/10) then
+         write (self%unit, '(a,i0,a,g0.6,a,g0.6)') 'tmafm: ', 10*self%mark, '% tau = ', tau, &
+            ' of ', tau_end
+         flush (self%unit)
+         self%mark = self%mark + 1
+      end if
+   end subroutine progress_update
+
+end module tmafm_trajectory

@@ -1,14 +1,22 @@
-!> `flight_exact`: placeholder module, filled in below.
+!> `flight_exact`: out of contact the state is propagated by the exact modal solution
+!> (tmafm_flight), and the next contact is the first root of V_T on that closed form; only
+!> the contact phases are integrated numerically, by the adaptive pair.
 module tmafm_method_flight
    use tmafm_kinds, only: dp
-   use tmafm_errors, only: err_input
+   use tmafm_errors, only: ok
    use tmafm_model, only: model_t
    use tmafm_settings, only: run_settings_t
-   use tmafm_trajectory, only: trajectory_t, progress_t
+   use tmafm_trajectory, only: trajectory_t, check_blowup, progress_t
+   use tmafm_flight, only: free_flight_t
+   use tmafm_method_adaptive, only: adaptive_state_t
    implicit none
    private
+
    public :: run_flight_exact
+
 contains
+
+   !> Integrate from y0 at tau = 0 until every sample of traj is filled.
    subroutine run_flight_exact(model, settings, y0, traj, ierr, errmsg, progress)
       type(model_t), intent(in) :: model
       type(run_settings_t), intent(in) :: settings
@@ -17,7 +25,47 @@ contains
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       type(progress_t), intent(inout) :: progress
-      ierr = err_input
-      errmsg = 'flight_exact is not built yet'
+
+      type(free_flight_t) :: flight
+      type(adaptive_state_t) :: contact
+      real(dp) :: y_sample(size(y0)), s_contact, horizon
+      logical :: found
+      integer :: evaluations
+
+      call flight%init(model, ierr, errmsg)
+      if (ierr /= ok) return
+      call traj%store(model, y0)
+      call contact%init(model, settings, 0.0_dp, y0)
+      horizon = traj%tau(size(traj%tau))
+
+      do while (.not. traj%complete())
+         if (contact%in_contact) then
+            call contact%advance(model, settings, traj, .true., ierr, errmsg, progress)
+            if (ierr /= ok) return
+            cycle
+         end if
+         associate (tau => contact%tau, y => contact%y)
+            call flight%start(model, tau, y)
+            evaluations = 0
+            call flight%first_contact(model, horizon - tau, found, s_contact, evaluations)
+            ! Closed-form evaluations of V_T cost O(N); count them as right-hand sides.
+            traj%rhs_evaluations = traj%rhs_evaluations + evaluations
+            traj%steps = traj%steps + 1
+            do while (traj%next_time() <= tau + s_contact)
+               call flight%state(model, traj%next_time() - tau, y_sample)
+               call traj%store(model, y_sample)
+            end do
+            call flight%state(model, s_contact, y)
+            tau = tau + s_contact
+            call check_blowup(model, settings, tau, s_contact, .false., y, ierr, errmsg)
+            if (ierr /= ok) return
+            if (found) then
+               contact%in_contact = .true.
+               call traj%add_switch(tau)
+            end if
+            call progress%update(tau, settings%tau_end)
+         end associate
+      end do
    end subroutine run_flight_exact
+
 end module tmafm_method_flight

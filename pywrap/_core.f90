@@ -7,7 +7,7 @@
 
 !> Read and validate a namelist; write the resolved input to resolved_path (if not blank).
 subroutine resolve(path, resolved_path, n_modes, n_samples, scene, ierr, errmsg)
-   use tmafm, only: config_t, read_config, write_config, ok, err_file
+   use tmafm, only: config_t, read_config, write_config, choose_mode_count, ok, err_file
    use tmafm_settings, only: sample_count
    use tmafm_kinds, only: dp
    implicit none
@@ -25,6 +25,8 @@ subroutine resolve(path, resolved_path, n_modes, n_samples, scene, ierr, errmsg)
    n_samples = 0
    scene = 0
    call read_config(path, config, ierr, errmsg)
+   if (ierr /= ok) return
+   call choose_mode_count(config, ierr, errmsg)
    if (ierr /= ok) return
    n_modes = config%n_modes
    n_samples = sample_count(config%solver)
@@ -66,6 +68,11 @@ subroutine run(path, n_samples, n_modes, tau, vt, vtdot, contact, a, adot, count
    tau = 0; vt = 0; vtdot = 0; contact = 0; a = 0; adot = 0; counters = 0
    call read_config(path, config, ierr, errmsg)
    if (ierr /= ok) return
+   ! resolve() already chose N for an automatic n_modes: reuse its choice.
+   if (config%auto_modes) then
+      config%auto_modes = .false.
+      config%n_modes = n_modes
+   end if
    call simulate(config, traj, ierr, errmsg)
    if (ierr /= ok) return
    if (size(traj%tau) /= n_samples .or. config%n_modes /= n_modes) then

@@ -5,6 +5,7 @@
 program tmafm_main
    use, intrinsic :: iso_fortran_env, only: error_unit, output_unit
    use tmafm, only: config_t, trajectory_t, read_config, simulate, write_trajectory_file, &
+      choose_mode_count, &
       tmafm_version_string, ok, errmsg_len, path_len
    implicit none
 
@@ -49,6 +50,8 @@ program tmafm_main
    call read_config(input_path, config, ierr, errmsg)
    if (ierr /= ok) call fail(ierr, errmsg)
    if (len_trim(output_override) > 0) config%output_file = output_override
+   call choose_mode_count(config, ierr, errmsg)
+   if (ierr /= ok) call fail(ierr, errmsg)
 
    if (quiet) then
       call simulate(config, traj, ierr, errmsg)

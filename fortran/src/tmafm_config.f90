@@ -14,8 +14,21 @@ module tmafm_config
 
    !> One run's input: &model, &scene or &physical, &initial, &solver and &output.
    type :: config_t
-      !> &model n_modes: number of Galerkin modes, 1 to max_modes.
+      !> &model n_modes: number of Galerkin modes, 1 to max_modes (the chosen N when automatic).
       integer :: n_modes = 4
+      !> .true. when &model n_modes = 0 asked tmafm to choose N.
+      logical :: auto_modes = .false.
+      !> &model mode_tol: automatic N stops when V_T(N) and V_T(N+1) differ by at most this
+      !> fraction of the V_T range over the horizon.
+      real(dp) :: mode_tol = 1.0e-2_dp
+      !> &model mode_horizon: length of the runs that compare N and N+1.
+      real(dp) :: mode_horizon = 20.0_dp
+      !> Evidence of the automatic choice: the relative differences for N = 1, 2, ...
+      real(dp) :: mode_differences(max_modes) = 0
+      !> Number of entries of mode_differences in use.
+      integer :: n_mode_differences = 0
+      !> Number of initial values given in &initial (leading modes; the rest are zero).
+      integer :: n_initial = 0
       !> &model contact_law: 'hertz' or 'dmt'.
       character(len=64) :: contact_law = 'hertz'
       !> &model convention: 'paper' (printed equations) or 'consistent' (corrected).

@@ -35,6 +35,8 @@ module tmafm_model
       real(dp) :: kappa5 = 0
       !> Scale of the friction force in the brackets (alpha6, or alpha6/2 under E4).
       real(dp) :: kappa6 = 0
+      !> Terms that do not vanish identically for this scene; the others are skipped.
+      logical :: has_contact_damping = .true., has_axial_stiffness = .true., has_moment = .true.
       !> Mode roots beta_j.
       real(dp), allocatable :: beta(:)
       !> Lambda = beta^4, the modal stiffnesses.
@@ -116,6 +118,9 @@ contains
 
       if (errata%e3_moment_through_slope) then
          model%moment_shape = model%slope
+      else if (scene%xi0 == 1.0_dp) then
+         ! The printed moment multiplies phi''(1), which is zero for every mode (free end).
+         allocate (model%moment_shape(n), source=0.0_dp)
       else
          model%moment_shape = mode_shape(model%beta, scene%xi0, 2)
       end if
@@ -135,6 +140,11 @@ contains
       else
          model%axial = axial_matrix_closed_form(model%beta)
       end if
+
+      model%has_contact_damping = scene%alpha4 /= 0
+      model%has_axial_stiffness = model%kappa5 /= 0 .or. model%kappa6 /= 0
+      model%has_moment = model%has_axial_stiffness .and. scene%g0_over_d /= 0 &
+                         .and. any(model%moment_shape /= 0)
 
       allocate (model%mass(n, n))
       model%mass = scene%alpha1*spread(model%mass_point, 2, n)*spread(model%mass_point, 1, n)
@@ -239,10 +249,13 @@ contains
          if (in_contact) then
             state = self%contact(tau, a)
             ! Everything that acts along p: contact damping, its base term, and P1.
-            tip_push = -s%alpha4*dot_product(self%tip, adot) + base_damping(self, tau) &
-                       + s%l_over_d*state%transverse
-            dydt(n + 1:2*n) = dydt(n + 1:2*n) + tip_push*self%inv_mass_tip &
-               + state%axial*matmul(self%inv_mass_axial, a) &
+            tip_push = s%l_over_d*state%transverse
+            if (self%has_contact_damping) tip_push = tip_push &
+               - s%alpha4*dot_product(self%tip, adot) + base_damping(self, tau)
+            dydt(n + 1:2*n) = dydt(n + 1:2*n) + tip_push*self%inv_mass_tip
+            if (self%has_axial_stiffness) dydt(n + 1:2*n) = dydt(n + 1:2*n) &
+               + state%axial*matmul(self%inv_mass_axial, a)
+            if (self%has_moment) dydt(n + 1:2*n) = dydt(n + 1:2*n) &
                + s%g0_over_d*state%axial*self%inv_mass_moment
          end if
       end associate

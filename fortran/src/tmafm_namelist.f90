@@ -150,13 +150,16 @@ contains
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       integer :: n_modes, iostat
+      real(dp) :: mode_tol, mode_horizon
       character(len=64) :: contact_law, convention, errata
       character(len=256) :: iomsg
       type(errata_t) :: parsed
       character(len=64) :: bad
-      namelist /model/ n_modes, contact_law, convention, errata
+      namelist /model/ n_modes, contact_law, convention, errata, mode_tol, mode_horizon
 
       n_modes = config%n_modes
+      mode_tol = config%mode_tol
+      mode_horizon = config%mode_horizon
       contact_law = config%contact_law
       convention = config%convention
       errata = config%errata
@@ -167,9 +170,13 @@ contains
 
       contact_law = lower(adjustl(contact_law))
       convention = lower(adjustl(convention))
-      if (n_modes < 1 .or. n_modes > max_modes) then
+      call check_range(path, 'model', 'mode_tol', mode_tol, 0.0_dp, 1.0_dp, .false., ierr, errmsg)
+      call check_range(path, 'model', 'mode_horizon', mode_horizon, 0.0_dp, 1.0e4_dp, .false., &
+                       ierr, errmsg)
+      if (ierr /= ok) return
+      if (n_modes < 0 .or. n_modes > max_modes) then
          write (errmsg, '(2a,i0,a,i0,a)') trim(path), ': &model n_modes = ', n_modes, &
-            ': must be in 1..', max_modes, ''
+            ': must be in 1..', max_modes, ' (or 0 to choose N by mode_tol)'
          ierr = err_input
       else if (contact_law /= 'hertz' .and. contact_law /= 'dmt') then
          call choice_error(path, 'model', 'contact_law', contact_law, "'hertz' or 'dmt'", ierr, errmsg)
@@ -190,6 +197,9 @@ contains
          end if
       end if
       config%n_modes = n_modes
+      config%auto_modes = n_modes == 0
+      config%mode_tol = mode_tol
+      config%mode_horizon = mode_horizon
       config%contact_law = contact_law
       config%convention = convention
       config%errata = errata_label(parsed)
@@ -345,18 +355,22 @@ contains
       read (unit, nml=initial, iostat=iostat, iomsg=iomsg)
       call check_read(iostat, iomsg, path, 'initial', ierr, errmsg)
       if (ierr /= ok) return
-      call take_modal_values(path, 'a0', a0, config%n_modes, config%a0, ierr, errmsg)
+      call take_modal_values(path, 'a0', a0, config%n_modes, config%a0, config%n_initial, ierr, &
+                             errmsg)
       if (ierr /= ok) return
-      call take_modal_values(path, 'adot0', adot0, config%n_modes, config%adot0, ierr, errmsg)
+      call take_modal_values(path, 'adot0', adot0, config%n_modes, config%adot0, &
+                             config%n_initial, ierr, errmsg)
    end subroutine read_initial
 
-   !> Accept either no values (all zero) or exactly n_modes leading values.
-   subroutine take_modal_values(path, key, given, n_modes, values, ierr, errmsg)
+   !> Accept either no values (all zero) or exactly n_modes leading values; with n_modes = 0
+   !> (automatic N) any number of leading values, the rest being zero.
+   subroutine take_modal_values(path, key, given, n_modes, values, n_initial, ierr, errmsg)
       character(len=*), intent(in) :: path
       character(len=*), intent(in) :: key
       real(dp), intent(in) :: given(:)
       integer, intent(in) :: n_modes
       real(dp), intent(inout) :: values(:)
+      integer, intent(inout) :: n_initial
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       integer :: count_given, j
@@ -365,14 +379,15 @@ contains
       errmsg = ''
       count_given = count(.not. ieee_is_nan(given))
       if (count_given == 0) return
-      if (count_given /= n_modes .or. any(ieee_is_nan(given(1:min(count_given, size(given)))))) then
+      if ((n_modes > 0 .and. count_given /= n_modes) &
+          .or. any(ieee_is_nan(given(1:min(count_given, size(given)))))) then
          ierr = err_input
          write (errmsg, '(5a,i0,a,i0,a)') trim(path), ': &initial ', key, ': ', &
             'has ', count_given, ' values but &model n_modes = ', n_modes, &
             ' (give exactly n_modes values, or none for zeros)'
          return
       end if
-      do j = 1, n_modes
+      do j = 1, count_given
          if (.not. ieee_is_finite(given(j)) .or. abs(given(j)) > 1.0_dp) then
             ierr = err_input
             write (errmsg, '(5a,i0,3a)') trim(path), ': &initial ', key, ': ', 'value ', j, &
@@ -381,7 +396,8 @@ contains
          end if
       end do
       values = 0
-      values(1:n_modes) = given(1:n_modes)
+      values(1:count_given) = given(1:count_given)
+      n_initial = max(n_initial, count_given)
    end subroutine take_modal_values
 
    subroutine read_solver(unit, path, config, ierr, errmsg)
@@ -534,7 +550,17 @@ contains
       c = prefix
       n = config%n_modes
       write (unit, '(a)') c//'&model'
-      write (unit, '(a,i0)') c//'    n_modes = ', n
+      if (config%auto_modes) then
+         ! Keep the request, so the file reruns the choice; record the choice as a comment.
+         write (unit, '(a)') c//'    n_modes = 0'
+         write (unit, '(a,i0,a)') c//'    ! chosen n_modes = ', n, &
+            ': max|V_T(N) - V_T(N+1)|/range(V_T) for N = 1, 2, ... = '// &
+            list_text(config%mode_differences(1:config%n_mode_differences))
+      else
+         write (unit, '(a,i0)') c//'    n_modes = ', n
+      end if
+      call put(c, 'mode_tol', config%mode_tol)
+      call put(c, 'mode_horizon', config%mode_horizon)
       write (unit, '(a)') c//'    contact_law = '''//trim(config%contact_law)//''''
       write (unit, '(a)') c//'    convention = '''//trim(config%convention)//''''
       write (unit, '(a)') c//'    errata = '''//trim(config%errata)//''''
@@ -586,6 +612,7 @@ contains
       end associate
       c = prefix
       write (unit, '(a)') c//'&initial'
+      if (config%auto_modes) n = max(1, config%n_initial)
       write (unit, '(a)') c//'    a0 = '//list_text(config%a0(1:n))
       write (unit, '(a)') c//'    adot0 = '//list_text(config%adot0(1:n))
       write (unit, '(a)') c//'/'
@@ -632,6 +659,10 @@ contains
       real(dp), intent(in) :: values(:)
       character(len=:), allocatable :: text
       integer :: j
+      if (size(values) == 0) then
+         text = 'none'
+         return
+      end if
       text = real_text(values(1))
       do j = 2, size(values)
          text = text//', '//real_text(values(j))

@@ -1,16 +1,23 @@
-!> From a resolved configuration to a sampled trajectory: builds the model, then runs it.
+!> From a resolved configuration to a sampled trajectory: chooses N when asked, builds the
+!> model, then runs it.
 module tmafm_simulation
+   use tmafm_kinds, only: dp
    use tmafm_errors, only: ok
+   use tmafm_modes, only: max_modes
    use tmafm_contact, only: law_hertz, law_dmt
    use tmafm_model, only: model_t, init_model
    use tmafm_driver, only: run_trajectory
    use tmafm_trajectory, only: trajectory_t
    use tmafm_config, only: config_t
+   use tmafm_settings, only: method_dopri5
    use tmafm_namelist, only: config_errata
    implicit none
    private
 
-   public :: build_model, simulate
+   public :: build_model, simulate, choose_mode_count
+
+   !> Tolerances of the runs that compare N and N+1.
+   real(dp), parameter :: comparison_rtol = 1.0e-10_dp, comparison_atol = 1.0e-16_dp
 
 contains
 
@@ -26,8 +33,51 @@ contains
       call init_model(model, config%n_modes, config%scene, law, config_errata(config), ierr, errmsg)
    end subroutine build_model
 
+   !> For &model n_modes = 0: the smallest N whose V_T over mode_horizon agrees with N+1's
+   !> within mode_tol (relative to the range of V_T).  Sets config%n_modes and the evidence.
+   !> The comparison runs use dopri5 at tight tolerances, whatever the run's own method, so
+   !> that integration error (or a fixed step past RK4's stability limit) cannot decide N.
+   recursive subroutine choose_mode_count(config, ierr, errmsg)
+      type(config_t), intent(inout) :: config
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      type(config_t) :: trial
+      type(trajectory_t) :: lower, upper
+      real(dp) :: difference
+      integer :: n
+
+      ierr = ok
+      errmsg = ''
+      if (.not. config%auto_modes .or. config%n_mode_differences > 0) return
+      trial = config
+      trial%auto_modes = .false.
+      trial%solver%tau_end = config%mode_horizon
+      trial%solver%sample_dtau = min(config%solver%sample_dtau, config%mode_horizon/100)
+      trial%solver%method = method_dopri5
+      trial%solver%rtol = comparison_rtol
+      trial%solver%atol = comparison_atol
+      config%n_mode_differences = 0
+      n = max(1, config%n_initial)
+      trial%n_modes = n
+      call simulate(trial, lower, ierr, errmsg)
+      if (ierr /= ok) return
+      do while (n < max_modes)
+         trial%n_modes = n + 1
+         call simulate(trial, upper, ierr, errmsg)
+         if (ierr /= ok) return
+         difference = maxval(abs(upper%vt - lower%vt))/max(tiny(1.0_dp), &
+                                                           maxval(upper%vt) - minval(upper%vt))
+         config%n_mode_differences = config%n_mode_differences + 1
+         config%mode_differences(config%n_mode_differences) = difference
+         if (difference <= config%mode_tol) exit
+         call move_alloc(upper%vt, lower%vt)
+         n = n + 1
+      end do
+      config%n_modes = n
+   end subroutine choose_mode_count
+
    !> Run a configuration; `traj` holds the samples when ierr == ok.
-   subroutine simulate(config, traj, ierr, errmsg, progress_unit)
+   recursive subroutine simulate(config, traj, ierr, errmsg, progress_unit)
       type(config_t), intent(in) :: config
       type(trajectory_t), intent(out) :: traj
       integer, intent(out) :: ierr
@@ -35,12 +85,16 @@ contains
       !> If present, progress lines go to this unit.
       integer, intent(in), optional :: progress_unit
       type(model_t) :: model
+      type(config_t) :: chosen
       integer :: n
 
-      call build_model(config, model, ierr, errmsg)
+      chosen = config
+      call choose_mode_count(chosen, ierr, errmsg)
       if (ierr /= ok) return
-      n = config%n_modes
-      call run_trajectory(model, config%solver, config%a0(1:n), config%adot0(1:n), traj, ierr, &
+      call build_model(chosen, model, ierr, errmsg)
+      if (ierr /= ok) return
+      n = chosen%n_modes
+      call run_trajectory(model, chosen%solver, chosen%a0(1:n), chosen%adot0(1:n), traj, ierr, &
                           errmsg, progress_unit)
    end subroutine simulate
 

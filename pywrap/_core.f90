@@ -45,27 +45,31 @@ subroutine resolve(path, resolved_path, n_modes, n_samples, scene, ierr, errmsg)
    close (unit)
 end subroutine resolve
 
-!> Run a namelist; the arrays are sized by resolve's n_samples and n_modes.
-subroutine run(path, n_samples, n_modes, tau, vt, vtdot, contact, a, adot, counters, ierr, errmsg)
+!> Run a namelist; the arrays are sized by resolve's n_samples and n_modes.  The first
+!> counters(5) entries of switch_tau are the times of the phase changes (at most max_switches).
+subroutine run(path, n_samples, n_modes, max_switches, tau, vt, vtdot, contact, a, adot, &
+               switch_tau, counters, ierr, errmsg)
    use tmafm, only: config_t, trajectory_t, read_config, simulate, ok, err_runtime
    use tmafm_kinds, only: dp, i8
    implicit none
    character(len=*), intent(in) :: path
    integer, intent(in) :: n_samples
    integer, intent(in) :: n_modes
+   integer, intent(in) :: max_switches
    real(dp), intent(out) :: tau(n_samples)
    real(dp), intent(out) :: vt(n_samples)
    real(dp), intent(out) :: vtdot(n_samples)
    integer, intent(out) :: contact(n_samples)
    real(dp), intent(out) :: a(n_samples, n_modes)
    real(dp), intent(out) :: adot(n_samples, n_modes)
+   real(dp), intent(out) :: switch_tau(max_switches)
    integer(i8), intent(out) :: counters(5)
    integer, intent(out) :: ierr
    character(len=512), intent(out) :: errmsg
    type(config_t) :: config
    type(trajectory_t) :: traj
 
-   tau = 0; vt = 0; vtdot = 0; contact = 0; a = 0; adot = 0; counters = 0
+   tau = 0; vt = 0; vtdot = 0; contact = 0; a = 0; adot = 0; counters = 0; switch_tau = 0
    call read_config(path, config, ierr, errmsg)
    if (ierr /= ok) return
    ! resolve() already chose N for an automatic n_modes: reuse its choice.
@@ -86,6 +90,13 @@ subroutine run(path, n_samples, n_modes, tau, vt, vtdot, contact, a, adot, count
    contact = traj%contact
    a = traj%a
    adot = traj%adot
+   if (traj%n_switches > max_switches) then
+      ierr = err_runtime
+      write (errmsg, '(a,i0,a,i0,a)') 'the run changed phase ', traj%n_switches, &
+         ' times, more than max_switches = ', max_switches, ' can return'
+      return
+   end if
+   switch_tau(1:traj%n_switches) = traj%switch_tau(1:traj%n_switches)
    counters = [traj%steps, traj%contact_steps, traj%rejected_steps, traj%rhs_evaluations, &
                int(traj%n_switches, i8)]
 end subroutine run

@@ -6,6 +6,12 @@
 !> Hermite interpolant of G, from G and dG/dtau at both ends (both come from the state alone,
 !> no right-hand side), locates an interior minimum; the caller then checks the true G there.
 !> A dip shallower than the interpolation error, O(h^4 V_T''''), can still be missed.
+!>
+!> V_T is a sum of terms of size ~1e-3 that cancel at a switch, so near V_T = 0 its value is
+!> round-off noise of a few eps times those terms.  Each phase therefore ends only once
+!> V_T is across zero by a margin above that noise (switch_margin, ~1e-18 here): the
+!> callers locate side V_T + margin = 0.  Without it a switch landing on V_T = 0 can
+!> flip back at once on noise, a chatter of zero-length phases.
 module tmafm_events
    use tmafm_kinds, only: dp
    use tmafm_model, only: model_t
@@ -13,7 +19,7 @@ module tmafm_events
    private
 
    public :: no_event, event_at_end, event_candidate, step_event_test, hermite_minimum
-   public :: initial_phase, phase_sign
+   public :: initial_phase, phase_sign, switch_margin
 
    !> G stays positive over the step.
    integer, parameter :: no_event = 0
@@ -34,6 +40,16 @@ contains
       vt = model%tip_gap(tau, y)
       in_contact = vt < 0 .or. (vt == 0 .and. model%tip_gap_rate(tau, y) <= 0)
    end function initial_phase
+
+   !> The round-off level of V_T at a state: 64 eps times the size of the terms of V_T.
+   pure function switch_margin(model, tau, y) result(margin)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: y(:)
+      real(dp) :: margin
+      margin = 64*epsilon(1.0_dp)*(sum(abs(model%tip*y(1:model%n_modes))) &
+               + abs(model%scene%alpha2*sin(model%scene%omega*tau)) + abs(model%scene%delta_hat))
+   end function switch_margin
 
    !> +1 out of contact and -1 in contact: G = sign V_T is positive inside the phase.
    elemental function phase_sign(in_contact) result(side)
@@ -65,7 +81,7 @@ contains
       end if
    end subroutine step_event_test
 
-   !> Whether G has reached the other phase: G <= 0 leaving free flight, G < 0 leaving contact.
+   !> Whether G (margin included) has reached the other phase.
    elemental function crossed(g, in_contact) result(yes)
       real(dp), intent(in) :: g
       logical, intent(in) :: in_contact

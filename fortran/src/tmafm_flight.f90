@@ -12,7 +12,7 @@ module tmafm_flight
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok, err_runtime
    use tmafm_model, only: model_t
-   use tmafm_events, only: hermite_minimum
+   use tmafm_events, only: hermite_minimum, switch_margin
    use tmafm_roots, only: bracketed_root_t
    implicit none
    private
@@ -36,6 +36,8 @@ module tmafm_flight
       !> The flight under way: its start and modal coefficients.
       real(dp) :: tau0 = 0
       complex(dp), allocatable :: z(:), tip_weight(:)
+      !> Round-off level of V_T at the flight start: contact begins at V_T <= -margin.
+      real(dp) :: margin = 0
       !> Bound on |d^4 V_T/ds^4| over the flight (it only decays).
       real(dp) :: fourth_derivative_bound = 0
       !> Scan step: a quarter of the shortest time scale of the free system.
@@ -155,6 +157,7 @@ contains
       call zgetrs('N', self%n_state, 1, self%factors, self%n_state, self%pivots, self%z, &
                   self%n_state, info)
       self%tip_weight = self%z*self%tip_of_vector
+      self%margin = switch_margin(model, tau, y)
       self%fourth_derivative_bound = sum(abs(self%tip_weight)*abs(self%eigenvalue)**4) &
          + model%scene%omega**4*hypot(self%tip_sin, self%tip_cos)
    end subroutine flight_start
@@ -205,20 +208,23 @@ contains
       s_contact = s_max
       left = 0
       call self%gap(model, left, g_left, r_left)
+            g_left = g_left + self%margin
       evaluations = evaluations + 1
       halvings = 0
       do while (left < s_max)
          right = min(s_max, left + self%scan_step*0.5_dp**halvings)
          call self%gap(model, right, g_right, r_right)
+            g_right = g_right + self%margin
          evaluations = evaluations + 1
          call classify(left, g_left, r_left, right, g_right, r_right, s_low, s_high, g_high)
          if (s_high > 0) then
             ! A bracket [s_low, s_high]: refine it to round-off.
-            call root%start(s_low, g_at(s_low), s_high, g_high, &
+            call root%start(s_low, max(g_at(s_low), tiny(1.0_dp)), s_high, g_high, &
                             4*epsilon(1.0_dp)*abs(self%tau0 + s_high))
             do while (.not. root%converged())
                call root%next_point(x)
                call self%gap(model, x, g_high, rx)
+            g_high = g_high + self%margin
                evaluations = evaluations + 1
                call root%update(g_high)
             end do
@@ -241,6 +247,7 @@ contains
          real(dp), intent(in) :: s
          real(dp) :: rate
          call self%gap(model, s, g_at, rate)
+            g_at = g_at + self%margin
          evaluations = evaluations + 1
       end function g_at
 
@@ -275,6 +282,7 @@ contains
          call hermite_minimum(g0, width*r0, g1, width*r1, theta, cubic_min)
          if (theta > 0 .and. cubic_min <= 0) then
             call self%gap(model, s0 + theta*width, g_mid, r_mid)
+            g_mid = g_mid + self%margin
             evaluations = evaluations + 1
             if (g_mid <= 0) then
                s_high = s0 + theta*width

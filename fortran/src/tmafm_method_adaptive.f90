@@ -9,7 +9,8 @@ module tmafm_method_adaptive
    use tmafm_settings, only: run_settings_t
    use tmafm_trajectory, only: trajectory_t, check_blowup, progress_t
    use tmafm_dopri5, only: dopri5_stepper_t, step_controller_t, error_norm
-   use tmafm_events, only: no_event, event_candidate, step_event_test, initial_phase, phase_sign
+   use tmafm_events, only: no_event, event_candidate, step_event_test, initial_phase, phase_sign, &
+      switch_margin
    use tmafm_roots, only: bracketed_root_t
    implicit none
    private
@@ -84,7 +85,7 @@ contains
 
       type(bracketed_root_t) :: root
       real(dp), dimension(size(self%y)) :: f0, f_new, y_new, y_sample
-      real(dp) :: h, norm, side, s_test, theta, step_taken
+      real(dp) :: h, norm, side, s_test, theta, step_taken, margin
       logical :: have_f0
       integer :: status
 
@@ -117,25 +118,27 @@ contains
             call stepper%prepare_dense(y, y_new, h, f0, f_new)
 
             side = phase_sign(self%in_contact)
-            call step_event_test(side*model%tip_gap(tau, y), side*model%tip_gap_rate(tau, y), &
-                                 side*model%tip_gap(tau + h, y_new), &
+            margin = switch_margin(model, tau, y)
+            call step_event_test(side*model%tip_gap(tau, y) + margin, &
+                                 side*model%tip_gap_rate(tau, y), &
+                                 side*model%tip_gap(tau + h, y_new) + margin, &
                                  side*model%tip_gap_rate(tau + h, y_new), h, self%in_contact, &
                                  status, s_test)
             if (status == event_candidate) then
                call stepper%dense(s_test/h, y_sample)
-               if (side*model%tip_gap(tau + s_test, y_sample) > 0) status = no_event
+               if (side*model%tip_gap(tau + s_test, y_sample) + margin > 0) status = no_event
             end if
             step_taken = h
             if (status /= no_event) then
-               ! G(theta) = side V_T on the dense output: positive at 0, not positive at s_test/h.
+               ! G(theta) = side V_T + margin on the dense output: positive at 0, not at s_test/h.
                call stepper%dense(s_test/h, y_sample)
-               call root%start(0.0_dp, side*model%tip_gap(tau, y), s_test/h, &
-                               side*model%tip_gap(tau + s_test, y_sample), &
+               call root%start(0.0_dp, side*model%tip_gap(tau, y) + margin, s_test/h, &
+                               side*model%tip_gap(tau + s_test, y_sample) + margin, &
                                4*epsilon(1.0_dp)*abs(tau)/h)
                do while (.not. root%converged())
                   call root%next_point(theta)
                   call stepper%dense(theta, y_sample)
-                  call root%update(side*model%tip_gap(tau + theta*h, y_sample))
+                  call root%update(side*model%tip_gap(tau + theta*h, y_sample) + margin)
                end do
                call root%end_with_sign(-1.0_dp, theta)
                step_taken = theta*h

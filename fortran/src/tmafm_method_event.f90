@@ -11,7 +11,8 @@ module tmafm_method_event
    use tmafm_trajectory, only: trajectory_t, check_blowup, progress_t
    use tmafm_rk4, only: rk4_stepper_t
    use tmafm_interpolation, only: hermite_cubic
-   use tmafm_events, only: no_event, event_candidate, step_event_test, initial_phase, phase_sign
+   use tmafm_events, only: no_event, event_candidate, step_event_test, initial_phase, phase_sign, &
+      switch_margin
    use tmafm_roots, only: bracketed_root_t
    implicit none
    private
@@ -33,7 +34,7 @@ contains
       type(rk4_stepper_t) :: stepper
       type(bracketed_root_t) :: root
       real(dp), dimension(size(y0)) :: y, y_new, f0, f_end, y_sample
-      real(dp) :: tau, h, s_test, s, side
+      real(dp) :: tau, h, s_test, s, side, margin
       logical :: in_contact, have_f_end
       integer :: status
 
@@ -62,14 +63,15 @@ contains
          traj%rhs_evaluations = traj%rhs_evaluations + 3
 
          side = phase_sign(in_contact)
-         call step_event_test(side*model%tip_gap(tau, y), side*model%tip_gap_rate(tau, y), &
-                              side*model%tip_gap(tau + h, y_new), &
+         margin = switch_margin(model, tau, y)
+         call step_event_test(side*model%tip_gap(tau, y) + margin, side*model%tip_gap_rate(tau, y), &
+                              side*model%tip_gap(tau + h, y_new) + margin, &
                               side*model%tip_gap_rate(tau + h, y_new), h, in_contact, status, s_test)
          if (status == event_candidate) then
             ! Is the dip of the interpolant real?  Check the RK4 solution there.
             call stepper%step(model, tau, y, s_test, in_contact, f0, y_new)
             traj%rhs_evaluations = traj%rhs_evaluations + 3
-            if (side*model%tip_gap(tau + s_test, y_new) > 0) then
+            if (side*model%tip_gap(tau + s_test, y_new) + margin > 0) then
                status = no_event
                call stepper%step(model, tau, y, h, in_contact, f0, y_new)
                traj%rhs_evaluations = traj%rhs_evaluations + 3
@@ -77,14 +79,15 @@ contains
          end if
 
          if (status /= no_event) then
-            ! G(s) = side V_T(tau + s, RK4(y, s)): positive at s = 0, not positive at s_test.
-            call root%start(0.0_dp, side*model%tip_gap(tau, y), s_test, &
-                            side*model%tip_gap(tau + s_test, y_new), 4*epsilon(1.0_dp)*abs(tau))
+            ! G(s) = side V_T(tau + s, RK4(y, s)) + margin: positive at 0, not at s_test.
+            call root%start(0.0_dp, side*model%tip_gap(tau, y) + margin, s_test, &
+                            side*model%tip_gap(tau + s_test, y_new) + margin, &
+                            4*epsilon(1.0_dp)*abs(tau))
             do while (.not. root%converged())
                call root%next_point(s)
                call stepper%step(model, tau, y, s, in_contact, f0, y_new)
                traj%rhs_evaluations = traj%rhs_evaluations + 3
-               call root%update(side*model%tip_gap(tau + s, y_new))
+               call root%update(side*model%tip_gap(tau + s, y_new) + margin)
             end do
             ! Take the bracket end that already lies in the new phase.
             call root%end_with_sign(-1.0_dp, h)

@@ -34,6 +34,9 @@ class Result:
 
     Arrays have one row per sample, at ``tau = k * sample_dtau``.  ``a`` and ``adot`` are
     samples x N (Fortran order).  ``contact`` is 1 where V_T <= 0 at the sample.
+    ``switches`` holds the times of the phase changes: located switches for the located
+    methods, and the step starts where the phase changed for ``rk4_paper``.
+    ``counters`` has steps, contact_steps, rejected_steps, rhs_evaluations, phase_switches.
     """
 
     tau: np.ndarray
@@ -45,6 +48,7 @@ class Result:
     resolved: f90nml.Namelist
     scene: dict
     counters: dict = field(default_factory=dict)
+    switches: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def n_modes(self) -> int:
@@ -125,21 +129,22 @@ def resolve(nml: NamelistLike, **overrides) -> tuple[f90nml.Namelist, dict]:
     return resolved, scene
 
 
-def run(nml: NamelistLike, **overrides) -> Result:
+def run(nml: NamelistLike, max_switches: int = 100_000, **overrides) -> Result:
     """Run a namelist file (path) or a dict of groups, as f90nml gives, and return a Result.
 
     ``overrides`` patch groups, e.g. ``run('inputs/fig2_n4.nml', solver={'tau_end': 10})``.
+    ``max_switches`` bounds the number of phase changes returned in ``Result.switches``.
     Raises InputError (a ValueError) for bad values, InputFileError for a missing file
     and BlowUpError when the integration diverges.
     """
     with _NamelistFile(nml, overrides) as source:
         n_modes, n_samples, scene, resolved = _resolve_source(source)
-        (tau, vt, vtdot, contact, a, adot, counters, ierr, errmsg) = _core.run(
-            source.path, n_samples, n_modes)
+        (tau, vt, vtdot, contact, a, adot, switch_tau, counters, ierr, errmsg) = _core.run(
+            source.path, n_samples, n_modes, max_switches)
         source.check(ierr, errmsg)
+    counters = dict(zip(("steps", "contact_steps", "rejected_steps", "rhs_evaluations",
+                         "phase_switches"), map(int, counters)))
     return Result(
         tau=tau, vt=vt, vtdot=vtdot, contact=contact.astype(np.int8), a=a, adot=adot,
-        resolved=resolved, scene=scene,
-        counters=dict(zip(("steps", "contact_steps", "rejected_steps", "rhs_evaluations",
-                           "phase_switches"),
-                          map(int, counters))))
+        resolved=resolved, scene=scene, counters=counters,
+        switches=np.array(switch_tau[:counters["phase_switches"]]))

@@ -198,3 +198,48 @@ subroutine galerkin(n, xi_end, q_closed, g_closed, q_quadrature, g_quadrature, g
    g_quadrature = axial_matrix_quadrature(beta, xi_end, quadrature_panels(beta(n), xi_end))
    gram = mass_matrix_quadrature(beta, panels)
 end subroutine galerkin
+
+!> The constant data of a namelist's model, for peers and analysis written in numpy:
+!> M, Lambda, G, and the vectors p, s, m (tip-mass point), r (moment shape), q; plus kappa5, kappa6.
+subroutine model_data(path, n_modes, mass, eigen, axial, tip, slope, mass_point, moment_shape, &
+                      integral, kappas, ierr, errmsg)
+   use tmafm, only: config_t, model_t, read_config, build_model, ok, err_input
+   use tmafm_kinds, only: dp
+   implicit none
+   character(len=*), intent(in) :: path
+   integer, intent(in) :: n_modes
+   real(dp), intent(out) :: mass(n_modes, n_modes)
+   real(dp), intent(out) :: eigen(n_modes)
+   real(dp), intent(out) :: axial(n_modes, n_modes)
+   real(dp), intent(out) :: tip(n_modes)
+   real(dp), intent(out) :: slope(n_modes)
+   real(dp), intent(out) :: mass_point(n_modes)
+   real(dp), intent(out) :: moment_shape(n_modes)
+   real(dp), intent(out) :: integral(n_modes)
+   real(dp), intent(out) :: kappas(2)
+   integer, intent(out) :: ierr
+   character(len=512), intent(out) :: errmsg
+   type(config_t) :: config
+   type(model_t) :: model
+
+   mass = 0; eigen = 0; axial = 0; tip = 0; slope = 0; mass_point = 0; moment_shape = 0
+   integral = 0; kappas = 0
+   call read_config(path, config, ierr, errmsg)
+   if (ierr /= ok) return
+   if (config%n_modes /= n_modes) then
+      ierr = err_input
+      errmsg = 'n_modes of the call does not match &model n_modes'
+      return
+   end if
+   call build_model(config, model, ierr, errmsg)
+   if (ierr /= ok) return
+   mass = model%mass
+   eigen = model%eigen
+   axial = model%axial
+   tip = model%tip
+   slope = model%slope
+   mass_point = model%mass_point
+   moment_shape = model%moment_shape
+   integral = model%integral
+   kappas = [model%kappa5, model%kappa6]
+end subroutine model_data

@@ -1,0 +1,189 @@
+"""Work-precision study: error in V_T over tau in [0, tau_end] against wall time and against
+right-hand-side evaluations, for every tmafm method and for scipy's solve_ivp with events on
+a numpy right-hand side (the peer a Python user would write).
+
+    python -m tmafm.workprecision --out benchmarks            # full study (minutes)
+    python -m tmafm.workprecision --out /tmp/wp --quick       # one scene, fewer points
+
+Writes work_precision.json and work_precision.png.  The reference of each scene is
+flight_exact at rtol 1e-12; it is cross-checked against scipy DOP853 with events at rtol
+1e-12, and the difference is recorded.  Ratios at equal error are interpolated in log-log.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from ._peer import ScipyPeer
+from ._run import run
+
+__all__ = ["study", "main", "TARGET_ERRORS"]
+
+TARGET_ERRORS = (1e-6, 1e-8, 1e-10)
+SCENES = {"fig2": "fig2_n4.nml", "fig6": "fig6.nml", "fig7": "fig7_hertz.nml"}
+
+TMAFM_SWEEPS = {
+    "rk4_paper": ("dtau", [1.6e-2, 8e-3, 4e-3, 2e-3, 1e-3, 5e-4, 2.5e-4]),
+    "rk4_event": ("dtau", [1.6e-2, 8e-3, 4e-3, 2e-3, 1e-3, 5e-4, 2.5e-4]),
+    "dopri5": ("rtol", [1e-2, 1e-3, 1e-4, 1e-6, 1e-8, 1e-10, 1e-12]),
+    "flight_exact": ("rtol", [1e-2, 1e-3, 1e-4, 1e-6, 1e-8, 1e-10, 1e-12]),
+}
+SCIPY_SWEEPS = {
+    "scipy_RK45": ("RK45", [1e-3, 1e-4, 1e-6, 1e-8, 1e-10]),
+    "scipy_DOP853": ("DOP853", [1e-3, 1e-4, 1e-6, 1e-8, 1e-10, 1e-12]),
+    "scipy_Radau": ("Radau", [1e-3, 1e-4, 1e-6, 1e-8]),
+    "scipy_LSODA": ("LSODA", [1e-3, 1e-4, 1e-6, 1e-8, 1e-10]),
+}
+
+
+def _best_time(fn, repeat):
+    best, out = math.inf, None
+    for _ in range(repeat):
+        start = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - start)
+    return best, out
+
+
+def _time_at(points, target):
+    """Interpolated time (or evaluations) at error `target`, log-log; None if not reached."""
+    pts = sorted((p for p in points if p["error"] > 0), key=lambda p: p["error"])
+    for lo, hi in zip(pts, pts[1:]):
+        if lo["error"] <= target <= hi["error"]:
+            w = (math.log(target) - math.log(lo["error"])) / (math.log(hi["error"]) - math.log(lo["error"]))
+            return {key: math.exp(math.log(lo[key]) + w * (math.log(hi[key]) - math.log(lo[key])))
+                    for key in ("seconds", "rhs_evaluations")}
+    return None
+
+
+def study(inputs: Path, scenes=SCENES, conventions=("paper", "consistent"), tau_end=20.0,
+          sample_dtau=0.01, repeat=3, progress=print) -> dict:
+    """Run the whole study and return the report (also what goes into the JSON)."""
+    report = {"tmafm": __version__, "machine": platform.machine(), "python": platform.python_version(),
+              "tau_end": tau_end, "sample_dtau": sample_dtau, "error": "max |V_T - V_T_ref| over the samples",
+              "seconds": f"best of {repeat} in-process wall times (tmafm.run, or the scipy peer)",
+              "scenes": {}}
+    for scene, file in scenes.items():
+        for convention in conventions:
+            key = f"{scene}_{convention}"
+            path = inputs / file
+            common = dict(model={"convention": convention}, output={"sample_dtau": sample_dtau})
+            reference = run(path, **common, solver={"method": "flight_exact", "tau_end": tau_end,
+                                                    "rtol": 1e-12, "atol": 1e-20}).vt
+            peer = ScipyPeer(path, **common)
+            check = peer.solve(tau_end, sample_dtau, "DOP853", 1e-12, 1e-20)
+            entry = {"input": f"inputs/{file}", "convention": convention,
+                     "reference": "flight_exact rtol 1e-12 atol 1e-20",
+                     "reference_vs_scipy_DOP853_1e-12": float(np.max(np.abs(check["vt"] - reference))),
+                     "switches": int(len(check["switches"])), "methods": {}}
+            for method, (knob, values) in TMAFM_SWEEPS.items():
+                points = []
+                for value in values:
+                    solver = {"method": method, "tau_end": tau_end, knob: value}
+                    if knob == "rtol":
+                        solver["atol"] = value * 1e-6
+                    try:
+                        seconds, result = _best_time(lambda: run(path, **common, solver=solver), repeat)
+                    except Exception as exc:  # a step past the stability limit: record it
+                        points.append({knob: value, "failed": str(exc)})
+                        continue
+                    points.append({knob: value, "seconds": seconds,
+                                   "rhs_evaluations": result.counters["rhs_evaluations"],
+                                   "error": float(np.max(np.abs(result.vt - reference)))})
+                entry["methods"][method] = points
+                progress(f"{key} {method} done")
+            for name, (scipy_method, rtols) in SCIPY_SWEEPS.items():
+                points = []
+                for rtol in rtols:
+                    out = peer.solve(tau_end, sample_dtau, scipy_method, rtol, rtol * 1e-6)
+                    points.append({"rtol": rtol, "seconds": out["seconds"],
+                                   "rhs_evaluations": out["rhs_evaluations"],
+                                   "error": float(np.max(np.abs(out["vt"] - reference)))})
+                entry["methods"][name] = points
+                progress(f"{key} {name} done")
+            entry["at_equal_error"] = _equal_error(entry["methods"])
+            report["scenes"][key] = entry
+    return report
+
+
+def _equal_error(methods: dict) -> dict:
+    table = {}
+    for target in TARGET_ERRORS:
+        costs = {name: _time_at([p for p in pts if "error" in p], target) for name, pts in methods.items()}
+        tmafm_costs = {n: c for n, c in costs.items() if c and not n.startswith("scipy")}
+        if not tmafm_costs:
+            continue
+        best = min(tmafm_costs, key=lambda n: tmafm_costs[n]["seconds"])
+        row = {"best_tmafm_method": best, "seconds": {n: c["seconds"] if c else None for n, c in costs.items()},
+               "time_ratio_to_best": {n: (c["seconds"] / tmafm_costs[best]["seconds"]) if c else None
+                                      for n, c in costs.items()},
+               "rhs_ratio_to_best": {n: (c["rhs_evaluations"] / tmafm_costs[best]["rhs_evaluations"]) if c else None
+                                     for n, c in costs.items()}}
+        table[f"{target:.0e}"] = row
+    return table
+
+
+STYLE = {"rk4_paper": ("tab:red", "o", "-"), "rk4_event": ("tab:orange", "s", "-"),
+         "dopri5": ("tab:blue", "^", "-"), "flight_exact": ("tab:green", "D", "-"),
+         "scipy_RK45": ("tab:gray", "v", "--"), "scipy_DOP853": ("black", "P", "--"),
+         "scipy_Radau": ("tab:purple", "x", "--"), "scipy_LSODA": ("tab:brown", "*", "--")}
+
+
+def plot(report: dict, path: Path) -> None:
+    """Error against seconds and against RHS evaluations, one row per scene."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = list(report["scenes"].items())
+    fig, axes = plt.subplots(len(rows), 2, figsize=(11, 3.4 * len(rows)), squeeze=False)
+    for (key, entry), (ax_t, ax_f) in zip(rows, axes):
+        for name, points in entry["methods"].items():
+            ok = [p for p in points if "error" in p and p["error"] > 0]
+            if not ok:
+                continue
+            color, marker, line = STYLE.get(name, ("k", ".", "-"))
+            err = [p["error"] for p in ok]
+            ax_t.loglog([p["seconds"] for p in ok], err, line, color=color, marker=marker, label=name)
+            ax_f.loglog([p["rhs_evaluations"] for p in ok], err, line, color=color, marker=marker, label=name)
+        for ax, xlabel in ((ax_t, "wall time (s)"), (ax_f, "right-hand-side evaluations")):
+            ax.set_xlabel(xlabel)
+            ax.set_ylabel("max |V_T error| (gap units)")
+            ax.set_title(f"{key}: {entry['input']}, tau <= {report['tau_end']:g}")
+            ax.grid(True, which="both", alpha=0.3)
+            for target in TARGET_ERRORS:
+                ax.axhline(target, color="0.8", lw=0.8, zorder=0)
+    axes[0][0].legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv=None) -> None:
+    """Command line: regenerate work_precision.json and work_precision.png."""
+    parser = argparse.ArgumentParser(description="tmafm work-precision study")
+    parser.add_argument("--out", type=Path, default=Path("benchmarks"))
+    parser.add_argument("--inputs", type=Path, default=Path("inputs"), help="folder of the figure inputs")
+    parser.add_argument("--quick", action="store_true", help="Fig. 2 in `paper` only, one repeat")
+    parser.add_argument("--tau-end", type=float, default=20.0)
+    args = parser.parse_args(argv)
+    scenes = {"fig2": SCENES["fig2"]} if args.quick else SCENES
+    conventions = ("paper",) if args.quick else ("paper", "consistent")
+    report = study(args.inputs, scenes, conventions, tau_end=args.tau_end, repeat=1 if args.quick else 3)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "work_precision.json").write_text(json.dumps(report, indent=1))
+    plot(report, args.out / "work_precision.png")
+    print(json.dumps({k: v["at_equal_error"] for k, v in report["scenes"].items()}, indent=1))
+    print(f"wrote {args.out / 'work_precision.json'} and {args.out / 'work_precision.png'}")
+
+
+if __name__ == "__main__":
+    main()

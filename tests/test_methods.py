@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import tmafm
+from tmafm.scenes import grazing_scene as grazing_scene_dict
 
 from conftest import INPUTS, write_nml
 
@@ -81,21 +82,8 @@ def test_flight_exact_matches_rk4_event(law):
 
 @pytest.fixture(scope="module")
 def grazing_scene():
-    """Two modes, damping 2, on their periodic free orbit, with the sample placed 1e-9 (gap
-    units) above the lowest point of V_T: every drive period has a contact about 1.4e-3
-    long, shorter than one free step of 2e-3."""
-    base = {"model": {"n_modes": 2, "convention": "consistent"},
-            "scene": {"alpha3": 2.0, "delta_hat": 1.0},
-            "solver": {"method": "flight_exact", "rtol": 1e-12, "atol": 1e-18}}
-    period = math.pi
-    settle = tmafm.run(base, solver={"tau_end": 20 * period}, output={"sample_dtau": period / 50})
-    start = {"a0": list(settle.a[-1]), "adot0": list(settle.adot[-1])}
-    orbit = tmafm.run(base, initial=start, solver={"tau_end": period},
-                      output={"sample_dtau": period / 100000})
-    assert orbit.counters["phase_switches"] == 0
-    lowest = orbit.vt.min() - 1.0
-    return {"model": base["model"], "initial": start,
-            "scene": {"alpha3": 2.0, "delta_hat": -lowest - 1e-9}}
+    """Contacts about 1.4e-3 long, shorter than one free step of 2e-3 (tmafm.scenes)."""
+    return grazing_scene_dict(depth=1e-9)
 
 
 GRAZING_METHODS = {"flight_exact": {"rtol": 1e-12, "atol": 1e-18},

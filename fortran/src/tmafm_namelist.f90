@@ -430,7 +430,7 @@ contains
          call choice_error(path, 'solver', 'method', method, known_methods, ierr, errmsg)
          return
       end if
-      call check_range(path, 'solver', 'dtau', dtau, 0.0_dp, 1.0_dp, .false., ierr, errmsg)
+      call check_range(path, 'solver', 'dtau', dtau, 0.0_dp, 10.0_dp, .false., ierr, errmsg)
       call check_range(path, 'solver', 'tau_end', tau_end, 0.0_dp, 1.0e7_dp, .false., ierr, errmsg)
       call check_range(path, 'solver', 'blowup_limit', blowup_limit, 0.0_dp, 1.0e10_dp, .false., &
                        ierr, errmsg)

@@ -243,3 +243,43 @@ subroutine model_data(path, n_modes, mass, eigen, axial, tip, slope, mass_point,
    integral = model%integral
    kappas = [model%kappa5, model%kappa6]
 end subroutine model_data
+
+!> Along a sampled trajectory: the five powers of model_t%energy_flow, the modal energy, and
+!> the contact state [theta1, A, f_c, h, P1, P2] (zeros out of contact; contact(k) = 1 marks it).
+subroutine energy_flow(path, n_samples, n_modes, tau, a, adot, contact, power, energy, state, &
+                       ierr, errmsg)
+   use tmafm, only: config_t, model_t, read_config, build_model, ok, err_input, contact_brackets_t
+   use tmafm_kinds, only: dp
+   implicit none
+   character(len=*), intent(in) :: path
+   integer, intent(in) :: n_samples
+   integer, intent(in) :: n_modes
+   real(dp), intent(in) :: tau(n_samples)
+   real(dp), intent(in) :: a(n_samples, n_modes)
+   real(dp), intent(in) :: adot(n_samples, n_modes)
+   integer, intent(in) :: contact(n_samples)
+   real(dp), intent(out) :: power(n_samples, 5)
+   real(dp), intent(out) :: energy(n_samples)
+   real(dp), intent(out) :: state(n_samples, 6)
+   integer, intent(out) :: ierr
+   character(len=512), intent(out) :: errmsg
+   type(config_t) :: config
+   type(model_t) :: model
+   type(contact_brackets_t) :: s
+   integer :: k
+
+   power = 0; energy = 0; state = 0
+   call read_config(path, config, ierr, errmsg)
+   if (ierr /= ok) return
+   config%auto_modes = .false.
+   config%n_modes = n_modes
+   call build_model(config, model, ierr, errmsg)
+   if (ierr /= ok) return
+   do k = 1, n_samples
+      call model%energy_flow(tau(k), a(k, :), adot(k, :), contact(k) == 1, power(k, :), energy(k))
+      if (contact(k) == 1) then
+         s = model%contact(tau(k), a(k, :))
+         state(k, :) = [s%theta1, s%radius, s%normal, s%friction, s%transverse, s%axial]
+      end if
+   end do
+end subroutine energy_flow

@@ -80,7 +80,13 @@ module tmafm_model
       procedure :: contact => model_contact
       !> The explicit M, C, K, F of Eq. (15) at one state, for checks and analysis.
       procedure :: matrices => model_matrices
+      !> The power of each generalized force on the modes, and the modal energy, at one state.
+      procedure :: energy_flow => model_energy_flow
    end type model_t
+
+   !> Indices of the powers returned by energy_flow.
+   integer, parameter, public :: power_drive = 1, power_beam_damping = 2, &
+      power_contact_damping = 3, power_contact_normal = 4, power_contact_friction = 5, n_powers = 5
 
 contains
 
@@ -293,5 +299,52 @@ contains
          end if
       end associate
    end subroutine model_matrices
+
+   !> Powers a'.Q of the drive (base inertia and base damping), the beam damping, the contact
+   !> damping (with its base term), and the normal and friction parts of the contact force
+   !> (P1 along p, P2 through the moment and the axial stiffness), plus the modal energy
+   !> E = a'.M a'/2 + a.Lambda a/2.  dE/dtau is the sum of the powers.
+   pure subroutine model_energy_flow(self, tau, a, adot, in_contact, power, energy)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: a(:)
+      real(dp), intent(in) :: adot(:)
+      logical, intent(in) :: in_contact
+      real(dp), intent(out) :: power(n_powers)
+      real(dp), intent(out) :: energy
+      type(contact_brackets_t) :: state
+      real(dp) :: sin1, cos1, tip_rate, p1, p2, axial_work, moment_rate
+      integer :: k
+
+      associate (s => self%scene)
+         energy = 0.5_dp*dot_product(adot, matmul(self%mass, adot)) &
+                  + 0.5_dp*sum(self%eigen*a*a)
+         power = 0
+         power(power_drive) = dot_product(adot, &
+            s%alpha2*s%omega**2*(s%alpha1*self%mass_point + self%integral)*sin(s%omega*tau) &
+            - s%alpha2*s%alpha3*s%omega*self%integral*cos(s%omega*tau))
+         power(power_beam_damping) = -s%alpha3*dot_product(adot, adot)
+         if (.not. in_contact) return
+         tip_rate = dot_product(self%tip, adot)
+         power(power_contact_damping) = tip_rate*(-s%alpha4*tip_rate + base_damping(self, tau))
+         state = self%contact(tau, a)
+         sin1 = sin(state%theta1)
+         cos1 = cos(state%theta1)
+         moment_rate = dot_product(self%moment_shape, adot)
+         axial_work = dot_product(adot, matmul(self%axial, a))
+         do k = 1, 2
+            ! k = 1: the normal part (kappa5 f_c); k = 2: the friction part (kappa6 h).
+            if (k == 1) then
+               p1 = self%kappa5*state%normal*sin1
+               p2 = -self%kappa5*state%normal*cos1
+            else
+               p1 = self%kappa6*state%friction*cos1
+               p2 = self%kappa6*state%friction*sin1
+            end if
+            power(power_contact_normal + k - 1) = s%l_over_d*p1*tip_rate &
+               + s%g0_over_d*p2*moment_rate + p2*axial_work
+         end do
+      end associate
+   end subroutine model_energy_flow
 
 end module tmafm_model

@@ -4,6 +4,7 @@ a numpy right-hand side (the peer a Python user would write).
 
     python -m tmafm.workprecision --out benchmarks            # full study (minutes)
     python -m tmafm.workprecision --out /tmp/wp --quick       # one scene, fewer points
+    python -m tmafm.workprecision --summarize benchmarks/work_precision.json
 
 Writes work_precision.json and work_precision.png.  The reference of each scene is
 flight_exact at rtol 1e-12; it is cross-checked against scipy DOP853 with events at rtol
@@ -25,7 +26,7 @@ from . import __version__
 from ._peer import ScipyPeer
 from ._run import run
 
-__all__ = ["study", "main", "TARGET_ERRORS"]
+__all__ = ["study", "summarize", "plot", "main", "TARGET_ERRORS"]
 
 TARGET_ERRORS = (1e-6, 1e-8, 1e-10)
 SCENES = {"fig2": "fig2_n4.nml", "fig6": "fig6.nml", "fig7": "fig7_hertz.nml"}
@@ -114,6 +115,37 @@ def study(inputs: Path, scenes=SCENES, conventions=("paper", "consistent"), tau_
     return report
 
 
+def paper_scheme_at_its_step(entry: dict, dtau: float = 2e-3) -> dict:
+    """The paper's scheme at its own step against (a) rk4_event at the same step and (b) the
+    fastest measured tmafm run at least as accurate."""
+    paper = next(p for p in entry["methods"]["rk4_paper"] if p.get("dtau") == dtau and "error" in p)
+    event = next(p for p in entry["methods"]["rk4_event"] if p.get("dtau") == dtau and "error" in p)
+    candidates = [(p["seconds"], name, p) for name, pts in entry["methods"].items()
+                  if not name.startswith("scipy") for p in pts
+                  if "error" in p and p["error"] <= paper["error"]]
+    seconds, name, best = min(candidates, key=lambda c: c[0])
+    knob = "dtau" if "dtau" in best else "rtol"
+    return {"rk4_paper_error": paper["error"], "rk4_paper_seconds": paper["seconds"],
+            "rk4_event_error_same_step": event["error"],
+            "error_ratio_paper_to_event_same_step": paper["error"] / event["error"],
+            "fastest_as_accurate": {"method": name, knob: best[knob], "error": best["error"],
+                                    "seconds": seconds},
+            "time_ratio_paper_to_fastest_as_accurate": paper["seconds"] / seconds}
+
+
+def summarize(report: dict) -> dict:
+    """The headline ratios: per scene, scipy DOP853 against tmafm's best at equal error, and
+    the paper's scheme at its own step."""
+    out = {}
+    for key, entry in report["scenes"].items():
+        row = {"paper_scheme": paper_scheme_at_its_step(entry)}
+        for target, eq in entry["at_equal_error"].items():
+            row[f"scipy_DOP853_over_best_at_{target}"] = eq["time_ratio_to_best"].get("scipy_DOP853")
+            row[f"best_at_{target}"] = eq["best_tmafm_method"]
+        out[key] = row
+    return out
+
+
 def _equal_error(methods: dict) -> dict:
     table = {}
     for target in TARGET_ERRORS:
@@ -174,14 +206,19 @@ def main(argv=None) -> None:
     parser.add_argument("--inputs", type=Path, default=Path("inputs"), help="folder of the figure inputs")
     parser.add_argument("--quick", action="store_true", help="Fig. 2 in `paper` only, one repeat")
     parser.add_argument("--tau-end", type=float, default=20.0)
+    parser.add_argument("--summarize", type=Path, help="print the headline ratios of an existing JSON and stop")
     args = parser.parse_args(argv)
+    if args.summarize:
+        print(json.dumps(summarize(json.loads(args.summarize.read_text())), indent=1))
+        return
     scenes = {"fig2": SCENES["fig2"]} if args.quick else SCENES
     conventions = ("paper",) if args.quick else ("paper", "consistent")
     report = study(args.inputs, scenes, conventions, tau_end=args.tau_end, repeat=1 if args.quick else 3)
+    report["summary"] = summarize(report)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "work_precision.json").write_text(json.dumps(report, indent=1))
     plot(report, args.out / "work_precision.png")
-    print(json.dumps({k: v["at_equal_error"] for k, v in report["scenes"].items()}, indent=1))
+    print(json.dumps(report["summary"], indent=1))
     print(f"wrote {args.out / 'work_precision.json'} and {args.out / 'work_precision.png'}")
 
 

@@ -1,0 +1,250 @@
+"""Analysis of a run, as the paper reads its figures: steady state, period, modal amplitudes
+in and out of contact, per-period contact measures and dissipation, and the harmonics of V_T.
+
+Everything works on a :class:`tmafm.Result`.  Array work is numpy; what needs the model
+(contact forces, powers, modal energy) comes from the Fortran core (``_core.energy_flow``),
+so no physics is written here.
+
+Definitions used throughout:
+
+* drive period T = 2 pi / Omega; Poincare sections are the states at tau = k T, which needs
+  ``sample_dtau = T / m`` for a whole number m (``sample_dtau_for``);
+* a section distance is the max-norm of the state difference, each component scaled by its
+  range over the sections compared;
+* "amplitude" of a mode over a set of samples: both ``max |a_j|`` and the half peak-to-peak
+  ``(max a_j - min a_j)/2``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+
+import f90nml
+import numpy as np
+
+from . import _core
+from .errors import raise_for
+
+__all__ = ["drive_period", "sample_dtau_for", "poincare_sections", "section_distances",
+           "classify_sections", "classify_period", "steady_state", "modal_amplitudes",
+           "energy_flow", "per_period", "energy_balance", "lockin", "harmonics", "summary",
+           "POWER_NAMES"]
+
+#: The powers returned by the core, in order (tmafm_model energy_flow).
+POWER_NAMES = ("drive", "beam_damping", "contact_damping", "contact_normal", "contact_friction")
+
+
+def drive_period(result) -> float:
+    """T = 2 pi / Omega of the run."""
+    return 2 * math.pi / result.scene["omega"]
+
+
+def sample_dtau_for(omega: float, per_period: int = 200) -> float:
+    """The output interval that puts `per_period` samples in each drive period."""
+    return 2 * math.pi / omega / per_period
+
+
+def _stride(result) -> int:
+    dt = result.tau[1] - result.tau[0]
+    ratio = drive_period(result) / dt
+    stride = int(round(ratio))
+    if stride < 2 or abs(ratio - stride) > 1e-6 * ratio:
+        raise ValueError(f"sample_dtau = {dt!r} does not divide the drive period "
+                         f"{drive_period(result)!r}: use sample_dtau_for(omega, m)")
+    return stride
+
+
+def poincare_sections(result) -> tuple[np.ndarray, np.ndarray]:
+    """Times k T and states (a, adot) at every whole drive period of the run."""
+    stride = _stride(result)
+    index = np.arange(0, result.tau.size, stride)
+    return result.tau[index], np.hstack([result.a[index], result.adot[index]])
+
+
+def section_distances(sections: np.ndarray, n: int) -> np.ndarray:
+    """Scaled distances between sections k and k - n, for k = n .. end."""
+    scale = np.ptp(sections, axis=0)
+    scale[scale == 0] = 1.0
+    diff = np.abs(sections[n:] - sections[:-n]) / scale
+    return diff.max(axis=1)
+
+
+def classify_sections(sections: np.ndarray, tol: float = 1e-6, max_period: int = 16,
+                      window: int | None = None) -> dict:
+    """Period-n (smallest n <= max_period whose section distances over the last `window`
+    sections all stay below tol) or non-periodic.  Returns the evidence: for each n, the
+    largest distance seen."""
+    window = window or 2 * max_period
+    if sections.shape[0] < window + max_period:
+        raise ValueError(f"need at least {window + max_period} drive periods, have {sections.shape[0]}")
+    tail = sections[-(window + max_period):]
+    evidence = {n: float(section_distances(tail, n)[-window:].max()) for n in range(1, max_period + 1)}
+    for n, distance in evidence.items():
+        if distance <= tol:
+            return {"kind": f"period-{n}", "period": n, "tol": tol, "distances": evidence}
+    return {"kind": "non-periodic", "period": None, "tol": tol, "distances": evidence}
+
+
+def classify_period(result, tol: float = 1e-6, max_period: int = 16, window: int | None = None) -> dict:
+    """classify_sections on the Poincare sections of a run.  Choose tol above the
+    integrator's error (1e-6 suits located methods at their defaults)."""
+    return classify_sections(poincare_sections(result)[1], tol, max_period, window)
+
+
+def steady_state(result, tol: float = 1e-6, max_period: int = 16, hold: int = 4) -> dict:
+    """The first drive period from which the sections repeat with some period n <= max_period
+    (distance <= tol) for all later sections, at least `hold` cycles.  ``reached`` is False
+    otherwise."""
+    times, sections = poincare_sections(result)
+    best = None
+    for n in range(1, max_period + 1):
+        if sections.shape[0] < n * (hold + 1) + 1:
+            break
+        d = section_distances(sections, n)          # d[i] compares k = i + n with i
+        bad = np.nonzero(d > tol)[0]
+        start = 0 if bad.size == 0 else bad[-1] + 1  # sections from `start` on repeat
+        if d.size - start >= n * hold:
+            if best is None or start < best[1]:
+                best = (n, start)
+            break
+    if best is None:
+        return {"reached": False, "tau": None, "period": None, "tol": tol}
+    n, start = best
+    return {"reached": True, "tau": float(times[start]), "period": n, "tol": tol}
+
+
+def _namelist_file(result) -> str:
+    handle = tempfile.NamedTemporaryFile("w", suffix=".nml", delete=False)
+    handle.close()
+    f90nml.write(result.resolved, handle.name, force=True)
+    return handle.name
+
+
+def energy_flow(result) -> dict:
+    """Per sample: the powers (POWER_NAMES), the modal energy, and the contact state."""
+    path = _namelist_file(result)
+    try:
+        power, energy, state, ierr, errmsg = _core.energy_flow(
+            path, result.tau, np.asfortranarray(result.a), np.asfortranarray(result.adot),
+            result.contact.astype(np.int32))
+    finally:
+        os.unlink(path)
+    raise_for(ierr, errmsg)
+    out = {name: power[:, k] for k, name in enumerate(POWER_NAMES)}
+    out["energy"] = energy
+    for k, name in enumerate(("theta1", "radius", "normal_group", "friction_group", "p1", "p2")):
+        out[name] = state[:, k]
+    return out
+
+
+def _integrate(values, tau, mask):
+    """Trapezoid rule over the samples in `mask` (a contiguous slice)."""
+    return float(np.trapezoid(values[mask], tau[mask]))
+
+
+def energy_balance(result, tau0: float, tau1: float) -> dict:
+    """Change of modal energy over [tau0, tau1] against the work of each force (trapezoid
+    rule on the samples: its error is O(sample_dtau^2))."""
+    flow = energy_flow(result)
+    mask = (result.tau >= tau0 - 1e-12) & (result.tau <= tau1 + 1e-12)
+    work = {name: _integrate(flow[name], result.tau, mask) for name in POWER_NAMES}
+    energy = flow["energy"][mask]
+    change = float(energy[-1] - energy[0])
+    return {"energy_change": change, "work": work, "residual": change - sum(work.values())}
+
+
+def modal_amplitudes(result, since: float = 0.0) -> dict:
+    """Per mode, over the samples in contact and out of contact after `since`:
+    max |a_j| and half peak-to-peak (max a_j - min a_j)/2."""
+    keep = result.tau >= since
+    out = {}
+    for label, mask in (("contact", keep & (result.contact == 1)), ("free", keep & (result.contact == 0))):
+        if not mask.any():
+            out[label] = None
+            continue
+        a = result.a[mask]
+        out[label] = {"max_abs": np.abs(a).max(axis=0).tolist(),
+                      "half_peak_to_peak": (0.5 * (a.max(axis=0) - a.min(axis=0))).tolist(),
+                      "samples": int(mask.sum())}
+    return out
+
+
+def per_period(result, since: float = 0.0) -> list[dict]:
+    """For every whole drive period after `since`: contact fraction, contacts begun, maximum
+    indentation (-min V_T), peak normal and friction groups ((L/d) kappa f_c and (L/d) kappa h
+    are the forces in units of E1 I d / L^3; here f_c and h themselves), and the work of the
+    contact damping and of friction, and the energy dissipated in all."""
+    stride = _stride(result)
+    flow = energy_flow(result)
+    first = int(math.ceil(since / drive_period(result) - 1e-9)) * stride
+    rows = []
+    for start in range(first, result.tau.size - stride, stride):
+        sl = slice(start, start + stride + 1)
+        tau = result.tau[sl]
+        contact = result.contact[sl]
+        onsets = int(np.count_nonzero(np.diff(contact) == 1))
+        work = {name: float(np.trapezoid(flow[name][sl], tau)) for name in POWER_NAMES}
+        rows.append({
+            "tau_start": float(tau[0]),
+            "contact_fraction": float(np.mean(contact[:-1])),
+            "contacts": onsets,
+            "max_indentation": float(max(0.0, -result.vt[sl].min())),
+            "peak_normal_group": float(np.max(np.abs(flow["normal_group"][sl]))),
+            "peak_friction_group": float(np.max(np.abs(flow["friction_group"][sl]))),
+            "work_contact_damping": work["contact_damping"],
+            "work_friction": work["contact_friction"],
+            "dissipated": -(work["beam_damping"] + work["contact_damping"] + work["contact_friction"]),
+        })
+    return rows
+
+
+def _whole_periods(result, since):
+    stride = _stride(result)
+    start = int(math.ceil(since / drive_period(result) - 1e-9)) * stride
+    periods = (result.tau.size - 1 - start) // stride
+    if periods < 1:
+        raise ValueError("no whole drive period after `since`")
+    return slice(start, start + periods * stride), periods
+
+
+def lockin(result, since: float = 0.0) -> dict:
+    """Amplitude and phase of V_T at the drive frequency over whole periods after `since`:
+    V_T ~ mean + amplitude sin(Omega tau + phase)."""
+    sl, periods = _whole_periods(result, since)
+    tau, vt = result.tau[sl], result.vt[sl]
+    omega = result.scene["omega"]
+    in_phase = 2 * np.mean(vt * np.sin(omega * tau))
+    quadrature = 2 * np.mean(vt * np.cos(omega * tau))
+    return {"mean": float(np.mean(vt)), "amplitude": float(math.hypot(in_phase, quadrature)),
+            "phase": float(math.atan2(quadrature, in_phase)), "periods": periods}
+
+
+def harmonics(result, since: float = 0.0, k_max: int = 20) -> np.ndarray:
+    """|FFT| amplitudes of V_T at k Omega, k = 0..k_max, over whole periods after `since`."""
+    sl, periods = _whole_periods(result, since)
+    spectrum = np.abs(np.fft.rfft(result.vt[sl])) / (result.vt[sl].size / 2)
+    spectrum[0] /= 2
+    return spectrum[: (k_max + 1) * periods: periods][: k_max + 1]
+
+
+def summary(result, since: float | None = None, tol: float = 1e-6) -> dict:
+    """The measures the paper discusses, for a run whose sample_dtau divides the period."""
+    period = drive_period(result)
+    if since is None:
+        since = result.tau[-1] / 2
+    cls = classify_period(result, tol=tol, max_period=8, window=8)
+    rows = per_period(result, since)
+    amplitudes = modal_amplitudes(result, since)
+    return {"classification": cls["kind"], "period": cls["period"],
+            "steady_state": steady_state(result, tol=tol, max_period=8),
+            "contact_fraction": float(np.mean([r["contact_fraction"] for r in rows])),
+            "contacts_per_period": float(np.mean([r["contacts"] for r in rows])),
+            "vt_min": float(result.vt[result.tau >= since].min()),
+            "vt_max": float(result.vt[result.tau >= since].max()),
+            "max_indentation": float(max(r["max_indentation"] for r in rows)),
+            "dissipated_per_period": float(np.mean([r["dissipated"] for r in rows])),
+            "modal_amplitudes": amplitudes, "lockin": lockin(result, since),
+            "harmonics": harmonics(result, since, 10).tolist(), "since": since,
+            "drive_period": period}

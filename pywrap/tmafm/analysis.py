@@ -10,7 +10,10 @@ Definitions used throughout:
 * drive period T = 2 pi / Omega; Poincare sections are the states at tau = k T, which needs
   ``sample_dtau = T / m`` for a whole number m (``sample_dtau_for``);
 * a section distance is the max-norm of the state difference, each component scaled by its
-  range over the sections compared;
+  range over the samples of the run after `since` (the size of the motion, not of the
+  sections, which shrinks to zero on a periodic orbit);
+* the default tolerance follows the integrator (``default_tolerance``): the paper's scheme
+  repeats itself only to its first-order error, the located methods to their tolerance;
 * "amplitude" of a mode over a set of samples: both ``max |a_j|`` and the half peak-to-peak
   ``(max a_j - min a_j)/2``.
 """
@@ -28,6 +31,7 @@ from . import _core
 from .errors import raise_for
 
 __all__ = ["drive_period", "sample_dtau_for", "poincare_sections", "section_distances",
+           "default_tolerance", "state_scale",
            "classify_sections", "classify_period", "steady_state", "modal_amplitudes",
            "energy_flow", "per_period", "energy_balance", "lockin", "harmonics", "summary",
            "POWER_NAMES"]
@@ -63,16 +67,41 @@ def poincare_sections(result) -> tuple[np.ndarray, np.ndarray]:
     return result.tau[index], np.hstack([result.a[index], result.adot[index]])
 
 
-def section_distances(sections: np.ndarray, n: int) -> np.ndarray:
-    """Scaled distances between sections k and k - n, for k = n .. end."""
-    scale = np.ptp(sections, axis=0)
+def state_scale(result, since: float = 0.0) -> np.ndarray:
+    """Range of each state component (a, adot) over the samples after `since`."""
+    keep = result.tau >= since
+    states = np.hstack([result.a[keep], result.adot[keep]])
+    scale = np.ptp(states, axis=0)
     scale[scale == 0] = 1.0
-    diff = np.abs(sections[n:] - sections[:-n]) / scale
-    return diff.max(axis=1)
+    return scale
+
+
+def default_tolerance(result) -> float:
+    """A section-distance tolerance above the integrator's own error: 2e-3 (dtau/2e-3) for
+    rk4_paper (first order), 1e-5 (dtau/2e-3)^4 for rk4_event, 1e3 rtol for the adaptive
+    methods; never below 1e-9."""
+    solver = result.resolved["solver"]
+    method = solver["method"]
+    if method == "rk4_paper":
+        tol = 2e-3 * solver["dtau"] / 2e-3
+    elif method == "rk4_event":
+        tol = 1e-5 * (solver["dtau"] / 2e-3) ** 4
+    else:
+        tol = 1e3 * solver["rtol"]
+    return max(tol, 1e-9)
+
+
+def section_distances(sections: np.ndarray, n: int, scale: np.ndarray | None = None) -> np.ndarray:
+    """Scaled max-norm distances between sections k and k - n, for k = n .. end.
+    `scale` defaults to the largest |value| of each component over the sections."""
+    if scale is None:
+        scale = np.abs(sections).max(axis=0)
+        scale[scale == 0] = 1.0
+    return (np.abs(sections[n:] - sections[:-n]) / scale).max(axis=1)
 
 
 def classify_sections(sections: np.ndarray, tol: float = 1e-6, max_period: int = 16,
-                      window: int | None = None) -> dict:
+                      window: int | None = None, scale: np.ndarray | None = None) -> dict:
     """Period-n (smallest n <= max_period whose section distances over the last `window`
     sections all stay below tol) or non-periodic.  Returns the evidence: for each n, the
     largest distance seen."""
@@ -80,29 +109,35 @@ def classify_sections(sections: np.ndarray, tol: float = 1e-6, max_period: int =
     if sections.shape[0] < window + max_period:
         raise ValueError(f"need at least {window + max_period} drive periods, have {sections.shape[0]}")
     tail = sections[-(window + max_period):]
-    evidence = {n: float(section_distances(tail, n)[-window:].max()) for n in range(1, max_period + 1)}
+    evidence = {n: float(section_distances(tail, n, scale)[-window:].max())
+                for n in range(1, max_period + 1)}
     for n, distance in evidence.items():
         if distance <= tol:
             return {"kind": f"period-{n}", "period": n, "tol": tol, "distances": evidence}
     return {"kind": "non-periodic", "period": None, "tol": tol, "distances": evidence}
 
 
-def classify_period(result, tol: float = 1e-6, max_period: int = 16, window: int | None = None) -> dict:
-    """classify_sections on the Poincare sections of a run.  Choose tol above the
-    integrator's error (1e-6 suits located methods at their defaults)."""
-    return classify_sections(poincare_sections(result)[1], tol, max_period, window)
+def classify_period(result, tol: float | None = None, max_period: int = 16,
+                    window: int | None = None) -> dict:
+    """classify_sections on the Poincare sections of a run, scaled by the size of the
+    motion over the second half of the run; tol defaults to default_tolerance."""
+    tol = default_tolerance(result) if tol is None else tol
+    return classify_sections(poincare_sections(result)[1], tol, max_period, window,
+                             state_scale(result, result.tau[-1] / 2))
 
 
-def steady_state(result, tol: float = 1e-6, max_period: int = 16, hold: int = 4) -> dict:
+def steady_state(result, tol: float | None = None, max_period: int = 16, hold: int = 4) -> dict:
     """The first drive period from which the sections repeat with some period n <= max_period
     (distance <= tol) for all later sections, at least `hold` cycles.  ``reached`` is False
-    otherwise."""
+    otherwise.  tol defaults to default_tolerance."""
+    tol = default_tolerance(result) if tol is None else tol
     times, sections = poincare_sections(result)
+    scale = state_scale(result, result.tau[-1] / 2)
     best = None
     for n in range(1, max_period + 1):
         if sections.shape[0] < n * (hold + 1) + 1:
             break
-        d = section_distances(sections, n)          # d[i] compares k = i + n with i
+        d = section_distances(sections, n, scale)   # d[i] compares k = i + n with i
         bad = np.nonzero(d > tol)[0]
         start = 0 if bad.size == 0 else bad[-1] + 1  # sections from `start` on repeat
         if d.size - start >= n * hold:
@@ -229,15 +264,17 @@ def harmonics(result, since: float = 0.0, k_max: int = 20) -> np.ndarray:
     return spectrum[: (k_max + 1) * periods: periods][: k_max + 1]
 
 
-def summary(result, since: float | None = None, tol: float = 1e-6) -> dict:
+def summary(result, since: float | None = None, tol: float | None = None) -> dict:
     """The measures the paper discusses, for a run whose sample_dtau divides the period."""
     period = drive_period(result)
     if since is None:
         since = result.tau[-1] / 2
+    tol = default_tolerance(result) if tol is None else tol
     cls = classify_period(result, tol=tol, max_period=8, window=8)
     rows = per_period(result, since)
     amplitudes = modal_amplitudes(result, since)
-    return {"classification": cls["kind"], "period": cls["period"],
+    return {"classification": cls["kind"], "period": cls["period"], "tolerance": tol,
+            "section_distances": cls["distances"],
             "steady_state": steady_state(result, tol=tol, max_period=8),
             "contact_fraction": float(np.mean([r["contact_fraction"] for r in rows])),
             "contacts_per_period": float(np.mean([r["contacts"] for r in rows])),

@@ -55,3 +55,31 @@ def test_mismatch_report_says_where():
     changed[37, 2] += 1e-9
     message = where_they_differ("a", changed, stored["a"], stored["tau"], TOLERANCE["a"])
     assert "1 entries" in message and "tau = 1.8500" in message and "column 2" in message
+
+
+#: Relative tolerance of the golden analysis numbers; classifications must match exactly.
+ANALYSIS_RTOL = 1e-8
+
+
+def _compare(path, new, old, problems):
+    if isinstance(old, dict):
+        for key in old:
+            _compare(f"{path}.{key}", new[key], old[key], problems)
+    elif isinstance(old, list):
+        for k, (n, o) in enumerate(zip(new, old)):
+            _compare(f"{path}[{k}]", n, o, problems)
+    elif isinstance(old, float):
+        if abs(new - old) > ANALYSIS_RTOL * abs(old) + 1e-300:
+            problems.append(f"{path}: {new!r} != stored {old!r}")
+    elif new != old:
+        problems.append(f"{path}: {new!r} != stored {old!r}")
+
+
+@pytest.mark.parametrize("name", regenerate.FIGURE_INPUTS)
+def test_golden_analysis(name):
+    stored = json.loads((GOLDEN / "analysis.json").read_text())
+    problems = []
+    for method in regenerate.ANALYSIS_METHODS:
+        key = f"{name}/{method}"
+        _compare(key, regenerate.compute_analysis(name, method), stored[key], problems)
+    assert not problems, "\n".join(problems)

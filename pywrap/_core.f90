@@ -104,7 +104,7 @@ end subroutine run
 !> The explicit M, C, K, F of Eq. (15) and the state derivative for one state of a namelist's model.
 subroutine model_terms(path, n_modes, tau, a, adot, in_contact, mass, damping, stiffness, force, &
                        rate, ierr, errmsg)
-   use tmafm, only: config_t, model_t, read_config, build_model, ok, err_input
+   use tmafm, only: model_t, load_model, ok
    use tmafm_kinds, only: dp
    implicit none
    character(len=*), intent(in) :: path
@@ -120,18 +120,10 @@ subroutine model_terms(path, n_modes, tau, a, adot, in_contact, mass, damping, s
    real(dp), intent(out) :: rate(2*n_modes)
    integer, intent(out) :: ierr
    character(len=512), intent(out) :: errmsg
-   type(config_t) :: config
    type(model_t) :: model
 
    mass = 0; damping = 0; stiffness = 0; force = 0; rate = 0
-   call read_config(path, config, ierr, errmsg)
-   if (ierr /= ok) return
-   if (config%n_modes /= n_modes) then
-      ierr = err_input
-      errmsg = 'n_modes of the call does not match &model n_modes'
-      return
-   end if
-   call build_model(config, model, ierr, errmsg)
+   call load_model(path, n_modes, model, ierr, errmsg)
    if (ierr /= ok) return
    call model%matrices(tau, a, in_contact, mass, damping, stiffness, force)
    call model%derivative(tau, [a, adot], in_contact, rate)
@@ -203,7 +195,7 @@ end subroutine galerkin
 !> M, Lambda, G, and the vectors p, s, m (tip-mass point), r (moment shape), q; plus kappa5, kappa6.
 subroutine model_data(path, n_modes, mass, eigen, axial, tip, slope, mass_point, moment_shape, &
                       integral, kappas, ierr, errmsg)
-   use tmafm, only: config_t, model_t, read_config, build_model, ok, err_input
+   use tmafm, only: model_t, load_model, ok
    use tmafm_kinds, only: dp
    implicit none
    character(len=*), intent(in) :: path
@@ -219,19 +211,11 @@ subroutine model_data(path, n_modes, mass, eigen, axial, tip, slope, mass_point,
    real(dp), intent(out) :: kappas(2)
    integer, intent(out) :: ierr
    character(len=512), intent(out) :: errmsg
-   type(config_t) :: config
    type(model_t) :: model
 
    mass = 0; eigen = 0; axial = 0; tip = 0; slope = 0; mass_point = 0; moment_shape = 0
    integral = 0; kappas = 0
-   call read_config(path, config, ierr, errmsg)
-   if (ierr /= ok) return
-   if (config%n_modes /= n_modes) then
-      ierr = err_input
-      errmsg = 'n_modes of the call does not match &model n_modes'
-      return
-   end if
-   call build_model(config, model, ierr, errmsg)
+   call load_model(path, n_modes, model, ierr, errmsg)
    if (ierr /= ok) return
    mass = model%mass
    eigen = model%eigen
@@ -248,7 +232,7 @@ end subroutine model_data
 !> the contact state [theta1, A, f_c, h, P1, P2] (zeros out of contact; contact(k) = 1 marks it).
 subroutine energy_flow(path, n_samples, n_modes, tau, a, adot, contact, power, energy, state, &
                        ierr, errmsg)
-   use tmafm, only: config_t, model_t, read_config, build_model, ok, err_input, contact_brackets_t
+   use tmafm, only: model_t, load_model, ok, contact_brackets_t
    use tmafm_kinds, only: dp
    implicit none
    character(len=*), intent(in) :: path
@@ -263,17 +247,12 @@ subroutine energy_flow(path, n_samples, n_modes, tau, a, adot, contact, power, e
    real(dp), intent(out) :: state(n_samples, 6)
    integer, intent(out) :: ierr
    character(len=512), intent(out) :: errmsg
-   type(config_t) :: config
    type(model_t) :: model
    type(contact_brackets_t) :: s
    integer :: k
 
    power = 0; energy = 0; state = 0
-   call read_config(path, config, ierr, errmsg)
-   if (ierr /= ok) return
-   config%auto_modes = .false.
-   config%n_modes = n_modes
-   call build_model(config, model, ierr, errmsg)
+   call load_model(path, n_modes, model, ierr, errmsg)
    if (ierr /= ok) return
    do k = 1, n_samples
       call model%energy_flow(tau(k), a(k, :), adot(k, :), contact(k) == 1, power(k, :), energy(k))

@@ -16,7 +16,7 @@ module tmafm
    use tmafm_driver, only: run_trajectory
    use tmafm_config, only: config_t, path_len
    use tmafm_namelist, only: read_config, write_config
-   use tmafm_simulation, only: build_model, simulate, choose_mode_count
+   use tmafm_simulation, only: build_model, simulate, choose_mode_count, load_model
    use tmafm_output, only: write_trajectory_file
    implicit none
    private
@@ -27,6 +27,7 @@ module tmafm
    public :: law_hertz, law_dmt, contact_brackets_t, contact_brackets
    public :: model_t, init_model, run_settings_t, trajectory_t, run_trajectory
    public :: config_t, path_len, read_config, write_config, build_model, simulate, choose_mode_count
+   public :: load_model
    public :: write_trajectory_file
 
 end module tmafm

@@ -2,7 +2,7 @@
 !> model, then runs it.
 module tmafm_simulation
    use tmafm_kinds, only: dp
-   use tmafm_errors, only: ok
+   use tmafm_errors, only: ok, err_input
    use tmafm_modes, only: max_modes
    use tmafm_contact, only: law_hertz, law_dmt
    use tmafm_model, only: model_t, init_model
@@ -10,11 +10,11 @@ module tmafm_simulation
    use tmafm_trajectory, only: trajectory_t
    use tmafm_config, only: config_t
    use tmafm_settings, only: method_dopri5
-   use tmafm_namelist, only: config_errata
+   use tmafm_namelist, only: config_errata, read_config
    implicit none
    private
 
-   public :: build_model, simulate, choose_mode_count
+   public :: build_model, simulate, choose_mode_count, load_model
 
    !> Tolerances of the runs that compare N and N+1.
    real(dp), parameter :: comparison_rtol = 1.0e-10_dp, comparison_atol = 1.0e-16_dp
@@ -32,6 +32,30 @@ contains
       if (trim(config%contact_law) == 'dmt') law = law_dmt
       call init_model(model, config%n_modes, config%scene, law, config_errata(config), ierr, errmsg)
    end subroutine build_model
+
+   !> The model of a namelist file, for callers that already know N (n_modes > 0): an input
+   !> asking for another fixed N is an error; an automatic one takes n_modes.
+   subroutine load_model(path, n_modes, model, ierr, errmsg)
+      character(len=*), intent(in) :: path
+      integer, intent(in) :: n_modes
+      type(model_t), intent(out) :: model
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      type(config_t) :: config
+
+      call read_config(path, config, ierr, errmsg)
+      if (ierr /= ok) return
+      if (config%auto_modes) then
+         config%auto_modes = .false.
+         config%n_modes = n_modes
+      else if (config%n_modes /= n_modes) then
+         ierr = err_input
+         write (errmsg, '(a,i0,a,i0)') 'n_modes = ', n_modes, ' of the call does not match '// &
+            '&model n_modes = ', config%n_modes
+         return
+      end if
+      call build_model(config, model, ierr, errmsg)
+   end subroutine load_model
 
    !> For &model n_modes = 0: the smallest N whose V_T over mode_horizon agrees with N+1's
    !> within mode_tol (relative to the range of V_T).  Sets config%n_modes and the evidence.

@@ -42,8 +42,11 @@ def test_golden_trajectory(case):
     assert not problems, f"{case}:\n" + "\n".join(problems)
 
 
-def test_cases_cover_both_conventions_and_laws():
-    assert {c.rsplit("_", 1)[1] for c in regenerate.CASES} == {"paper", "consistent"}
+def test_cases_cover_both_conventions_laws_and_every_figure():
+    assert {"paper", "consistent"} <= {c.rsplit("_", 1)[1] for c in regenerate.CASES}
+    for name in regenerate.FIGURE_INPUTS:
+        assert f"{name}_paper_rk4_paper" in regenerate.CASES
+        assert f"{name}_paper_flight_exact" in regenerate.CASES
     laws = {json.loads(str(np.load(GOLDEN / f"{c}.npz")["resolved"]))["model"]["contact_law"]
             for c in regenerate.CASES}
     assert laws == {"hertz", "dmt"}

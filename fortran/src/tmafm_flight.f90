@@ -207,25 +207,21 @@ contains
       found = .false.
       s_contact = s_max
       left = 0
-      call self%gap(model, left, g_left, r_left)
-            g_left = g_left + self%margin
-      evaluations = evaluations + 1
+      call switch_function(self, model, left, g_left, r_left, evaluations)
       halvings = 0
       do while (left < s_max)
          right = min(s_max, left + self%scan_step*0.5_dp**halvings)
-         call self%gap(model, right, g_right, r_right)
-            g_right = g_right + self%margin
-         evaluations = evaluations + 1
-         call classify(left, g_left, r_left, right, g_right, r_right, s_low, s_high, g_high)
+         call switch_function(self, model, right, g_right, r_right, evaluations)
+         call classify_interval(self, model, left, g_left, r_left, right, g_right, r_right, &
+                                s_low, s_high, g_high, evaluations)
          if (s_high > 0) then
             ! A bracket [s_low, s_high]: refine it to round-off.
-            call root%start(s_low, max(g_at(s_low), tiny(1.0_dp)), s_high, g_high, &
+            call switch_function(self, model, s_low, x, rx, evaluations)
+            call root%start(s_low, max(x, tiny(1.0_dp)), s_high, g_high, &
                             4*epsilon(1.0_dp)*abs(self%tau0 + s_high))
             do while (.not. root%converged())
                call root%next_point(x)
-               call self%gap(model, x, g_high, rx)
-            g_high = g_high + self%margin
-               evaluations = evaluations + 1
+               call switch_function(self, model, x, g_high, rx, evaluations)
                call root%update(g_high)
             end do
             call root%end_with_sign(-1.0_dp, s_contact)
@@ -240,59 +236,65 @@ contains
          r_left = r_right
          halvings = max(0, halvings - 1)
       end do
+   end subroutine flight_first_contact
 
-   contains
+   !> G = V_T + margin along the flight (contact begins where G <= 0), and its rate.
+   subroutine switch_function(self, model, s, g, rate, evaluations)
+      type(free_flight_t), intent(in) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: s
+      real(dp), intent(out) :: g
+      real(dp), intent(out) :: rate
+      integer, intent(inout) :: evaluations
+      call self%gap(model, s, g, rate)
+      g = g + self%margin
+      evaluations = evaluations + 1
+   end subroutine switch_function
 
-      real(dp) function g_at(s)
-         real(dp), intent(in) :: s
-         real(dp) :: rate
-         call self%gap(model, s, g_at, rate)
-            g_at = g_at + self%margin
-         evaluations = evaluations + 1
-      end function g_at
+   !> Classify the scan interval [s0, s1] of G: s_high > 0 gives a bracket [s_low, s_high]
+   !> with G(s_high) <= 0; s_high = 0 means the interval is cleared; s_high < 0 means the
+   !> error bound does not clear it.  The cubic Hermite error is G''''(xi)/24 (s-s0)^2 (s-s1)^2,
+   !> zero at both ends, with |G''''| <= fourth_derivative_bound.
+   subroutine classify_interval(self, model, s0, g0, r0, s1, g1, r1, s_low, s_high, g_high, &
+                                evaluations)
+      type(free_flight_t), intent(in) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: s0, g0, r0, s1, g1, r1
+      real(dp), intent(out) :: s_low, s_high, g_high
+      integer, intent(inout) :: evaluations
+      real(dp) :: width, theta, cubic_min, lowest, t, a3, b3, g_mid, r_mid
+      integer :: k
+      integer, parameter :: n_check = 32
 
-      !> s_high > 0: a bracket [s_low, s_high] with G(s_high) <= 0; s_high = 0: the interval
-      !> is cleared; s_high < 0: the error bound does not clear it.
-      !> The cubic Hermite error is G''''(xi)/24 (s-s0)^2 (s-s1)^2: zero at both ends.
-      subroutine classify(s0, g0, r0, s1, g1, r1, s_low, s_high, g_high)
-         real(dp), intent(in) :: s0, g0, r0, s1, g1, r1
-         real(dp), intent(out) :: s_low, s_high, g_high
-         real(dp) :: width, theta, cubic_min, lowest, t, a3, b3, g_mid, r_mid
-         integer :: k
-         integer, parameter :: n_check = 32
-         s_low = s0
-         s_high = 0
-         g_high = 0
-         width = s1 - s0
-         if (g1 <= 0) then
-            s_high = s1
-            g_high = g1
+      s_low = s0
+      s_high = 0
+      g_high = 0
+      width = s1 - s0
+      if (g1 <= 0) then
+         s_high = s1
+         g_high = g1
+         return
+      end if
+      ! Lower envelope: cubic minus the error bound, checked on a fine grid of theta.
+      a3 = 2*g0 + width*r0 - 2*g1 + width*r1
+      b3 = -3*g0 - 2*width*r0 + 3*g1 - width*r1
+      lowest = huge(1.0_dp)
+      do k = 1, n_check - 1
+         t = real(k, dp)/n_check
+         lowest = min(lowest, ((a3*t + b3)*t + width*r0)*t + g0 &
+                      - self%fourth_derivative_bound*width**4*(t*(1 - t))**2/24)
+      end do
+      if (lowest > 0) return
+      call hermite_minimum(g0, width*r0, g1, width*r1, theta, cubic_min)
+      if (theta > 0 .and. cubic_min <= 0) then
+         call switch_function(self, model, s0 + theta*width, g_mid, r_mid, evaluations)
+         if (g_mid <= 0) then
+            s_high = s0 + theta*width
+            g_high = g_mid
             return
          end if
-         ! Lower envelope: cubic minus the error bound, checked on a fine grid of theta.
-         a3 = 2*g0 + width*r0 - 2*g1 + width*r1
-         b3 = -3*g0 - 2*width*r0 + 3*g1 - width*r1
-         lowest = huge(1.0_dp)
-         do k = 1, n_check - 1
-            t = real(k, dp)/n_check
-            lowest = min(lowest, ((a3*t + b3)*t + width*r0)*t + g0 &
-                         - self%fourth_derivative_bound*width**4*(t*(1 - t))**2/24)
-         end do
-         if (lowest > 0) return
-         call hermite_minimum(g0, width*r0, g1, width*r1, theta, cubic_min)
-         if (theta > 0 .and. cubic_min <= 0) then
-            call self%gap(model, s0 + theta*width, g_mid, r_mid)
-            g_mid = g_mid + self%margin
-            evaluations = evaluations + 1
-            if (g_mid <= 0) then
-               s_high = s0 + theta*width
-               g_high = g_mid
-               return
-            end if
-         end if
-         s_high = -1
-      end subroutine classify
-
-   end subroutine flight_first_contact
+      end if
+      s_high = -1
+   end subroutine classify_interval
 
 end module tmafm_flight

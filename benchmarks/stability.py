@@ -146,7 +146,6 @@ def grazing_study():
         row = {"dtau": dtau}
         for method in ("rk4_paper", "rk4_event"):
             r = tmafm.run(scene, solver={"method": method, "dtau": dtau, "tau_end": 10 * math.pi})
-            switches = r.switches[1:] if method == "rk4_paper" else r.switches  # rk4_paper starts in free
             row[method] = int(r.counters["phase_switches"]) // 2
         rows.append(row)
         print(f"grazing dtau {dtau:.1e}: rk4_paper finds {row['rk4_paper']}, rk4_event {row['rk4_event']} of {expected}")

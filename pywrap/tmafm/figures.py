@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from . import analysis
-from ._run import run
+from ._run import resolve, run
 
 __all__ = ["main", "METHODS", "CASES"]
 
@@ -39,7 +39,6 @@ CASES = {
 
 def simulate(inputs: Path, name: str, method: str, convention: str, periods: int, **extra):
     """One case, long enough for `periods` drive periods, 200 samples a period."""
-    from ._run import resolve
     resolved, scene = resolve(inputs / f"{name}.nml")
     period = 2 * math.pi / scene["omega"]
     tau_end = max(float(resolved["solver"]["tau_end"]), periods * period)
@@ -154,7 +153,7 @@ def make_figures(inputs: Path, out: Path, periods: int, basin_points: int, progr
                 _portrait(row[1], r, None, periods=4, color="tab:blue")
                 _label_axes(row[0], row[1])
                 row[0].set_title(f"a1(0) = {a1:g}: {cls}")
-            fig.suptitle(f"{fig_name.capitalize().replace('g', 'g. ', 1)}: N = 3, last 4 periods; {method}, paper")
+            fig.suptitle(f"Fig. {fig_name[3:]}: N = 3, last 4 periods; {method}, paper")
             fig.tight_layout()
             fig.savefig(out / f"{fig_name}_{method}_paper.png", dpi=100)
             plt.close(fig)

@@ -32,6 +32,8 @@ module tmafm_dopri5
 
    !> Stage registers and the dense-output coefficients of the last step.
    type :: dopri5_stepper_t
+      !> Stage derivatives 2-6 (1 and 7 are the caller's f0 and f_new), the stage state, and
+      !> the error estimate of the last step.
       real(dp), allocatable :: k2(:), k3(:), k4(:), k5(:), k6(:), stage(:), error(:)
       !> Dense output: y(theta) = r1 + theta (r2 + (1-theta) (r3 + theta (r4 + (1-theta) r5))).
       real(dp), allocatable :: r1(:), r2(:), r3(:), r4(:), r5(:)

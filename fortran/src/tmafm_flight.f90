@@ -21,11 +21,13 @@ module tmafm_flight
 
    !> The modal solution of the free phase of one model, and the flight now under way.
    type :: free_flight_t
+      !> Size of the state, 2N.
       integer :: n_state = 0
       !> Eigenvalues of A.
       complex(dp), allocatable :: eigenvalue(:)
       !> Right eigenvectors of A (columns) and their LU factors.
       complex(dp), allocatable :: vectors(:, :), factors(:, :)
+      !> Row pivots of the LU factors.
       integer, allocatable :: pivots(:)
       !> Particular solution y_p = u sin(Omega tau) + v cos(Omega tau).
       real(dp), allocatable :: u(:), v(:)
@@ -33,8 +35,9 @@ module tmafm_flight
       complex(dp), allocatable :: tip_of_vector(:)
       !> Particular V_T: tip_sin sin(Omega tau) + tip_cos cos(Omega tau) (drive included).
       real(dp) :: tip_sin = 0, tip_cos = 0
-      !> The flight under way: its start and modal coefficients.
+      !> Start of the flight under way.
       real(dp) :: tau0 = 0
+      !> Modal coefficients z of the flight, and z times p^T V (each term's share of V_T).
       complex(dp), allocatable :: z(:), tip_weight(:)
       !> Round-off level of V_T at the flight start: contact begins at V_T <= -margin.
       real(dp) :: margin = 0

@@ -14,6 +14,7 @@ module tmafm_rk4
 
    !> Stage registers of one classical RK4 integrator.
    type :: rk4_stepper_t
+      !> Stage derivatives 2-4 and the stage state (stage 1 is the caller's f0).
       real(dp), allocatable :: k2(:), k3(:), k4(:), stage(:)
    contains
       !> Allocate the registers for a state of size n_state.

@@ -17,11 +17,14 @@ module tmafm_roots
 
    !> State of one bracketed root search (Brent 1973, "zeroin").
    type :: bracketed_root_t
+      !> Brent's points: b the best estimate, [b, c] the bracket, a the previous b; their values;
+      !> d and e the last two steps.
       real(dp) :: a = 0, b = 0, c = 0, fa = 0, fb = 0, fc = 0, d = 0, e = 0
       !> Absolute tolerance on the root.
       real(dp) :: xtol = 0
       !> Function evaluations used.
       integer :: evaluations = 0
+      !> .true. once the bracket is within tolerance.
       logical :: done = .false.
    contains
       !> Start from a bracket with fa * fb <= 0.

@@ -1,7 +1,7 @@
 """Typed exceptions for everything that can go wrong in a tmafm run.
 
 The Fortran core reports failures as an integer code and a one-line message
-(``fortran/src/tmafm_errors.f90``); :func:`raise_for` maps each code to one class.
+(``fortran/src/base/tmafm_errors.f90``); :func:`raise_for` maps each code to one class.
 """
 
 __all__ = ["TmafmError", "InputError", "InputFileError", "BlowUpError", "SolverError",

@@ -887,7 +887,7 @@ contains
          call line('    n_modes = 0')
          if (config%n_mode_differences > 0) then
             call line('    ! chosen n_modes = '//int_text(n)//search_note()// &
-                      '; max|V_T(N) - V_T(N+1)|/range(V_T): '//differences_text())
+                      ': max|V_T(N) - V_T(N+1)|/range(V_T): '//differences_text())
          end if
       else
          call line('    n_modes = '//int_text(n))

@@ -75,7 +75,7 @@ program tmafm_main
    call read_config(input_path, config, ierr, errmsg)
    if (ierr /= ok) call fail(ierr, errmsg)
    if (have_output) config%output_file = output_override
-   output_format = 'text'
+   output_format = trim(config%output_format)
 
    ! The target is checked (and a device opened) before anything is integrated.
    call prepare_output(trim(config%output_file), output_format, sink, ierr, errmsg)

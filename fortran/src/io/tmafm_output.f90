@@ -20,7 +20,7 @@ module tmafm_output
    use tmafm_errors, only: ok, err_input, err_file
    use tmafm_trajectory, only: trajectory_t
    use tmafm_config, only: config_t
-   use tmafm_namelist, only: write_config
+   use tmafm_namelist, only: config_text
    use tmafm_version, only: tmafm_version_string
    use tmafm_float_format, only: put_es25, es25_width
    use tmafm_posix, only: kind_missing, kind_regular, kind_directory, kind_char_device, kind_fifo, &
@@ -229,11 +229,7 @@ contains
          errmsg = 'output file '//shown(sink%path)//' was not opened'
          return
       end if
-      call resolved_text(config, resolved, ierr, errmsg)
-      if (ierr /= ok) then
-         call discard_output(sink)
-         return
-      end if
+      resolved = config_text(config)
       if (sink%binary) then
          call write_npz(sink, config, traj, resolved, ierr, errmsg, status)
       else
@@ -422,36 +418,6 @@ contains
       if (status == 0) call npz_add_text(archive, 'version.npy', h_version, version, status)
       if (status == 0) call npz_finish(archive, status)
    end subroutine write_npz
-
-   !> The resolved input as namelist text (lines ending in new_line), as write_config writes it.
-   subroutine resolved_text(config, text, ierr, errmsg)
-      type(config_t), intent(in) :: config
-      character(len=:), allocatable, intent(out) :: text
-      integer, intent(out) :: ierr
-      character(len=*), intent(out) :: errmsg
-      character(len=8192) :: line
-      character(len=256) :: iomsg
-      integer :: unit, iostat
-
-      ierr = ok
-      errmsg = ''
-      text = ''
-      open (newunit=unit, status='scratch', action='readwrite', form='formatted', iostat=iostat, &
-            iomsg=iomsg)
-      if (iostat /= 0) then
-         ierr = err_file
-         errmsg = 'cannot open a scratch file for the resolved input: '//trim(iomsg)
-         return
-      end if
-      call write_config(unit, config, '')
-      rewind (unit)
-      do
-         read (unit, '(a)', iostat=iostat) line
-         if (iostat /= 0) exit
-         text = text//trim(line)//new_line('a')
-      end do
-      close (unit)
-   end subroutine resolved_text
 
    !> Every line of `text` with `prefix` in front.
    function prefixed(text, prefix) result(out)

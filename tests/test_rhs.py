@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import tmafm
+import tmafm.scenes
 from tmafm import _core
 
 DATA = Path(__file__).resolve().parent / "data" / "rhs_reference.npz"
@@ -113,3 +114,57 @@ def test_derivative_is_the_solution_of_the_explicit_system(tmp_path, convention)
                 if in_contact:      # the contact terms are really on
                     free = _core.model_terms(str(path), tau, a, adot, False)[4]
                     assert np.linalg.norm(free[n:] - rate[n:]) > 1e3 * EXPLICIT_RTOL * np.linalg.norm(expected)
+
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def flight_evaluations(result):
+    """(flights, an upper bound on the V_T evaluations of their scans) from the counters.
+
+    flight_exact counts one step per flight and every contact step as a contact step; each
+    contact step, accepted or rejected, costs at least 6 right-hand sides, and everything
+    else in rhs_evaluations is a V_T evaluation of a flight scan."""
+    c = result.counters
+    flights = c["steps"] - c["contact_steps"]
+    return flights, c["rhs_evaluations"] - 6 * (c["contact_steps"] + c["rejected_steps"])
+
+
+def test_flight_scan_needs_few_evaluations():
+    """The scan step comes from the fourth-derivative bound (about 30 evaluations per flight
+    on Fig. 2 with the root refinement; a step per fastest time scale took about 560)."""
+    result = tmafm.run(REPO / "inputs" / "fig2_n4.nml",
+                       solver={"method": "flight_exact", "tau_end": 100.0, "rtol": 1e-10})
+    flights, evaluations = flight_evaluations(result)
+    assert flights > 50 and len(result.switches) > 100
+    assert evaluations / flights < 40
+
+
+@pytest.mark.parametrize("depth, contacts", [(1e-10, 10), (-1e-10, 0)])
+def test_flight_scan_finds_every_graze_and_no_false_one(depth, contacts):
+    """A sample 1e-10 (gap units) above the lowest point of the free orbit is touched once per
+    period, for about 5e-4; 1e-10 below it is never touched."""
+    scene = tmafm.scenes.grazing_scene(depth=depth)
+    result = tmafm.run(scene, solver={"method": "flight_exact", "tau_end": 10 * math.pi,
+                                      "rtol": 1e-12, "atol": 1e-18},
+                       output={"sample_dtau": 0.01})
+    assert len(result.switches) == 2 * contacts
+    if contacts:
+        durations = result.switches[1::2] - result.switches[0::2]
+        assert np.all(durations > 1e-4) and np.all(durations < 1e-3)
+    flights, evaluations = flight_evaluations(result)
+    assert evaluations / flights < 200
+
+
+def test_flight_on_overflowing_scene_is_an_error_not_a_crash(run_exe, tmp_path):
+    """A tip modulus of 1e-300 Pa makes Omega ~ 1e155: the free-beam equations overflow.
+    LAPACK used to be handed infinities (XERBLA text, then a heap corruption abort)."""
+    path = tmp_path / "tiny_modulus.nml"
+    path.write_text("&physical youngs_modulus_tip = 1e-300 /\n"
+                    "&solver method = 'flight_exact', tau_end = 1 /\n")
+    done = run_exe(path, "-o", tmp_path / "out.dat")
+    assert done.returncode in (2, 5), done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("tmafm: error:"), done.stderr
+    assert "flight_exact" in lines[0] or "&physical" in lines[0]
+    assert not (tmp_path / "out.dat").exists()

@@ -47,7 +47,9 @@ contains
          associate (tau => contact%tau, y => contact%y)
             call flight%start(model, tau, y)
             evaluations = 0
-            call flight%first_contact(model, horizon - tau, found, s_contact, evaluations)
+            call flight%first_contact(model, horizon - tau, found, s_contact, evaluations, ierr, &
+                                      errmsg)
+            if (ierr /= ok) return
             ! Closed-form evaluations of V_T cost O(N); count them as right-hand sides.
             traj%rhs_evaluations = traj%rhs_evaluations + evaluations
             traj%steps = traj%steps + 1

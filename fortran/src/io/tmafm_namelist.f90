@@ -12,7 +12,7 @@ module tmafm_namelist
    use tmafm_modes, only: max_modes
    use tmafm_scene, only: scene_t, physical_t, scene_from_physical
    use tmafm_settings, only: run_settings_t, method_rk4_paper, method_rk4_event, method_dopri5, &
-      method_flight_exact, known_methods, sample_count
+      method_dop853, method_flight_exact, known_methods, sample_count
    use tmafm_errata, only: errata_t, errata_for_convention, parse_errata, errata_label
    use tmafm_config, only: config_t
    implicit none
@@ -426,7 +426,7 @@ contains
 
       method = lower(adjustl(method))
       if (all(method /= [character(len=64) :: method_rk4_paper, method_rk4_event, method_dopri5, &
-                         method_flight_exact])) then
+                         method_dop853, method_flight_exact])) then
          call choice_error(path, 'solver', 'method', method, known_methods, ierr, errmsg)
          return
       end if

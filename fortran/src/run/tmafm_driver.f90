@@ -4,11 +4,11 @@ module tmafm_driver
    use tmafm_errors, only: ok, err_input
    use tmafm_model, only: model_t
    use tmafm_settings, only: run_settings_t, known_methods, method_rk4_paper, method_rk4_event, &
-      method_dopri5, method_flight_exact
+      method_dopri5, method_dop853, method_flight_exact
    use tmafm_trajectory, only: trajectory_t, init_trajectory, progress_t
    use tmafm_method_paper, only: run_rk4_paper
    use tmafm_method_event, only: run_rk4_event
-   use tmafm_method_adaptive, only: run_dopri5
+   use tmafm_method_adaptive, only: run_adaptive, pair_dopri5, pair_dop853
    use tmafm_method_flight, only: run_flight_exact
    implicit none
    private
@@ -32,13 +32,17 @@ contains
 
       if (present(progress_unit)) progress%unit = progress_unit
       call init_trajectory(traj, settings, model%n_modes)
+      call check_budget(settings, ierr, errmsg)
+      if (ierr /= ok) return
       select case (trim(settings%method))
       case (method_rk4_paper)
          call run_rk4_paper(model, settings, [a0, adot0], traj, ierr, errmsg, progress)
       case (method_rk4_event)
          call run_rk4_event(model, settings, [a0, adot0], traj, ierr, errmsg, progress)
       case (method_dopri5)
-         call run_dopri5(model, settings, [a0, adot0], traj, ierr, errmsg, progress)
+         call run_adaptive(pair_dopri5, model, settings, [a0, adot0], traj, ierr, errmsg, progress)
+      case (method_dop853)
+         call run_adaptive(pair_dop853, model, settings, [a0, adot0], traj, ierr, errmsg, progress)
       case (method_flight_exact)
          call run_flight_exact(model, settings, [a0, adot0], traj, ierr, errmsg, progress)
       case default
@@ -46,5 +50,25 @@ contains
          errmsg = '&solver method = '''//trim(settings%method)//''': must be one of '//known_methods
       end select
    end subroutine run_trajectory
+
+   !> Refuse up front a fixed-step run whose free steps alone exceed &solver max_steps.
+   subroutine check_budget(settings, ierr, errmsg)
+      type(run_settings_t), intent(in) :: settings
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      real(dp) :: needed
+      ierr = ok
+      errmsg = ''
+      select case (trim(settings%method))
+      case (method_rk4_paper, method_rk4_event)
+         needed = settings%tau_end/settings%dtau
+         if (needed > real(settings%max_steps, dp)) then
+            ierr = err_input
+            write (errmsg, '(a,i0,a,es10.3e3,a)') '&solver max_steps = ', settings%max_steps, &
+               ' is less than the tau_end/dtau = ', needed, ' steps this run needs at least: '// &
+               'raise &solver max_steps or dtau, or lower tau_end'
+         end if
+      end select
+   end subroutine check_budget
 
 end module tmafm_driver

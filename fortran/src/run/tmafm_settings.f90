@@ -1,11 +1,12 @@
 !> How a run is integrated and sampled: the &solver and &output settings.
 module tmafm_settings
-   use tmafm_kinds, only: dp
+   use tmafm_kinds, only: dp, i8
    implicit none
    private
 
    public :: run_settings_t, sample_count
-   public :: method_rk4_paper, method_rk4_event, method_dopri5, method_flight_exact, known_methods
+   public :: method_rk4_paper, method_rk4_event, method_dopri5, method_dop853, method_flight_exact
+   public :: known_methods
 
    !> The paper's scheme: RK4, dtau out of contact, dtau/contact_refine in contact, no location.
    character(len=*), parameter :: method_rk4_paper = 'rk4_paper'
@@ -13,11 +14,13 @@ module tmafm_settings
    character(len=*), parameter :: method_rk4_event = 'rk4_event'
    !> Adaptive Dormand-Prince 5(4) with dense output and located switches.
    character(len=*), parameter :: method_dopri5 = 'dopri5'
-   !> Exact modal propagation out of contact, dopri5 in contact.
+   !> Adaptive Dormand-Prince 8(5,3) with dense output and located switches.
+   character(len=*), parameter :: method_dop853 = 'dop853'
+   !> Exact modal propagation out of contact, dop853 in contact.
    character(len=*), parameter :: method_flight_exact = 'flight_exact'
    !> Every method name, for validation messages.
    character(len=*), parameter :: known_methods = &
-      "'rk4_paper', 'rk4_event', 'dopri5' or 'flight_exact'"
+      "'rk4_paper', 'rk4_event', 'dopri5', 'dop853' or 'flight_exact'"
 
    !> How to integrate and sample a run.
    type :: run_settings_t
@@ -37,6 +40,8 @@ module tmafm_settings
       real(dp) :: sample_dtau = 0.01_dp
       !> A run stops with an error once some |a_j| exceeds this (units of the gap d).
       real(dp) :: blowup_limit = 1.0_dp
+      !> Work budget: steps tried plus event iterations; a run that needs more fails.
+      integer(i8) :: max_steps = 100000000_i8
    end type run_settings_t
 
 contains

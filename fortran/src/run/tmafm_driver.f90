@@ -32,8 +32,6 @@ contains
 
       if (present(progress_unit)) progress%unit = progress_unit
       call init_trajectory(traj, settings, model%n_modes)
-      call check_budget(settings, ierr, errmsg)
-      if (ierr /= ok) return
       select case (trim(settings%method))
       case (method_rk4_paper)
          call run_rk4_paper(model, settings, [a0, adot0], traj, ierr, errmsg, progress)
@@ -50,25 +48,5 @@ contains
          errmsg = '&solver method = '''//trim(settings%method)//''': must be one of '//known_methods
       end select
    end subroutine run_trajectory
-
-   !> Refuse up front a fixed-step run whose free steps alone exceed &solver max_steps.
-   subroutine check_budget(settings, ierr, errmsg)
-      type(run_settings_t), intent(in) :: settings
-      integer, intent(out) :: ierr
-      character(len=*), intent(out) :: errmsg
-      real(dp) :: needed
-      ierr = ok
-      errmsg = ''
-      select case (trim(settings%method))
-      case (method_rk4_paper, method_rk4_event)
-         needed = settings%tau_end/settings%dtau
-         if (needed > real(settings%max_steps, dp)) then
-            ierr = err_input
-            write (errmsg, '(a,i0,a,es10.3e3,a)') '&solver max_steps = ', settings%max_steps, &
-               ' is less than the tau_end/dtau = ', needed, ' steps this run needs at least: '// &
-               'raise &solver max_steps or dtau, or lower tau_end'
-         end if
-      end select
-   end subroutine check_budget
 
 end module tmafm_driver

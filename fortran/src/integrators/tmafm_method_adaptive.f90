@@ -37,6 +37,10 @@ module tmafm_method_adaptive
       logical :: in_contact = .false.
       !> Step to try next.
       real(dp) :: h = 0
+      !> The first accepted step of the latest free (1) and contact (2) phase: the trial step
+      !> at the next start of that phase (a contact begins with V_T^(3/2) forces, whose
+      !> steps the controller would otherwise relearn by rejections at every contact).
+      real(dp) :: h_phase_start(2) = 0
       !> The embedded pair and its registers.
       class(embedded_pair_t), allocatable :: pair
       !> The step-size controller.
@@ -133,7 +137,7 @@ contains
       real(dp) :: h, norm, side, s_test, theta, step_taken
       ! V_T, its rate and the margin at the step start (0) and end (1); G = side V_T + margin0.
       real(dp) :: vt0, rate0, margin0, vt1, rate1, margin1, vt_test, rate_test, margin_test
-      logical :: have_f0, dense_ready
+      logical :: have_f0, dense_ready, phase_start
       integer :: status
 
       ierr = ok
@@ -150,6 +154,9 @@ contains
                have_f0 = .true.
                side = phase_sign(self%in_contact)
                call gap_state(model, tau, y, vt0, rate0, margin0)
+               phase_start = .true.
+               if (self%h_phase_start(phase_index(self%in_contact)) > 0) &
+                  self%h = self%h_phase_start(phase_index(self%in_contact))
             end if
             h = self%h
             if (h < controller%h_min_relative*max(1.0_dp, abs(tau))) then
@@ -169,6 +176,8 @@ contains
                cycle
             end if
             dense_ready = .false.
+            if (phase_start) self%h_phase_start(phase_index(self%in_contact)) = h
+            phase_start = .false.
 
             call gap_state(model, tau + h, y_new, vt1, rate1, margin1)
             call step_event_test(side*vt0 + margin0, side*rate0, side*vt1 + margin0, side*rate1, h, &
@@ -231,6 +240,13 @@ contains
       end associate
 
    end subroutine adaptive_advance
+
+   !> 1 for the free phase, 2 for contact.
+   elemental function phase_index(in_contact) result(k)
+      logical, intent(in) :: in_contact
+      integer :: k
+      k = merge(2, 1, in_contact)
+   end function phase_index
 
    !> The dense output of the step of length h just accepted from self%tau, once per step.
    subroutine build_dense(self, model, traj, h, dense_ready)

@@ -58,10 +58,11 @@ module tmafm_settings
       real(dp) :: dtau = 2.0e-3_dp
       !> Fixed-step methods: the in-contact step is dtau/contact_refine.
       integer :: contact_refine = 16
-      !> Adaptive methods: relative tolerance.
-      real(dp) :: rtol = 1.0e-8_dp
-      !> Adaptive methods: absolute tolerance (gap units; velocities per tau unit).
-      real(dp) :: atol = 1.0e-14_dp
+      !> Adaptive methods: relative tolerance (per mode amplitude and tip motion; see
+      !> integrators/tmafm_error_scale.f90).
+      real(dp) :: rtol = 1.0e-7_dp
+      !> Adaptive methods: absolute tolerance, in gap units (V_T and modal displacements).
+      real(dp) :: atol = 1.0e-10_dp
       !> End of the run.
       real(dp) :: tau_end = 100.0_dp
       !> Output interval.

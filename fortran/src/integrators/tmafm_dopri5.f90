@@ -1,15 +1,18 @@
 !> The Dormand-Prince 5(4) pair with its fourth-order dense output (Hairer, Norsett and
-!> Wanner, Solving ODEs I, Sec. II.5-6), and the step-size controller, kept separate.
+!> Wanner, Solving ODEs I, Sec. II.5-6), as an embedded_pair_t.
 !>
 !> The phase is frozen over a step, as in every tmafm stepper; switches are found by the
-!> caller on the dense output.  Registers are allocated once by `init`.
+!> caller on the dense output.  Registers are allocated once by `init`.  The controller
+!> exponent 1/5 is taken as exp(-log(norm)/5): one log and one exp, no real power.
 module tmafm_dopri5
    use tmafm_kinds, only: dp
    use tmafm_model, only: model_t
+   use tmafm_error_scale, only: error_scale_t
+   use tmafm_embedded_pair, only: embedded_pair_t
    implicit none
    private
 
-   public :: dopri5_stepper_t, step_controller_t, error_norm
+   public :: dopri5_pair_t
 
    ! Butcher tableau.
    real(dp), parameter :: c2 = 1.0_dp/5, c3 = 3.0_dp/10, c4 = 4.0_dp/5, c5 = 8.0_dp/9
@@ -31,7 +34,7 @@ module tmafm_dopri5
                           d6 = -1453857185.0_dp/822651844.0_dp, d7 = 69997945.0_dp/29380423.0_dp
 
    !> Stage registers and the dense-output coefficients of the last step.
-   type :: dopri5_stepper_t
+   type, extends(embedded_pair_t) :: dopri5_pair_t
       !> Stage derivatives 2-6 (1 and 7 are the caller's f0 and f_new), the stage state, and
       !> the error estimate of the last step.
       real(dp), allocatable :: k2(:), k3(:), k4(:), k5(:), k6(:), stage(:), error(:)
@@ -42,39 +45,34 @@ module tmafm_dopri5
       procedure :: init => dopri5_init
       !> One step of length h in a frozen phase; f0 = f(tau, y) in, f_new = f(tau+h, y_new) out.
       procedure :: step => dopri5_step
+      !> The error norm of the last step.
+      procedure :: error_norm => dopri5_error_norm
+      !> norm^(-1/5).
+      procedure :: growth => dopri5_growth
       !> Prepare the dense output of the last step (call after accepting it).
       procedure :: prepare_dense => dopri5_prepare_dense
       !> The dense-output state at fraction theta of the last step.
       procedure :: dense => dopri5_dense
-   end type dopri5_stepper_t
-
-   !> The classical step-size controller for an embedded pair of order 5(4).
-   type :: step_controller_t
-      !> Safety factor on the optimal step.
-      real(dp) :: safety = 0.9_dp
-      !> Smallest allowed ratio of a new step to the old one.
-      real(dp) :: shrink_limit = 0.2_dp
-      !> Largest allowed ratio of a new step to the old one.
-      real(dp) :: grow_limit = 5.0_dp
-      !> Smallest step before the run fails (relative to max(1, tau)).
-      real(dp) :: h_min_relative = 1.0e-14_dp
-   contains
-      !> The next step from the error norm of the last attempt.
-      procedure :: next_step => controller_next_step
-   end type step_controller_t
+   end type dopri5_pair_t
 
 contains
 
    subroutine dopri5_init(self, n_state)
-      class(dopri5_stepper_t), intent(inout) :: self
+      class(dopri5_pair_t), intent(inout) :: self
       integer, intent(in) :: n_state
+      self%stage_evaluations = 6
+      self%dense_evaluations = 0
+      ! Hairer's DOPRI5 defaults.
+      self%shrink_limit = 0.2_dp
+      self%grow_limit = 10.0_dp
+      if (allocated(self%k2)) return
       allocate (self%k2(n_state), self%k3(n_state), self%k4(n_state), self%k5(n_state), &
                 self%k6(n_state), self%stage(n_state), self%error(n_state), self%r1(n_state), &
                 self%r2(n_state), self%r3(n_state), self%r4(n_state), self%r5(n_state))
    end subroutine dopri5_init
 
    subroutine dopri5_step(self, model, tau, y, h, in_contact, f0, y_new, f_new)
-      class(dopri5_stepper_t), intent(inout) :: self
+      class(dopri5_pair_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: y(:)
@@ -98,15 +96,36 @@ contains
          call model%derivative(tau + h, stage, in_contact, k6)
          y_new = y + h*(a71*f0 + a73*k3 + a74*k4 + a75*k5 + a76*k6)
          call model%derivative(tau + h, y_new, in_contact, f_new)
-         self%error = h*(e1*f0 + e3*k3 + e4*k4 + e5*k5 + e6*k6 + e7*f_new)
       end associate
    end subroutine dopri5_step
 
-   subroutine dopri5_prepare_dense(self, y, y_new, h, f0, f_new)
-      class(dopri5_stepper_t), intent(inout) :: self
+   pure subroutine dopri5_error_norm(self, h, f0, f_new, scale, norm)
+      class(dopri5_pair_t), intent(inout) :: self
+      real(dp), intent(in) :: h
+      real(dp), intent(in) :: f0(:)
+      real(dp), intent(in) :: f_new(:)
+      type(error_scale_t), intent(in) :: scale
+      real(dp), intent(out) :: norm
+      self%error = h*(e1*f0 + e3*self%k3 + e4*self%k4 + e5*self%k5 + e6*self%k6 + e7*f_new)
+      norm = sqrt(scale%sum_of_squares(self%error))
+   end subroutine dopri5_error_norm
+
+   pure function dopri5_growth(self, norm) result(ratio)
+      class(dopri5_pair_t), intent(in) :: self
+      real(dp), intent(in) :: norm
+      real(dp) :: ratio
+      ratio = exp(-0.2_dp*log(norm))
+   end function dopri5_growth
+
+   !> Shampine's continuous extension needs no new stage: model, tau and in_contact are unused.
+   subroutine dopri5_prepare_dense(self, model, tau, y, y_new, h, in_contact, f0, f_new)
+      class(dopri5_pair_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: tau
       real(dp), intent(in) :: y(:)
       real(dp), intent(in) :: y_new(:)
       real(dp), intent(in) :: h
+      logical, intent(in) :: in_contact
       real(dp), intent(in) :: f0(:)
       real(dp), intent(in) :: f_new(:)
       self%r1 = y
@@ -117,36 +136,12 @@ contains
    end subroutine dopri5_prepare_dense
 
    pure subroutine dopri5_dense(self, theta, y)
-      class(dopri5_stepper_t), intent(in) :: self
+      class(dopri5_pair_t), intent(in) :: self
       real(dp), intent(in) :: theta
       real(dp), intent(out) :: y(:)
       real(dp) :: rest
       rest = 1 - theta
       y = self%r1 + theta*(self%r2 + rest*(self%r3 + theta*(self%r4 + rest*self%r5)))
    end subroutine dopri5_dense
-
-   !> Weighted RMS norm of an error estimate, scaled by atol + rtol max(|y|, |y_new|).
-   pure function error_norm(error, y, y_new, rtol, atol) result(norm)
-      real(dp), intent(in) :: error(:)
-      real(dp), intent(in) :: y(:)
-      real(dp), intent(in) :: y_new(:)
-      real(dp), intent(in) :: rtol
-      real(dp), intent(in) :: atol
-      real(dp) :: norm
-      norm = sqrt(sum((error/(atol + rtol*max(abs(y), abs(y_new))))**2)/size(error))
-   end function error_norm
-
-   pure function controller_next_step(self, h, norm) result(h_next)
-      class(step_controller_t), intent(in) :: self
-      real(dp), intent(in) :: h
-      real(dp), intent(in) :: norm
-      real(dp) :: h_next, factor
-      if (norm <= 0) then
-         factor = self%grow_limit
-      else
-         factor = min(self%grow_limit, max(self%shrink_limit, self%safety*norm**(-0.2_dp)))
-      end if
-      h_next = h*factor
-   end function controller_next_step
 
 end module tmafm_dopri5

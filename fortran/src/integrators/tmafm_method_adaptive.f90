@@ -1,21 +1,31 @@
-!> `dopri5`: adaptive Dormand-Prince 5(4) under rtol/atol, with every switch V_T = 0,
-!> grazing ones included, located to round-off on the dense output by a Brent search.
-!> The run restarts at the switch in the new phase.  `advance_adaptive` is also the
-!> in-contact integrator of `flight_exact`.
+!> `dopri5` and `dop853`: an adaptive embedded pair under rtol/atol (tmafm_error_scale says
+!> what they control), with every switch V_T = 0, grazing ones included, located to
+!> round-off on the pair's dense output by a Brent search.  The run restarts at the switch
+!> in the new phase.  `advance` is also the in-contact integrator of `flight_exact`.
+!>
+!> Per step the loop does the pair's stages and O(N) bookkeeping: V_T, dV_T/dtau and the
+!> switch margin at the step end are computed once and carried to the next step start; the
+!> dense output is built only when a sample or a switch falls in the step; every register
+!> lives in adaptive_state_t, allocated once.
 module tmafm_method_adaptive
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok, err_runtime
    use tmafm_model, only: model_t
    use tmafm_settings, only: run_settings_t
    use tmafm_trajectory, only: trajectory_t, check_blowup, progress_t
-   use tmafm_dopri5, only: dopri5_stepper_t, step_controller_t, error_norm
-   use tmafm_events, only: no_event, event_candidate, step_event_test, initial_phase, phase_sign, &
-      switch_margin
+   use tmafm_embedded_pair, only: embedded_pair_t, step_controller_t
+   use tmafm_error_scale, only: error_scale_t
+   use tmafm_dopri5, only: dopri5_pair_t
+   use tmafm_dop853, only: dop853_pair_t
+   use tmafm_events, only: no_event, event_candidate, step_event_test, initial_phase, phase_sign
    use tmafm_roots, only: bracketed_root_t
    implicit none
    private
 
-   public :: run_dopri5, adaptive_state_t
+   public :: run_adaptive, adaptive_state_t, pair_dopri5, pair_dop853
+
+   !> Which embedded pair an adaptive state uses.
+   integer, parameter :: pair_dopri5 = 1, pair_dop853 = 2
 
    !> Where an adaptive integration stands: time, state, phase, next step, and registers.
    type :: adaptive_state_t
@@ -27,12 +37,20 @@ module tmafm_method_adaptive
       logical :: in_contact = .false.
       !> Step to try next.
       real(dp) :: h = 0
-      !> The stepper and its registers.
-      type(dopri5_stepper_t) :: stepper
+      !> The first accepted step of the latest free (1) and contact (2) phase: the trial step
+      !> at the next start of that phase (a contact begins with V_T^(3/2) forces, whose
+      !> steps the controller would otherwise relearn by rejections at every contact).
+      real(dp) :: h_phase_start(2) = 0
+      !> The embedded pair and its registers.
+      class(embedded_pair_t), allocatable :: pair
       !> The step-size controller.
       type(step_controller_t) :: controller
+      !> The weights of the error norm (running amplitudes).
+      type(error_scale_t) :: scale
+      !> Registers: derivative at the step start and end, the trial state, a dense sample.
+      real(dp), allocatable :: f0(:), f_new(:), y_new(:), y_sample(:)
    contains
-      !> Allocate for a state y0 at tau0 and set the first trial step.
+      !> Allocate for a state y0 at tau0 with the pair `kind` and set the first trial step.
       procedure :: init => adaptive_init
       !> Integrate, sampling into traj, until traj is complete or (if asked) the phase changes.
       procedure :: advance => adaptive_advance
@@ -40,8 +58,9 @@ module tmafm_method_adaptive
 
 contains
 
-   !> Integrate from y0 at tau = 0 until every sample of traj is filled.
-   subroutine run_dopri5(model, settings, y0, traj, ierr, errmsg, progress)
+   !> Integrate from y0 at tau = 0 with the pair `kind` until every sample of traj is filled.
+   subroutine run_adaptive(kind, model, settings, y0, traj, ierr, errmsg, progress)
+      integer, intent(in) :: kind
       type(model_t), intent(in) :: model
       type(run_settings_t), intent(in) :: settings
       real(dp), intent(in) :: y0(:)
@@ -52,26 +71,57 @@ contains
       type(adaptive_state_t) :: state
 
       call traj%store(model, y0)
-      call state%init(model, settings, 0.0_dp, y0)
+      call state%init(kind, model, settings, 0.0_dp, y0)
       call state%advance(model, settings, traj, .false., ierr, errmsg, progress)
-   end subroutine run_dopri5
+   end subroutine run_adaptive
 
-   subroutine adaptive_init(self, model, settings, tau0, y0)
+   subroutine adaptive_init(self, kind, model, settings, tau0, y0)
       class(adaptive_state_t), intent(inout) :: self
+      integer, intent(in) :: kind
       type(model_t), intent(in) :: model
       type(run_settings_t), intent(in) :: settings
       real(dp), intent(in) :: tau0
       real(dp), intent(in) :: y0(:)
-      if (.not. allocated(self%y)) then
-         allocate (self%y(size(y0)))
-         call self%stepper%init(size(y0))
-      end if
+      integer :: n
+      n = size(y0)
+      if (allocated(self%pair)) deallocate (self%pair)
+      select case (kind)
+      case (pair_dop853)
+         allocate (dop853_pair_t :: self%pair)
+      case default
+         allocate (dopri5_pair_t :: self%pair)
+      end select
+      call self%pair%init(n)
+      if (allocated(self%y)) deallocate (self%y, self%f0, self%f_new, self%y_new, self%y_sample)
+      allocate (self%y(n), self%f0(n), self%f_new(n), self%y_new(n), self%y_sample(n))
+      call self%scale%init(model, settings%rtol, settings%atol, y0)
       self%tau = tau0
       self%y = y0
       self%in_contact = initial_phase(model, tau0, y0)
       ! The first trial step; the controller corrects it within a few steps.
       self%h = settings%dtau
    end subroutine adaptive_init
+
+   !> V_T, dV_T/dtau and the switch margin (tmafm_events) at a state, with one sin and one cos.
+   pure subroutine gap_state(model, tau, y, vt, rate, margin)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: y(:)
+      real(dp), intent(out) :: vt
+      real(dp), intent(out) :: rate
+      real(dp), intent(out) :: margin
+      real(dp) :: drive
+      integer :: n
+      n = model%n_modes
+      associate (s => model%scene)
+         drive = s%alpha2*sin(s%omega*tau)
+         vt = dot_product(model%tip, y(1:n)) + drive + s%delta_hat
+         rate = dot_product(model%tip, y(n + 1:2*n)) + s%alpha2*s%omega*cos(s%omega*tau)
+         ! As tmafm_events switch_margin, without a second sin.
+         margin = 64*epsilon(1.0_dp)*(sum(abs(model%tip*y(1:n))) + abs(s%alpha2) + abs(s%delta_hat)) &
+                  + tiny(1.0_dp)
+      end associate
+   end subroutine gap_state
 
    subroutine adaptive_advance(self, model, settings, traj, stop_at_switch, ierr, errmsg, progress)
       class(adaptive_state_t), intent(inout) :: self
@@ -84,65 +134,79 @@ contains
       type(progress_t), intent(inout) :: progress
 
       type(bracketed_root_t) :: root
-      real(dp), dimension(size(self%y)) :: f0, f_new, y_new, y_sample
-      real(dp) :: h, norm, side, s_test, theta, step_taken, margin
-      logical :: have_f0
+      real(dp) :: h, norm, side, s_test, theta, step_taken
+      ! V_T, its rate and the margin at the step start (0) and end (1); G = side V_T + margin0.
+      real(dp) :: vt0, rate0, margin0, vt1, rate1, margin1, vt_test, rate_test, margin_test
+      logical :: have_f0, dense_ready, phase_start
       integer :: status
 
       ierr = ok
       errmsg = ''
       have_f0 = .false.
-      associate (tau => self%tau, y => self%y, stepper => self%stepper, &
-                 controller => self%controller)
+      side = 1
+      associate (tau => self%tau, y => self%y, pair => self%pair, controller => self%controller, &
+                 f0 => self%f0, f_new => self%f_new, y_new => self%y_new, y_sample => self%y_sample)
          do while (.not. traj%complete())
             if (.not. have_f0) then
+               ! A phase starts here: a fresh derivative in this phase, and G from the state.
                call model%derivative(tau, y, self%in_contact, f0)
                traj%rhs_evaluations = traj%rhs_evaluations + 1
                have_f0 = .true.
+               side = phase_sign(self%in_contact)
+               call gap_state(model, tau, y, vt0, rate0, margin0)
+               phase_start = .true.
+               if (self%h_phase_start(phase_index(self%in_contact)) > 0) &
+                  self%h = self%h_phase_start(phase_index(self%in_contact))
             end if
             h = self%h
             if (h < controller%h_min_relative*max(1.0_dp, abs(tau))) then
                ierr = err_runtime
-               write (errmsg, '(a,es12.5,a,es9.2,a)') 'step size underflow at tau = ', tau, &
+               write (errmsg, '(a,es13.6e3,a,es10.3e3,a)') 'step size underflow at tau = ', tau, &
                   ' (h = ', h, '): the tolerances cannot be met; loosen &solver rtol or atol'
                return
             end if
-            call stepper%step(model, tau, y, h, self%in_contact, f0, y_new, f_new)
-            traj%rhs_evaluations = traj%rhs_evaluations + 6
-            norm = error_norm(stepper%error, y, y_new, settings%rtol, settings%atol)
-            self%h = controller%next_step(h, norm)
+            call traj%charge(settings, tau, 1, ierr, errmsg)
+            if (ierr /= ok) return
+            call pair%step(model, tau, y, h, self%in_contact, f0, y_new, f_new)
+            traj%rhs_evaluations = traj%rhs_evaluations + pair%stage_evaluations
+            call pair%error_norm(h, f0, f_new, self%scale, norm)
+            self%h = controller%next_step(pair, h, norm)
             if (.not. (norm <= 1)) then
                traj%rejected_steps = traj%rejected_steps + 1
                cycle
             end if
-            call stepper%prepare_dense(y, y_new, h, f0, f_new)
+            dense_ready = .false.
+            if (phase_start) self%h_phase_start(phase_index(self%in_contact)) = h
+            phase_start = .false.
 
-            side = phase_sign(self%in_contact)
-            margin = switch_margin(model, tau, y)
-            call step_event_test(side*model%tip_gap(tau, y) + margin, &
-                                 side*model%tip_gap_rate(tau, y), &
-                                 side*model%tip_gap(tau + h, y_new) + margin, &
-                                 side*model%tip_gap_rate(tau + h, y_new), h, self%in_contact, &
-                                 status, s_test)
+            call gap_state(model, tau + h, y_new, vt1, rate1, margin1)
+            call step_event_test(side*vt0 + margin0, side*rate0, side*vt1 + margin0, side*rate1, h, &
+                                 self%in_contact, status, s_test)
             if (status == event_candidate) then
-               call stepper%dense(s_test/h, y_sample)
-               if (side*model%tip_gap(tau + s_test, y_sample) + margin > 0) status = no_event
+               ! Is the dip of the interpolant real?  Check the dense output there.
+               call build_dense(self, model, traj, h, dense_ready)
+               call pair%dense(s_test/h, y_sample)
+               call gap_state(model, tau + s_test, y_sample, vt_test, rate_test, margin_test)
+               if (side*vt_test + margin0 > 0) status = no_event
             end if
             step_taken = h
             if (status /= no_event) then
-               ! G(theta) = side V_T + margin on the dense output: positive at 0, not at s_test/h.
-               call stepper%dense(s_test/h, y_sample)
-               call root%start(0.0_dp, side*model%tip_gap(tau, y) + margin, s_test/h, &
-                               side*model%tip_gap(tau + s_test, y_sample) + margin, &
+               ! G(theta) = side V_T + margin0 on the dense output: positive at 0, not at s_test/h.
+               call build_dense(self, model, traj, h, dense_ready)
+               call pair%dense(s_test/h, y_sample)
+               call root%start(0.0_dp, side*vt0 + margin0, s_test/h, &
+                               side*model%tip_gap(tau + s_test, y_sample) + margin0, &
                                4*epsilon(1.0_dp)*abs(tau)/h)
                do while (.not. root%converged())
+                  call traj%charge(settings, tau, 1, ierr, errmsg)
+                  if (ierr /= ok) return
                   call root%next_point(theta)
-                  call stepper%dense(theta, y_sample)
-                  call root%update(side*model%tip_gap(tau + theta*h, y_sample) + margin)
+                  call pair%dense(theta, y_sample)
+                  call root%update(side*model%tip_gap(tau + theta*h, y_sample) + margin0)
                end do
                call root%end_with_sign(-1.0_dp, theta)
                step_taken = theta*h
-               call stepper%dense(theta, y_new)
+               call pair%dense(theta, y_new)
             end if
 
             traj%steps = traj%steps + 1
@@ -151,22 +215,51 @@ contains
                               y_new, ierr, errmsg)
             if (ierr /= ok) return
             do while (traj%next_time() <= tau + step_taken)
-               call stepper%dense((traj%next_time() - tau)/h, y_sample)
+               call build_dense(self, model, traj, h, dense_ready)
+               call pair%dense((traj%next_time() - tau)/h, y_sample)
                call traj%store(model, y_sample)
             end do
             tau = tau + step_taken
             y = y_new
+            call self%scale%update(y)
             call progress%update(tau, settings%tau_end)
             if (status == no_event) then
+               ! The step end is the next start: carry f, V_T, its rate and the margin.
                f0 = f_new
+               vt0 = vt1
+               rate0 = rate1
+               margin0 = margin1
             else
                self%in_contact = .not. self%in_contact
-               call traj%add_switch(tau)
+               call traj%add_switch(tau, h, ierr, errmsg)
+               if (ierr /= ok) return
                have_f0 = .false.
                if (stop_at_switch) return
             end if
          end do
       end associate
+
    end subroutine adaptive_advance
+
+   !> 1 for the free phase, 2 for contact.
+   elemental function phase_index(in_contact) result(k)
+      logical, intent(in) :: in_contact
+      integer :: k
+      k = merge(2, 1, in_contact)
+   end function phase_index
+
+   !> The dense output of the step of length h just accepted from self%tau, once per step.
+   subroutine build_dense(self, model, traj, h, dense_ready)
+      type(adaptive_state_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      type(trajectory_t), intent(inout) :: traj
+      real(dp), intent(in) :: h
+      logical, intent(inout) :: dense_ready
+      if (dense_ready) return
+      call self%pair%prepare_dense(model, self%tau, self%y, self%y_new, h, self%in_contact, &
+                                   self%f0, self%f_new)
+      traj%rhs_evaluations = traj%rhs_evaluations + self%pair%dense_evaluations
+      dense_ready = .true.
+   end subroutine build_dense
 
 end module tmafm_method_adaptive

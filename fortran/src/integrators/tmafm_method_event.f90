@@ -59,8 +59,14 @@ contains
             call model%derivative(tau, y, in_contact, f0)
             traj%rhs_evaluations = traj%rhs_evaluations + 1
          end if
+         call traj%charge(settings, tau, 1, ierr, errmsg)
+         if (ierr /= ok) return
          call stepper%step(model, tau, y, h, in_contact, f0, y_new)
          traj%rhs_evaluations = traj%rhs_evaluations + 3
+         ! A step past the stability limit shows in the full step, before a switch located
+         ! inside it could cut it short (and, step after step, hide the instability).
+         call check_blowup(model, settings, tau + h, h, in_contact, y_new, ierr, errmsg)
+         if (ierr /= ok) return
 
          side = phase_sign(in_contact)
          margin = switch_margin(model, tau, y)
@@ -84,6 +90,8 @@ contains
                             side*model%tip_gap(tau + s_test, y_new) + margin, &
                             4*epsilon(1.0_dp)*abs(tau))
             do while (.not. root%converged())
+               call traj%charge(settings, tau, 1, ierr, errmsg)
+               if (ierr /= ok) return
                call root%next_point(s)
                call stepper%step(model, tau, y, s, in_contact, f0, y_new)
                traj%rhs_evaluations = traj%rhs_evaluations + 3
@@ -112,7 +120,8 @@ contains
          have_f_end = status == no_event
          if (status /= no_event) then
             in_contact = .not. in_contact
-            call traj%add_switch(tau)
+            call traj%add_switch(tau, settings%dtau, ierr, errmsg)
+            if (ierr /= ok) return
          end if
          call progress%update(tau, settings%tau_end)
       end do

@@ -1,6 +1,8 @@
 !> `flight_exact`: out of contact the state is propagated by the exact modal solution
 !> (tmafm_flight), and the next contact is the first root of V_T on that closed form; only
-!> the contact phases are integrated numerically, by the adaptive pair.
+!> the contact phases are integrated numerically, by the adaptive pair `contact_pair`.
+!> The first-contact scan of one flight is bounded inside tmafm_flight; its evaluations are
+!> then charged to &solver max_steps.
 module tmafm_method_flight
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok
@@ -8,11 +10,14 @@ module tmafm_method_flight
    use tmafm_settings, only: run_settings_t
    use tmafm_trajectory, only: trajectory_t, check_blowup, progress_t
    use tmafm_flight, only: free_flight_t
-   use tmafm_method_adaptive, only: adaptive_state_t
+   use tmafm_method_adaptive, only: adaptive_state_t, pair_dop853
    implicit none
    private
 
-   public :: run_flight_exact
+   public :: run_flight_exact, contact_pair
+
+   !> The embedded pair used in contact (measured fastest: docs/performance.md).
+   integer, parameter :: contact_pair = pair_dop853
 
 contains
 
@@ -28,14 +33,16 @@ contains
 
       type(free_flight_t) :: flight
       type(adaptive_state_t) :: contact
-      real(dp) :: y_sample(size(y0)), s_contact, horizon
+      real(dp), allocatable :: y_sample(:)
+      real(dp) :: s_contact, horizon
       logical :: found
       integer :: evaluations
 
       call flight%init(model, ierr, errmsg)
       if (ierr /= ok) return
+      allocate (y_sample(size(y0)))
       call traj%store(model, y0)
-      call contact%init(model, settings, 0.0_dp, y0)
+      call contact%init(contact_pair, model, settings, 0.0_dp, y0)
       horizon = traj%tau(size(traj%tau))
 
       do while (.not. traj%complete())
@@ -50,9 +57,12 @@ contains
             call flight%first_contact(model, horizon - tau, found, s_contact, evaluations, ierr, &
                                       errmsg)
             if (ierr /= ok) return
-            ! Closed-form evaluations of V_T cost O(N); count them as right-hand sides.
+            ! Closed-form evaluations of V_T cost O(N); count them as right-hand sides, and
+            ! charge them (and the flight itself) to the step budget.
             traj%rhs_evaluations = traj%rhs_evaluations + evaluations
             traj%steps = traj%steps + 1
+            call traj%charge(settings, tau, 1 + evaluations, ierr, errmsg)
+            if (ierr /= ok) return
             do while (traj%next_time() <= tau + s_contact)
                call flight%state(model, traj%next_time() - tau, y_sample)
                call traj%store(model, y_sample)
@@ -61,9 +71,11 @@ contains
             tau = tau + s_contact
             call check_blowup(model, settings, tau, s_contact, .false., y, ierr, errmsg)
             if (ierr /= ok) return
+            call contact%scale%update(y)
             if (found) then
                contact%in_contact = .true.
-               call traj%add_switch(tau)
+               call traj%add_switch(tau, s_contact, ierr, errmsg)
+               if (ierr /= ok) return
             end if
             call progress%update(tau, settings%tau_end)
          end associate

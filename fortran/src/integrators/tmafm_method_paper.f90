@@ -49,8 +49,13 @@ contains
          else
             h = settings%dtau
          end if
-         if (in_contact .neqv. was_in_contact) call traj%add_switch(tau)
+         if (in_contact .neqv. was_in_contact) then
+            call traj%add_switch(tau, settings%dtau, ierr, errmsg)
+            if (ierr /= ok) return
+         end if
          was_in_contact = in_contact
+         call traj%charge(settings, tau, 1, ierr, errmsg)
+         if (ierr /= ok) return
 
          ! The end derivative of the last step is this step's first stage if the phase held.
          if (have_f_end .and. (f_end_contact .eqv. in_contact)) then

@@ -4,11 +4,11 @@ module tmafm_driver
    use tmafm_errors, only: ok, err_input
    use tmafm_model, only: model_t
    use tmafm_settings, only: run_settings_t, known_methods, method_rk4_paper, method_rk4_event, &
-      method_dopri5, method_flight_exact
+      method_dopri5, method_dop853, method_flight_exact
    use tmafm_trajectory, only: trajectory_t, init_trajectory, progress_t
    use tmafm_method_paper, only: run_rk4_paper
    use tmafm_method_event, only: run_rk4_event
-   use tmafm_method_adaptive, only: run_dopri5
+   use tmafm_method_adaptive, only: run_adaptive, pair_dopri5, pair_dop853
    use tmafm_method_flight, only: run_flight_exact
    implicit none
    private
@@ -38,7 +38,9 @@ contains
       case (method_rk4_event)
          call run_rk4_event(model, settings, [a0, adot0], traj, ierr, errmsg, progress)
       case (method_dopri5)
-         call run_dopri5(model, settings, [a0, adot0], traj, ierr, errmsg, progress)
+         call run_adaptive(pair_dopri5, model, settings, [a0, adot0], traj, ierr, errmsg, progress)
+      case (method_dop853)
+         call run_adaptive(pair_dop853, model, settings, [a0, adot0], traj, ierr, errmsg, progress)
       case (method_flight_exact)
          call run_flight_exact(model, settings, [a0, adot0], traj, ierr, errmsg, progress)
       case default

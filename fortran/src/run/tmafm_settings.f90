@@ -10,7 +10,8 @@ module tmafm_settings
 
    public :: run_settings_t, sample_count, sample_count_real, is_known_method, is_fixed_step_method
    public :: method_choices, fixed_step_count_real
-   public :: method_rk4_paper, method_rk4_event, method_dopri5, method_flight_exact, known_methods
+   public :: method_rk4_paper, method_rk4_event, method_dopri5, method_dop853, method_flight_exact
+   public :: known_methods
    public :: method_names, default_max_steps, max_max_steps
    public :: max_samples, max_trajectory_bytes, trajectory_bytes, check_run_size
 
@@ -20,7 +21,9 @@ module tmafm_settings
    character(len=*), parameter :: method_rk4_event = 'rk4_event'
    !> Adaptive Dormand-Prince 5(4) with dense output and located switches.
    character(len=*), parameter :: method_dopri5 = 'dopri5'
-   !> Exact modal propagation out of contact, dopri5 in contact.
+   !> Adaptive Dormand-Prince 8(5,3) with dense output and located switches.
+   character(len=*), parameter :: method_dop853 = 'dop853'
+   !> Exact modal propagation out of contact, dop853 in contact.
    character(len=*), parameter :: method_flight_exact = 'flight_exact'
    !> Every method `&solver method` accepts: adding a method is one line here (and its case in
    !> the driver).  Fixed-step methods are also listed in fixed_step_names.
@@ -28,6 +31,7 @@ module tmafm_settings
       method_rk4_paper, &
       method_rk4_event, &
       method_dopri5, &
+      method_dop853, &
       method_flight_exact]
    !> The methods that take fixed steps dtau and dtau/contact_refine (their step count is
    !> bounded up front by max_steps).
@@ -35,7 +39,7 @@ module tmafm_settings
       method_rk4_paper, method_rk4_event]
    !> Every method name, for messages (method_choices() builds the same text from method_names).
    character(len=*), parameter :: known_methods = &
-      "'rk4_paper', 'rk4_event', 'dopri5' or 'flight_exact'"
+      "'rk4_paper', 'rk4_event', 'dopri5', 'dop853' or 'flight_exact'"
    !> Default &solver max_steps: the step budget of one run.
    integer(i8), parameter :: default_max_steps = 100000000_i8
    !> Largest &solver max_steps accepted.
@@ -54,17 +58,19 @@ module tmafm_settings
       real(dp) :: dtau = 2.0e-3_dp
       !> Fixed-step methods: the in-contact step is dtau/contact_refine.
       integer :: contact_refine = 16
-      !> Adaptive methods: relative tolerance.
-      real(dp) :: rtol = 1.0e-8_dp
-      !> Adaptive methods: absolute tolerance (gap units; velocities per tau unit).
-      real(dp) :: atol = 1.0e-14_dp
+      !> Adaptive methods: relative tolerance (per mode amplitude and tip motion; see
+      !> integrators/tmafm_error_scale.f90).
+      real(dp) :: rtol = 1.0e-7_dp
+      !> Adaptive methods: absolute tolerance, in gap units (V_T and modal displacements).
+      real(dp) :: atol = 1.0e-10_dp
       !> End of the run.
       real(dp) :: tau_end = 100.0_dp
       !> Output interval.
       real(dp) :: sample_dtau = 0.01_dp
       !> A run stops with an error once some |a_j| exceeds this (units of the gap d).
       real(dp) :: blowup_limit = 1.0_dp
-      !> Step budget of one run (accepted + rejected steps); fixed-step runs are checked up front.
+      !> Step budget of one run (accepted + rejected steps, event iterations); fixed-step runs
+      !> are checked up front.
       integer(i8) :: max_steps = default_max_steps
    end type run_settings_t
 

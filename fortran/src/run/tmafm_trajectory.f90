@@ -4,13 +4,18 @@
 module tmafm_trajectory
    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
    use tmafm_kinds, only: dp, i8
-   use tmafm_errors, only: ok, err_blowup
+   use tmafm_errors, only: ok, err_blowup, err_runtime
    use tmafm_model, only: model_t
-   use tmafm_settings, only: run_settings_t, sample_count
+   use tmafm_settings, only: run_settings_t, sample_count, method_rk4_paper, method_rk4_event
    implicit none
    private
 
-   public :: trajectory_t, init_trajectory, check_blowup, progress_t
+   public :: trajectory_t, init_trajectory, check_blowup, progress_t, chatter_switches
+
+   !> Chatter: this many switches within one step length (or with no progress in tau) end
+   !> the run.  A real contact needs two switches, a grazing one inside a single step too, so
+   !> a run with more than this many switches within one step length is not resolving them.
+   integer, parameter :: chatter_switches = 16
 
    !> The sampled trajectory and the work counters of one run.
    type :: trajectory_t
@@ -38,6 +43,9 @@ module tmafm_trajectory
       integer(i8) :: rejected_steps = 0
       !> Right-hand-side evaluations.
       integer(i8) :: rhs_evaluations = 0
+      !> Work charged against &solver max_steps: steps tried (accepted or rejected), event
+      !> iterations (root-search trials, flight-scan points) and exact flights.
+      integer(i8) :: work = 0
    contains
       !> Store the state y at sample time tau in the next free sample.
       procedure :: store => trajectory_store
@@ -45,8 +53,10 @@ module tmafm_trajectory
       procedure :: next_time => trajectory_next_time
       !> .true. once every sample is filled.
       procedure :: complete => trajectory_complete
-      !> Record a phase change at tau.
+      !> Record a phase change at tau; fails on chatter (see chatter_switches).
       procedure :: add_switch => trajectory_add_switch
+      !> Charge units of work against &solver max_steps; fails once the budget is spent.
+      procedure :: charge => trajectory_charge
    end type trajectory_t
 
    !> A progress reporter that writes a line per tenth of the run.
@@ -107,10 +117,27 @@ contains
       self%next_sample = k + 1
    end subroutine trajectory_store
 
-   pure subroutine trajectory_add_switch(self, tau)
+   !> step is the length of the step that found the switch (or the method's nominal step).
+   pure subroutine trajectory_add_switch(self, tau, step, ierr, errmsg)
       class(trajectory_t), intent(inout) :: self
       real(dp), intent(in) :: tau
+      real(dp), intent(in) :: step
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
       real(dp), allocatable :: grown(:)
+      real(dp) :: span
+      ierr = ok
+      if (self%n_switches >= chatter_switches) then
+         span = tau - self%switch_tau(self%n_switches - chatter_switches + 1)
+         if (span <= step) then
+            ierr = err_runtime
+            write (errmsg, '(a,es13.6e3,a,i0,a,es10.3e3,a,es10.3e3,a)') 'switch chatter at tau = ', &
+               tau, ': ', chatter_switches + 1, ' phase changes within ', span, &
+               ', not more than one step (', step, '): the contact flips faster than any step '// &
+               'resolves; check the contact damping and stiffness of the scene, or reduce &solver dtau'
+            return
+         end if
+      end if
       if (self%n_switches == size(self%switch_tau)) then
          allocate (grown(2*size(self%switch_tau)))
          grown(1:self%n_switches) = self%switch_tau
@@ -119,6 +146,25 @@ contains
       self%n_switches = self%n_switches + 1
       self%switch_tau(self%n_switches) = tau
    end subroutine trajectory_add_switch
+
+   !> The budget is checked where the work is done, so no loop can outrun it.
+   pure subroutine trajectory_charge(self, settings, tau, units, ierr, errmsg)
+      class(trajectory_t), intent(inout) :: self
+      type(run_settings_t), intent(in) :: settings
+      real(dp), intent(in) :: tau
+      integer, intent(in) :: units
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      ierr = ok
+      self%work = self%work + units
+      if (self%work <= settings%max_steps) return
+      ierr = err_runtime
+      write (errmsg, '(a,i0,a,es13.6e3,a,es10.3e3,a,i0,a,i0,a)') '&solver max_steps = ', &
+         settings%max_steps, ' spent at tau = ', tau, ' of tau_end = ', settings%tau_end, ' (', &
+         self%steps + self%rejected_steps, ' steps tried, ', &
+         self%work - self%steps - self%rejected_steps, ' event iterations): raise &solver '// &
+         'max_steps, or ask for less work (larger dtau or rtol, shorter tau_end)'
+   end subroutine trajectory_charge
 
    !> Fail with err_blowup if the new state is not finite or an amplitude ran away.
    subroutine check_blowup(model, settings, tau, h, in_contact, y, ierr, errmsg)
@@ -136,16 +182,30 @@ contains
       ierr = ok
       if (all(ieee_is_finite(y))) then
          if (maxval(abs(y(1:model%n_modes))) <= settings%blowup_limit) return
-         write (what, '(a,es9.2,a,es9.2)') 'max|a_j| = ', maxval(abs(y(1:model%n_modes))), &
+         write (what, '(a,es10.3e3,a,es10.3e3)') 'max|a_j| = ', maxval(abs(y(1:model%n_modes))), &
             ' > &solver blowup_limit = ', settings%blowup_limit
       else
          what = 'the state is NaN or Inf'
       end if
       ierr = err_blowup
-      write (errmsg, '(a,es12.5,4a,es9.2,3a)') 'blow-up at tau = ', tau, ': ', trim(what), &
-         ', after a ', 'step of ', h, ' (', trim(phase_name(merge(2, 1, in_contact))), &
-         ' phase); the step is past the stability limit: reduce &solver dtau'
+      write (errmsg, '(a,es13.6e3,4a,es10.3e3,4a)') 'blow-up at tau = ', tau, ': ', trim(what), &
+         ', after a ', 'step of ', h, ' (', trim(phase_name(merge(2, 1, in_contact))), ' phase); ', &
+         trim(likely_cause(settings%method))
    end subroutine check_blowup
+
+   !> What a blow-up most likely means for a method, and what to change.
+   pure function likely_cause(method) result(text)
+      character(len=*), intent(in) :: method
+      character(len=:), allocatable :: text
+      select case (trim(method))
+      case (method_rk4_paper, method_rk4_event)
+         text = 'the step is past the stability limit: reduce &solver dtau'
+      case default
+         text = 'the error control keeps an adaptive step stable, so the motion itself diverged: '// &
+                'check the scene (damping, drive, initial state), or raise &solver blowup_limit '// &
+                'if larger amplitudes are expected'
+      end select
+   end function likely_cause
 
    subroutine progress_update(self, tau, tau_end)
       class(progress_t), intent(inout) :: self

@@ -1,0 +1,260 @@
+!> The Dormand-Prince 8(5,3) pair DOP853 (Hairer, Norsett and Wanner, Solving ODEs I,
+!> Sec. II.10, and Hairer's code DOP853), as an embedded_pair_t, with its seventh-order
+!> dense output.
+!>
+!> Twelve stages give the eighth-order solution; stage 1 is the caller's f0 and the
+!> derivative at the new state (stage 13) is the next step's f0, so an attempted step costs
+!> 12 evaluations.  The error estimate combines the fifth- and third-order differences,
+!> err = h |e5|^2 / sqrt(|e5|^2 + 0.01 |e3|^2), both measured in the norm of
+!> tmafm_error_scale; its order is 8 (exponent 1/8, taken as three square roots).  The
+!> dense output needs three more stages (14-16): they are evaluated only for steps that
+!> hold a sample or a switch.  The coefficients are Hairer's, to the last bit of a double.
+!> Registers are allocated once by `init`; a step allocates nothing.
+module tmafm_dop853
+   use tmafm_kinds, only: dp
+   use tmafm_model, only: model_t
+   use tmafm_error_scale, only: error_scale_t
+   use tmafm_embedded_pair, only: embedded_pair_t
+   implicit none
+   private
+
+   public :: dop853_pair_t
+
+   ! Nodes c_i of stages 2-12 and of the dense-output stages 14-16.
+   real(dp), parameter :: c2 = 0.05260015195876773_dp, c3 = 0.0789002279381516_dp, &
+      c4 = 0.1183503419072274_dp, c5 = 0.2816496580927726_dp, c6 = 0.3333333333333333_dp, c7 = 0.25_dp, &
+      c8 = 0.3076923076923077_dp, c9 = 0.6512820512820513_dp, c10 = 0.6_dp, c11 = 0.8571428571428571_dp, &
+      c12 = 1.0_dp, c14 = 0.1_dp, c15 = 0.2_dp, c16 = 0.7777777777777778_dp
+   real(dp), parameter :: a2_1 = 0.05260015195876773_dp
+   real(dp), parameter :: a3_1 = 0.0197250569845379_dp, a3_2 = 0.0591751709536137_dp
+   real(dp), parameter :: a4_1 = 0.02958758547680685_dp, a4_3 = 0.08876275643042054_dp
+   real(dp), parameter :: a5_1 = 0.2413651341592667_dp, a5_3 = -0.8845494793282861_dp, &
+      a5_4 = 0.924834003261792_dp
+   real(dp), parameter :: a6_1 = 0.037037037037037035_dp, a6_4 = 0.17082860872947386_dp, &
+      a6_5 = 0.12546768756682242_dp
+   real(dp), parameter :: a7_1 = 0.037109375_dp, a7_4 = 0.17025221101954405_dp, &
+      a7_5 = 0.06021653898045596_dp, a7_6 = -0.017578125_dp
+   real(dp), parameter :: a8_1 = 0.03709200011850479_dp, a8_4 = 0.17038392571223998_dp, &
+      a8_5 = 0.10726203044637328_dp, a8_6 = -0.015319437748624402_dp, a8_7 = 0.008273789163814023_dp
+   real(dp), parameter :: a9_1 = 0.6241109587160757_dp, a9_4 = -3.3608926294469414_dp, &
+      a9_5 = -0.868219346841726_dp, a9_6 = 27.59209969944671_dp, a9_7 = 20.154067550477894_dp, &
+      a9_8 = -43.48988418106996_dp
+   real(dp), parameter :: a10_1 = 0.47766253643826434_dp, a10_4 = -2.4881146199716677_dp, &
+      a10_5 = -0.590290826836843_dp, a10_6 = 21.230051448181193_dp, a10_7 = 15.279233632882423_dp, &
+      a10_8 = -33.28821096898486_dp, a10_9 = -0.020331201708508627_dp
+   real(dp), parameter :: a11_1 = -0.9371424300859873_dp, a11_4 = 5.186372428844064_dp, &
+      a11_5 = 1.0914373489967295_dp, a11_6 = -8.149787010746927_dp, a11_7 = -18.52006565999696_dp, &
+      a11_8 = 22.739487099350505_dp, a11_9 = 2.4936055526796523_dp, a11_10 = -3.0467644718982196_dp
+   real(dp), parameter :: a12_1 = 2.273310147516538_dp, a12_4 = -10.53449546673725_dp, &
+      a12_5 = -2.0008720582248625_dp, a12_6 = -17.9589318631188_dp, a12_7 = 27.94888452941996_dp, &
+      a12_8 = -2.8589982771350235_dp, a12_9 = -8.87285693353063_dp, a12_10 = 12.360567175794303_dp, &
+      a12_11 = 0.6433927460157636_dp
+   real(dp), parameter :: a14_1 = 0.056167502283047954_dp, a14_7 = 0.25350021021662483_dp, &
+      a14_8 = -0.2462390374708025_dp, a14_9 = -0.12419142326381637_dp, a14_10 = 0.15329179827876568_dp, &
+      a14_11 = 0.00820105229563469_dp, a14_12 = 0.007567897660545699_dp, a14_13 = -0.008298_dp
+   real(dp), parameter :: a15_1 = 0.03183464816350214_dp, a15_6 = 0.028300909672366776_dp, &
+      a15_7 = 0.053541988307438566_dp, a15_8 = -0.05492374857139099_dp, a15_11 = -0.00010834732869724932_dp, &
+      a15_12 = 0.0003825710908356584_dp, a15_13 = -0.00034046500868740456_dp, &
+      a15_14 = 0.1413124436746325_dp
+   real(dp), parameter :: a16_1 = -0.42889630158379194_dp, a16_6 = -4.697621415361164_dp, &
+      a16_7 = 7.683421196062599_dp, a16_8 = 4.06898981839711_dp, a16_9 = 0.3567271874552811_dp, &
+      a16_13 = -0.0013990241651590145_dp, a16_14 = 2.9475147891527724_dp, a16_15 = -9.15095847217987_dp
+   ! Weights of the eighth-order solution.
+   real(dp), parameter :: b1 = 0.054293734116568765_dp, b6 = 4.450312892752409_dp, &
+      b7 = 1.8915178993145003_dp, b8 = -5.801203960010585_dp, b9 = 0.3111643669578199_dp, &
+      b10 = -0.1521609496625161_dp, b11 = 0.20136540080403034_dp, b12 = 0.04471061572777259_dp
+   ! Error weights: E5 (fifth order) and E3 (third order); entry 13 multiplies f(tau+h, y_new).
+   real(dp), parameter :: e5_1 = 0.01312004499419488_dp, e5_6 = -1.2251564463762044_dp, &
+      e5_7 = -0.4957589496572502_dp, e5_8 = 1.6643771824549864_dp, e5_9 = -0.35032884874997366_dp, &
+      e5_10 = 0.3341791187130175_dp, e5_11 = 0.08192320648511571_dp, e5_12 = -0.022355307863886294_dp
+   real(dp), parameter :: e3_1 = -0.18980075407240762_dp, e3_6 = 4.450312892752409_dp, &
+      e3_7 = 1.8915178993145003_dp, e3_8 = -5.801203960010585_dp, e3_9 = -0.4226823213237919_dp, &
+      e3_10 = -0.1521609496625161_dp, e3_11 = 0.20136540080403034_dp, e3_12 = 0.02265179219836082_dp
+   ! Dense output: rows 4-7 of the interpolant, weights of the 16 stages.
+   real(dp), parameter :: d4_1 = -8.428938276109013_dp, d4_6 = 0.5667149535193777_dp, &
+      d4_7 = -3.0689499459498917_dp, d4_8 = 2.38466765651207_dp, d4_9 = 2.117034582445028_dp, &
+      d4_10 = -0.871391583777973_dp, d4_11 = 2.2404374302607883_dp, d4_12 = 0.6315787787694688_dp, &
+      d4_13 = -0.08899033645133331_dp, d4_14 = 18.148505520854727_dp, d4_15 = -9.194632392478356_dp, &
+      d4_16 = -4.436036387594894_dp
+   real(dp), parameter :: d5_1 = 10.427508642579134_dp, d5_6 = 242.28349177525817_dp, &
+      d5_7 = 165.20045171727028_dp, d5_8 = -374.5467547226902_dp, d5_9 = -22.113666853125306_dp, &
+      d5_10 = 7.733432668472264_dp, d5_11 = -30.674084731089398_dp, d5_12 = -9.332130526430229_dp, &
+      d5_13 = 15.697238121770845_dp, d5_14 = -31.139403219565178_dp, d5_15 = -9.35292435884448_dp, &
+      d5_16 = 35.81684148639408_dp
+   real(dp), parameter :: d6_1 = 19.985053242002433_dp, d6_6 = -387.0373087493518_dp, &
+      d6_7 = -189.17813819516758_dp, d6_8 = 527.8081592054236_dp, d6_9 = -11.57390253995963_dp, &
+      d6_10 = 6.8812326946963_dp, d6_11 = -1.0006050966910838_dp, d6_12 = 0.7777137798053443_dp, &
+      d6_13 = -2.778205752353508_dp, d6_14 = -60.19669523126412_dp, d6_15 = 84.32040550667716_dp, &
+      d6_16 = 11.99229113618279_dp
+   real(dp), parameter :: d7_1 = -25.69393346270375_dp, d7_6 = -154.18974869023643_dp, &
+      d7_7 = -231.5293791760455_dp, d7_8 = 357.6391179106141_dp, d7_9 = 93.40532418362432_dp, &
+      d7_10 = -37.45832313645163_dp, d7_11 = 104.0996495089623_dp, d7_12 = 29.8402934266605_dp, &
+      d7_13 = -43.53345659001114_dp, d7_14 = 96.32455395918828_dp, d7_15 = -39.17726167561544_dp, &
+      d7_16 = -149.72683625798564_dp
+
+   !> Stage registers and the dense-output coefficients of the last step.
+   type, extends(embedded_pair_t) :: dop853_pair_t
+      !> Stage derivatives k(:, j), j = 2..12 and 14..16 (1 and 13 are the caller's f0, f_new).
+      real(dp), allocatable :: k(:, :)
+      !> The stage state and the two error estimates of the last step.
+      real(dp), allocatable :: stage(:), err5(:), err3(:)
+      !> Dense output: y(x) = y0 + x (r(0) + (1-x) (r(1) + x (r(2) + (1-x) (r(3) + ...)))).
+      real(dp), allocatable :: y0(:), r(:, :)
+   contains
+      !> Allocate the registers for a state of size n_state.
+      procedure :: init => dop853_init
+      !> One step of length h in a frozen phase; f0 = f(tau, y) in, f_new = f(tau+h, y_new) out.
+      procedure :: step => dop853_step
+      !> The error norm of the last step.
+      procedure :: error_norm => dop853_error_norm
+      !> norm^(-1/8).
+      procedure :: growth => dop853_growth
+      !> Evaluate stages 14-16 and build the dense output of the last step.
+      procedure :: prepare_dense => dop853_prepare_dense
+      !> The dense-output state at fraction theta of the last step.
+      procedure :: dense => dop853_dense
+   end type dop853_pair_t
+
+contains
+
+   subroutine dop853_init(self, n_state)
+      class(dop853_pair_t), intent(inout) :: self
+      integer, intent(in) :: n_state
+      self%stage_evaluations = 12
+      self%dense_evaluations = 3
+      ! Hairer's DOP853 defaults.
+      self%shrink_limit = 0.333_dp
+      self%grow_limit = 6.0_dp
+      if (allocated(self%k)) return
+      allocate (self%k(n_state, 2:16), self%stage(n_state), self%err5(n_state), &
+                self%err3(n_state), self%y0(n_state), self%r(n_state, 0:6))
+   end subroutine dop853_init
+
+   subroutine dop853_step(self, model, tau, y, h, in_contact, f0, y_new, f_new)
+      class(dop853_pair_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: y(:)
+      real(dp), intent(in) :: h
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: f0(:)
+      real(dp), intent(out) :: y_new(:)
+      real(dp), intent(out) :: f_new(:)
+
+      associate (k => self%k, stage => self%stage)
+         stage = y + h*a2_1*f0
+         call model%derivative(tau + c2*h, stage, in_contact, k(:, 2))
+         stage = y + h*(a3_1*f0 + a3_2*k(:, 2))
+         call model%derivative(tau + c3*h, stage, in_contact, k(:, 3))
+         stage = y + h*(a4_1*f0 + a4_3*k(:, 3))
+         call model%derivative(tau + c4*h, stage, in_contact, k(:, 4))
+         stage = y + h*(a5_1*f0 + a5_3*k(:, 3) + a5_4*k(:, 4))
+         call model%derivative(tau + c5*h, stage, in_contact, k(:, 5))
+         stage = y + h*(a6_1*f0 + a6_4*k(:, 4) + a6_5*k(:, 5))
+         call model%derivative(tau + c6*h, stage, in_contact, k(:, 6))
+         stage = y + h*(a7_1*f0 + a7_4*k(:, 4) + a7_5*k(:, 5) + a7_6*k(:, 6))
+         call model%derivative(tau + c7*h, stage, in_contact, k(:, 7))
+         stage = y + h*(a8_1*f0 + a8_4*k(:, 4) + a8_5*k(:, 5) + a8_6*k(:, 6) + a8_7*k(:, 7))
+         call model%derivative(tau + c8*h, stage, in_contact, k(:, 8))
+         stage = y + h*(a9_1*f0 + a9_4*k(:, 4) + a9_5*k(:, 5) + a9_6*k(:, 6) + a9_7*k(:, 7) &
+                        + a9_8*k(:, 8))
+         call model%derivative(tau + c9*h, stage, in_contact, k(:, 9))
+         stage = y + h*(a10_1*f0 + a10_4*k(:, 4) + a10_5*k(:, 5) + a10_6*k(:, 6) + a10_7*k(:, 7) &
+                        + a10_8*k(:, 8) + a10_9*k(:, 9))
+         call model%derivative(tau + c10*h, stage, in_contact, k(:, 10))
+         stage = y + h*(a11_1*f0 + a11_4*k(:, 4) + a11_5*k(:, 5) + a11_6*k(:, 6) + a11_7*k(:, 7) &
+                        + a11_8*k(:, 8) + a11_9*k(:, 9) + a11_10*k(:, 10))
+         call model%derivative(tau + c11*h, stage, in_contact, k(:, 11))
+         stage = y + h*(a12_1*f0 + a12_4*k(:, 4) + a12_5*k(:, 5) + a12_6*k(:, 6) + a12_7*k(:, 7) &
+                        + a12_8*k(:, 8) + a12_9*k(:, 9) + a12_10*k(:, 10) + a12_11*k(:, 11))
+         call model%derivative(tau + h, stage, in_contact, k(:, 12))
+         y_new = y + h*(b1*f0 + b6*k(:, 6) + b7*k(:, 7) + b8*k(:, 8) + b9*k(:, 9) + b10*k(:, 10) &
+                        + b11*k(:, 11) + b12*k(:, 12))
+         call model%derivative(tau + h, y_new, in_contact, f_new)
+      end associate
+   end subroutine dop853_step
+
+   !> Hairer's DOP853 estimate; f_new is not used (its weights e5_13 and e3_13 are zero).
+   pure subroutine dop853_error_norm(self, h, f0, f_new, scale, norm)
+      class(dop853_pair_t), intent(inout) :: self
+      real(dp), intent(in) :: h
+      real(dp), intent(in) :: f0(:)
+      real(dp), intent(in) :: f_new(:)
+      type(error_scale_t), intent(in) :: scale
+      real(dp), intent(out) :: norm
+      real(dp) :: s5, s3
+      associate (k => self%k)
+         self%err5 = e5_1*f0 + e5_6*k(:, 6) + e5_7*k(:, 7) + e5_8*k(:, 8) + e5_9*k(:, 9) &
+                     + e5_10*k(:, 10) + e5_11*k(:, 11) + e5_12*k(:, 12)
+         self%err3 = e3_1*f0 + e3_6*k(:, 6) + e3_7*k(:, 7) + e3_8*k(:, 8) + e3_9*k(:, 9) &
+                     + e3_10*k(:, 10) + e3_11*k(:, 11) + e3_12*k(:, 12)
+      end associate
+      s5 = scale%sum_of_squares(self%err5)
+      s3 = scale%sum_of_squares(self%err3)
+      if (s5 == 0 .and. s3 == 0) then
+         norm = 0
+      else
+         norm = abs(h)*s5/sqrt(s5 + 0.01_dp*s3)
+      end if
+   end subroutine dop853_error_norm
+
+   pure function dop853_growth(self, norm) result(ratio)
+      class(dop853_pair_t), intent(in) :: self
+      real(dp), intent(in) :: norm
+      real(dp) :: ratio
+      ratio = 1/sqrt(sqrt(sqrt(norm)))
+   end function dop853_growth
+
+   subroutine dop853_prepare_dense(self, model, tau, y, y_new, h, in_contact, f0, f_new)
+      class(dop853_pair_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: y(:)
+      real(dp), intent(in) :: y_new(:)
+      real(dp), intent(in) :: h
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: f0(:)
+      real(dp), intent(in) :: f_new(:)
+
+      associate (k => self%k, stage => self%stage, r => self%r)
+         stage = y + h*(a14_1*f0 + a14_7*k(:, 7) + a14_8*k(:, 8) + a14_9*k(:, 9) + a14_10*k(:, 10) &
+                        + a14_11*k(:, 11) + a14_12*k(:, 12) + a14_13*f_new)
+         call model%derivative(tau + c14*h, stage, in_contact, k(:, 14))
+         stage = y + h*(a15_1*f0 + a15_6*k(:, 6) + a15_7*k(:, 7) + a15_8*k(:, 8) + a15_11*k(:, 11) &
+                        + a15_12*k(:, 12) + a15_13*f_new + a15_14*k(:, 14))
+         call model%derivative(tau + c15*h, stage, in_contact, k(:, 15))
+         stage = y + h*(a16_1*f0 + a16_6*k(:, 6) + a16_7*k(:, 7) + a16_8*k(:, 8) + a16_9*k(:, 9) &
+                        + a16_13*f_new + a16_14*k(:, 14) + a16_15*k(:, 15))
+         call model%derivative(tau + c16*h, stage, in_contact, k(:, 16))
+         self%y0 = y
+         r(:, 0) = y_new - y
+         r(:, 1) = h*f0 - r(:, 0)
+         r(:, 2) = 2*r(:, 0) - h*(f_new + f0)
+         r(:, 3) = h*(d4_1*f0 + d4_6*k(:, 6) + d4_7*k(:, 7) + d4_8*k(:, 8) + d4_9*k(:, 9) &
+                      + d4_10*k(:, 10) + d4_11*k(:, 11) + d4_12*k(:, 12) + d4_13*f_new &
+                      + d4_14*k(:, 14) + d4_15*k(:, 15) + d4_16*k(:, 16))
+         r(:, 4) = h*(d5_1*f0 + d5_6*k(:, 6) + d5_7*k(:, 7) + d5_8*k(:, 8) + d5_9*k(:, 9) &
+                      + d5_10*k(:, 10) + d5_11*k(:, 11) + d5_12*k(:, 12) + d5_13*f_new &
+                      + d5_14*k(:, 14) + d5_15*k(:, 15) + d5_16*k(:, 16))
+         r(:, 5) = h*(d6_1*f0 + d6_6*k(:, 6) + d6_7*k(:, 7) + d6_8*k(:, 8) + d6_9*k(:, 9) &
+                      + d6_10*k(:, 10) + d6_11*k(:, 11) + d6_12*k(:, 12) + d6_13*f_new &
+                      + d6_14*k(:, 14) + d6_15*k(:, 15) + d6_16*k(:, 16))
+         r(:, 6) = h*(d7_1*f0 + d7_6*k(:, 6) + d7_7*k(:, 7) + d7_8*k(:, 8) + d7_9*k(:, 9) &
+                      + d7_10*k(:, 10) + d7_11*k(:, 11) + d7_12*k(:, 12) + d7_13*f_new &
+                      + d7_14*k(:, 14) + d7_15*k(:, 15) + d7_16*k(:, 16))
+      end associate
+   end subroutine dop853_prepare_dense
+
+   pure subroutine dop853_dense(self, theta, y)
+      class(dop853_pair_t), intent(in) :: self
+      real(dp), intent(in) :: theta
+      real(dp), intent(out) :: y(:)
+      real(dp) :: rest
+      rest = 1 - theta
+      associate (r => self%r)
+         y = self%y0 + theta*(r(:, 0) + rest*(r(:, 1) + theta*(r(:, 2) + rest*(r(:, 3) &
+             + theta*(r(:, 4) + rest*(r(:, 5) + theta*r(:, 6)))))))
+      end associate
+   end subroutine dop853_dense
+
+end module tmafm_dop853

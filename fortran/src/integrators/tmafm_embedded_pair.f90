@@ -1,0 +1,136 @@
+!> What the adaptive run loop needs from an embedded Runge-Kutta pair (dopri5, dop853), and
+!> the step-size controller, kept separate from the pairs.
+!>
+!> A pair takes one step in a frozen phase (f0 = f(tau, y) given: first same as last),
+!> estimates its error in the norm of tmafm_error_scale, and builds its dense output only
+!> when asked (a sample or a switch in the step), so steps that need none skip that work.
+!> Registers are allocated once by `init`; a step allocates nothing.
+!>
+!> The controller turns an error norm into the next step, h_new = h * clamp(safety *
+!> norm^(-1/(q+1))), q the order of the error estimate.  No real-exponent power is taken:
+!> each pair computes its own norm^(-1/(q+1)) (dop853: three square roots for 1/8; dopri5:
+!> one log and one exp for 1/5), see `growth`.
+module tmafm_embedded_pair
+   use tmafm_kinds, only: dp
+   use tmafm_model, only: model_t
+   use tmafm_error_scale, only: error_scale_t
+   implicit none
+   private
+
+   public :: embedded_pair_t, step_controller_t
+
+   !> An embedded pair with dense output.
+   type, abstract :: embedded_pair_t
+      !> Right-hand-side evaluations of one attempted step (the first stage is given, the
+      !> derivative at the new state is counted).
+      integer :: stage_evaluations = 0
+      !> Extra right-hand-side evaluations to build the dense output of a step.
+      integer :: dense_evaluations = 0
+      !> Smallest and largest ratio of a new step to the old one (Hairer's fac1, fac2).
+      real(dp) :: shrink_limit = 0.2_dp, grow_limit = 5.0_dp
+   contains
+      !> Allocate the registers for a state of size n_state.
+      procedure(pair_init), deferred :: init
+      !> One step of length h; f0 = f(tau, y) in, f_new = f(tau + h, y_new) out.
+      procedure(pair_step), deferred :: step
+      !> The error norm of the last step (accept when <= 1).
+      procedure(pair_norm), deferred :: error_norm
+      !> norm^(-1/(q+1)) for a positive norm: the raw ratio of the optimal step to h.
+      procedure(pair_growth), deferred :: growth
+      !> Build the dense output of the last step (may evaluate the right-hand side).
+      procedure(pair_prepare), deferred :: prepare_dense
+      !> The dense-output state at fraction theta of the last step.
+      procedure(pair_dense), deferred :: dense
+   end type embedded_pair_t
+
+   abstract interface
+      subroutine pair_init(self, n_state)
+         import :: embedded_pair_t
+         class(embedded_pair_t), intent(inout) :: self
+         integer, intent(in) :: n_state
+      end subroutine pair_init
+
+      subroutine pair_step(self, model, tau, y, h, in_contact, f0, y_new, f_new)
+         import :: embedded_pair_t, model_t, dp
+         class(embedded_pair_t), intent(inout) :: self
+         type(model_t), intent(in) :: model
+         real(dp), intent(in) :: tau
+         real(dp), intent(in) :: y(:)
+         real(dp), intent(in) :: h
+         logical, intent(in) :: in_contact
+         real(dp), intent(in) :: f0(:)
+         real(dp), intent(out) :: y_new(:)
+         real(dp), intent(out) :: f_new(:)
+      end subroutine pair_step
+
+      pure subroutine pair_norm(self, h, f0, f_new, scale, norm)
+         import :: embedded_pair_t, error_scale_t, dp
+         class(embedded_pair_t), intent(inout) :: self
+         real(dp), intent(in) :: h
+         real(dp), intent(in) :: f0(:)
+         real(dp), intent(in) :: f_new(:)
+         type(error_scale_t), intent(in) :: scale
+         real(dp), intent(out) :: norm
+      end subroutine pair_norm
+
+      pure function pair_growth(self, norm) result(ratio)
+         import :: embedded_pair_t, dp
+         class(embedded_pair_t), intent(in) :: self
+         real(dp), intent(in) :: norm
+         real(dp) :: ratio
+      end function pair_growth
+
+      subroutine pair_prepare(self, model, tau, y, y_new, h, in_contact, f0, f_new)
+         import :: embedded_pair_t, model_t, dp
+         class(embedded_pair_t), intent(inout) :: self
+         type(model_t), intent(in) :: model
+         real(dp), intent(in) :: tau
+         real(dp), intent(in) :: y(:)
+         real(dp), intent(in) :: y_new(:)
+         real(dp), intent(in) :: h
+         logical, intent(in) :: in_contact
+         real(dp), intent(in) :: f0(:)
+         real(dp), intent(in) :: f_new(:)
+      end subroutine pair_prepare
+
+      pure subroutine pair_dense(self, theta, y)
+         import :: embedded_pair_t, dp
+         class(embedded_pair_t), intent(in) :: self
+         real(dp), intent(in) :: theta
+         real(dp), intent(out) :: y(:)
+      end subroutine pair_dense
+   end interface
+
+   !> The classical step-size controller (Hairer, Norsett and Wanner I, Sec. II.4).
+   type :: step_controller_t
+      !> Safety factor on the optimal step.
+      real(dp) :: safety = 0.9_dp
+      !> Smallest step before the run fails (relative to max(1, tau)).
+      real(dp) :: h_min_relative = 1.0e-14_dp
+      !> .true. after a rejection: the next step may not grow (Hairer's DOPRI5/DOP853).
+      logical :: after_rejection = .false.
+   contains
+      !> The next step after an attempt of length h with error norm `norm` by `pair`.
+      procedure :: next_step => controller_next_step
+   end type step_controller_t
+
+contains
+
+   function controller_next_step(self, pair, h, norm) result(h_next)
+      class(step_controller_t), intent(inout) :: self
+      class(embedded_pair_t), intent(in) :: pair
+      real(dp), intent(in) :: h
+      real(dp), intent(in) :: norm
+      real(dp) :: h_next, factor, grow
+      grow = pair%grow_limit
+      if (self%after_rejection) grow = 1
+      if (norm <= 0) then
+         factor = grow
+      else
+         factor = min(grow, max(pair%shrink_limit, self%safety*pair%growth(norm)))
+      end if
+      self%after_rejection = .not. (norm <= 1)
+      h_next = h*factor
+   end function controller_next_step
+
+end module tmafm_embedded_pair

@@ -1,0 +1,107 @@
+!> What `rtol` and `atol` mean for the adaptive methods: the weights of the error norm.
+!>
+!> A step is accepted when the root-sum-square of its weighted local error estimates is at
+!> most 1, over 2N + 1 components:
+!>
+!>   e(a_j)    / (atol + rtol S_j)            the displacement of mode j,
+!>   e(a'_j)   / (omega_j (atol + rtol S_j))  its velocity, in displacement units,
+!>   e(V_T)    / (atol + rtol S_V)            the tip gap, e(V_T) = p . e(a),
+!>
+!> with omega_j = beta_j^2 the free frequency of mode j, S_j the largest max(|a_j|,
+!> |a'_j|/omega_j) seen so far in the run (the mode's own amplitude, not its value at the
+!> instant, which passes through zero twice a cycle), and S_V = max(alpha2, largest |p . a|
+!> so far) the size of the motion of the tip.  So atol is an absolute error in gap units,
+!> rtol an error relative to the amplitude of each mode and of the tip, and every accepted
+!> step has |e(V_T)| <= atol + rtol S_V.  A mode of amplitude 1e-6 is not held to 1e-14
+!> absolute: its own scale sets its share.
+!>
+!> The scales only grow, and are updated from each accepted state (and at the end of each
+!> exact flight), so the norm costs O(N) per step and allocates nothing.
+module tmafm_error_scale
+   use tmafm_kinds, only: dp
+   use tmafm_model, only: model_t
+   implicit none
+   private
+
+   public :: error_scale_t
+
+   !> Running amplitudes and the inverse weights of the error norm.
+   type :: error_scale_t
+      !> Number of modes N.
+      integer :: n_modes = 0
+      !> The tolerances.
+      real(dp) :: rtol = 0, atol = 0
+      !> Free frequencies omega_j = beta_j^2.
+      real(dp), allocatable :: omega(:)
+      !> Tip vector p (V_T = p . a + drive).
+      real(dp), allocatable :: tip(:)
+      !> Running amplitudes S_j of the modes.
+      real(dp), allocatable :: amplitude(:)
+      !> Running size S_V of the tip motion.
+      real(dp) :: tip_amplitude = 0
+      !> Inverse weights of the 2N state components.
+      real(dp), allocatable :: weight(:)
+      !> Inverse weight of the V_T component.
+      real(dp) :: tip_weight = 0
+   contains
+      !> Set up for a model and tolerances, with the amplitudes of the initial state y0.
+      procedure :: init => scale_init
+      !> Grow the running amplitudes with an accepted state y and refresh the weights.
+      procedure :: update => scale_update
+      !> Sum over the 2N + 1 components of (weight * error)^2 for a state-sized error e.
+      procedure :: sum_of_squares => scale_sum_of_squares
+   end type error_scale_t
+
+contains
+
+   subroutine scale_init(self, model, rtol, atol, y0)
+      class(error_scale_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: rtol
+      real(dp), intent(in) :: atol
+      real(dp), intent(in) :: y0(:)
+      integer :: n
+      n = model%n_modes
+      self%n_modes = n
+      self%rtol = rtol
+      self%atol = atol
+      if (allocated(self%omega)) deallocate (self%omega, self%tip, self%amplitude, self%weight)
+      allocate (self%omega(n), self%tip(n), self%amplitude(n), self%weight(2*n))
+      self%omega = model%beta**2
+      self%tip = model%tip
+      self%amplitude = 0
+      self%tip_amplitude = abs(model%scene%alpha2)
+      call self%update(y0)
+   end subroutine scale_init
+
+   pure subroutine scale_update(self, y)
+      class(error_scale_t), intent(inout) :: self
+      real(dp), intent(in) :: y(:)
+      real(dp) :: tip_tolerance, tolerance, size_j
+      integer :: j, n
+      n = self%n_modes
+      self%tip_amplitude = max(self%tip_amplitude, abs(dot_product(self%tip, y(1:n))))
+      ! Floored so that atol = 0 with a tip at rest (and no drive) cannot divide by zero.
+      tip_tolerance = max(self%atol + self%rtol*self%tip_amplitude, tiny(1.0_dp))
+      self%tip_weight = 1/tip_tolerance
+      do j = 1, n
+         size_j = max(abs(y(j)), abs(y(n + j))/self%omega(j))
+         if (size_j > self%amplitude(j)) self%amplitude(j) = size_j
+         tolerance = self%atol + self%rtol*self%amplitude(j)
+         ! A mode that has not moved yet (with atol = 0) is held to the tip's tolerance.
+         if (.not. (tolerance > 0)) tolerance = tip_tolerance
+         self%weight(j) = 1/tolerance
+         self%weight(n + j) = 1/(self%omega(j)*tolerance)
+      end do
+   end subroutine scale_update
+
+   pure function scale_sum_of_squares(self, e) result(total)
+      class(error_scale_t), intent(in) :: self
+      real(dp), intent(in) :: e(:)
+      real(dp) :: total
+      integer :: n
+      n = self%n_modes
+      total = sum((self%weight*e)**2) + (self%tip_weight*dot_product(self%tip, e(1:n)))**2
+   end function scale_sum_of_squares
+
+end module tmafm_error_scale

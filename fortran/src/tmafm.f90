@@ -11,11 +11,13 @@ module tmafm
    use tmafm_errata, only: errata_t, errata_for_convention
    use tmafm_contact, only: law_hertz, law_dmt, contact_brackets_t, contact_brackets
    use tmafm_model, only: model_t, init_model
-   use tmafm_settings, only: run_settings_t
+   use tmafm_settings, only: run_settings_t, is_known_method, method_names, max_samples, &
+      max_trajectory_bytes, check_run_size
    use tmafm_trajectory, only: trajectory_t
    use tmafm_driver, only: run_trajectory
    use tmafm_config, only: config_t, path_len
-   use tmafm_namelist, only: read_config, write_config
+   use tmafm_namelist, only: read_config, read_config_text, write_config, config_text
+   use tmafm_text, only: real_text, lower
    use tmafm_simulation, only: build_model, simulate, choose_mode_count, load_model
    use tmafm_output, only: write_trajectory_file
    implicit none
@@ -27,6 +29,8 @@ module tmafm
    public :: law_hertz, law_dmt, contact_brackets_t, contact_brackets
    public :: model_t, init_model, run_settings_t, trajectory_t, run_trajectory
    public :: config_t, path_len, read_config, write_config, build_model, simulate, choose_mode_count
+   public :: read_config_text, config_text, real_text, lower
+   public :: is_known_method, method_names, max_samples, max_trajectory_bytes, check_run_size
    public :: load_model
    public :: write_trajectory_file
 

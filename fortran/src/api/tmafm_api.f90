@@ -14,7 +14,7 @@ module tmafm_api
    use tmafm_model, only: model_t, n_powers
    use tmafm_trajectory, only: trajectory_t
    use tmafm_simulation, only: build_model, simulate, choose_mode_count
-   use tmafm_api_text, only: read_config_text, config_text
+   use tmafm_namelist, only: read_config_text, config_text
    implicit none
    private
 

@@ -129,7 +129,7 @@ def test_bad_sources_are_tmafm_errors(tmp_path):
         tmafm.run("no_such_input")
     with pytest.raises(tmafm.InputFileError, match="not a regular file"):
         tmafm.run(tmp_path)
-    with pytest.raises(tmafm.InputError, match="must be a path"):
+    with pytest.raises(tmafm.InputTypeError, match="must be a path"):
         tmafm.run(42)
     binary = tmp_path / "binary.nml"
     binary.write_bytes(b"\xff\xfe&\x00m\x00")

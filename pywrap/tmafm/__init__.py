@@ -12,7 +12,8 @@ from . import inputs
 from ._run import COUNTER_KEYS, SCENE_KEYS, Config, Result, resolve, run
 from ._model import POWER_NAMES, ContactState, Model
 from ._resultio import load
-from .errors import BlowUpError, InputError, InputFileError, SolverError, TmafmError
+from .errors import (BlowUpError, InputError, InputFileError, InputTypeError, SolverError,
+                     TmafmError)
 from ._exe import executable
 
 try:
@@ -22,4 +23,4 @@ except PackageNotFoundError:  # running from a source tree
 
 __all__ = ["run", "resolve", "load", "Config", "Model", "Result", "ContactState", "inputs",
            "SCENE_KEYS", "COUNTER_KEYS", "POWER_NAMES", "executable", "TmafmError", "InputError",
-           "InputFileError", "SolverError", "BlowUpError", "__version__"]
+           "InputTypeError", "InputFileError", "SolverError", "BlowUpError", "__version__"]

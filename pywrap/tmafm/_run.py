@@ -21,7 +21,7 @@ import numpy as np
 from . import inputs as _inputs
 from ._fortran import api as _api
 from ._namelist import KEY_TYPES, check_groups, merge, to_text
-from .errors import InputError, InputFileError, SolverError, raise_for
+from .errors import InputError, InputFileError, InputTypeError, SolverError, raise_for
 
 __all__ = ["Config", "Result", "run", "resolve", "SCENE_KEYS", "COUNTER_KEYS"]
 
@@ -94,7 +94,7 @@ def _source(nml, overrides: Mapping) -> tuple[str, str]:
         groups = check_groups(nml, "<dict input>")
         _check_known(groups, "<dict input>")
         return to_text(merge(groups, overrides)), "<dict input>"
-    raise InputError(f"nml must be a path, a packaged input name, a dict of groups or a Config, "
+    raise InputTypeError(f"nml must be a path, a packaged input name, a dict of groups or a Config, "
                      f"not {type(nml).__name__}")
 
 

@@ -57,7 +57,7 @@ def inputs(draw):
     return groups
 
 
-@hypothesis.settings(max_examples=200, deadline=None, derandomize=True,
+@hypothesis.settings(max_examples=300, deadline=None, derandomize=True,
                      suppress_health_check=list(hypothesis.HealthCheck))
 @hypothesis.given(inputs())
 def test_every_dict_input_gives_a_result_or_a_tmafm_error(groups):

@@ -191,3 +191,17 @@ def test_installed_package_works_from_any_folder(tmp_path):
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert "--out" in proc.stdout
+
+
+def test_load_reads_the_executables_npz(tmp_path, exe):
+    """The executable's &output format = 'npy' archive loads to the arrays tmafm.run returns."""
+    config = tmafm.Config("fig7_hertz", solver={"tau_end": 3.0, "method": "dopri5"},
+                          output={"format": "npy", "file": "out.npz"})
+    path = config.write(tmp_path / "in.nml")
+    proc = subprocess.run([exe, str(path), "-q"], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    loaded = tmafm.load(tmp_path / "out.npz")
+    _same(loaded, config.run())
+    assert loaded.resolved["solver"]["method"] == "dopri5"
+    assert loaded.scene == config.scene

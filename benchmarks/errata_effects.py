@@ -23,7 +23,7 @@ def main():
     period = math.pi
     runs = {}
     for errata in SETS:
-        runs[errata] = tmafm.run(REPO / "inputs" / "fig2_n4.nml", model={"errata": errata},
+        runs[errata] = tmafm.run("fig2_n4", model={"errata": errata},
                                  solver={"method": "flight_exact", "rtol": 1e-10, "atol": 1e-16,
                                          "tau_end": 100 * period},
                                  output={"sample_dtau": period / 200})

@@ -23,7 +23,7 @@ SOLVER = {"method": "flight_exact", "rtol": 1e-9, "atol": 1e-15}
 def classify(name, periods, **groups):
     period = math.pi
     solver = {**SOLVER, "tau_end": periods * period}
-    r = tmafm.run(REPO / "inputs" / f"{name}.nml", solver=solver, output={"sample_dtau": period / 200}, **groups)
+    r = tmafm.run(name, solver=solver, output={"sample_dtau": period / 200}, **groups)
     s = analysis.summary(r)
     return {"classification": s["classification"], "vt_min": s["vt_min"],
             "contact_fraction": s["contact_fraction"], "steady_tau": s["steady_state"]["tau"]}

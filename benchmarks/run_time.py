@@ -43,7 +43,7 @@ def main() -> None:
               "tmafm": tmafm.__version__}
     with tempfile.TemporaryDirectory() as scratch:
         for label, sample_dtau in (("sample_dtau_0.01", 0.01), ("sample_dtau_1", 1.0)):
-            groups = f90nml.read(str(REPO / "inputs" / "fig2_n4.nml"))
+            groups = f90nml.read(str(tmafm.inputs.path("fig2_n4")))
             groups["solver"]["tau_end"] = tau_end
             groups["output"]["sample_dtau"] = sample_dtau
             groups["output"]["file"] = str(Path(scratch) / f"{label}.dat")

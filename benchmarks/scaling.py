@@ -41,7 +41,7 @@ def cost(n, method, repeat):
     best = math.inf
     for _ in range(repeat):
         start = time.perf_counter()
-        result = tmafm.run(REPO / "inputs" / "fig2_n4.nml", **groups)
+        result = tmafm.run("fig2_n4", **groups)
         best = min(best, time.perf_counter() - start)
     return {"seconds_per_period": best / PERIODS, "rhs_per_period": result.counters["rhs_evaluations"] / PERIODS,
             "steps_per_period": result.counters["steps"] / PERIODS, **({"dtau": solver["dtau"]} if "dtau" in solver else {})}

@@ -8,9 +8,10 @@ A thin wrapper over ``python -m tmafm.workprecision`` run from the repository ro
 import sys
 from pathlib import Path
 
+import tmafm
 from tmafm.workprecision import main
 
 REPO = Path(__file__).resolve().parent.parent
 
 if __name__ == "__main__":
-    main(["--out", str(REPO / "benchmarks"), "--inputs", str(REPO / "inputs"), *sys.argv[1:]])
+    main(["--out", str(REPO / "benchmarks"), "--inputs", str(tmafm.inputs.folder()), *sys.argv[1:]])

@@ -1,15 +1,19 @@
 """tmafm: contact dynamics of tapping-mode AFM, a Modern Fortran core with a thin Python layer.
 
 >>> import tmafm
->>> result = tmafm.run("inputs/fig2_n4.nml", solver={"tau_end": 10})
->>> result.vt.min() <= 0
+>>> result = tmafm.run("fig2_n4", solver={"tau_end": 10})
+>>> bool(result.vt.min() <= 0)
 True
 """
 
 from importlib.metadata import PackageNotFoundError, version as _version
 
-from ._run import SCENE_KEYS, Result, resolve, run
-from .errors import BlowUpError, InputError, InputFileError, SolverError, TmafmError
+from . import inputs
+from ._run import COUNTER_KEYS, SCENE_KEYS, Config, Result, resolve, run
+from ._model import POWER_NAMES, ContactState, Model
+from ._resultio import load
+from .errors import (BlowUpError, InputError, InputFileError, InputTypeError, SolverError,
+                     TmafmError)
 from ._exe import executable
 
 try:
@@ -17,5 +21,6 @@ try:
 except PackageNotFoundError:  # running from a source tree
     __version__ = "unknown"
 
-__all__ = ["run", "resolve", "Result", "SCENE_KEYS", "executable", "TmafmError", "InputError",
-           "InputFileError", "SolverError", "BlowUpError", "__version__"]
+__all__ = ["run", "resolve", "load", "Config", "Model", "Result", "ContactState", "inputs",
+           "SCENE_KEYS", "COUNTER_KEYS", "POWER_NAMES", "executable", "TmafmError", "InputError",
+           "InputTypeError", "InputFileError", "SolverError", "BlowUpError", "__version__"]

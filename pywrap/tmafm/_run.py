@@ -1,7 +1,9 @@
-"""Running a namelist through the Fortran core and returning numpy arrays.
+"""Configurations and runs held in memory: Python input -> namelist text -> the core -> numpy.
 
-No physics here: the input is handed to the core as a namelist file (written with
-f90nml when it comes as a dict), and the arrays come back from ``tmafm._core.run``.
+No physics here and no file on the way: a dict is checked and written as namelist text
+(``_namelist``), a path is read once, and the core parses the text (``tmafm_api``), runs it
+without the GIL, and hands the arrays back from its own memory.  The resolved input is parsed
+with f90nml only when ``.resolved`` is asked for.
 """
 
 from __future__ import annotations
@@ -9,91 +11,325 @@ from __future__ import annotations
 import copy
 import os
 import tempfile
-from dataclasses import dataclass, field
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Mapping, Union
+from typing import Union
 
 import f90nml
 import numpy as np
 
-from . import _core
-from .errors import InputError, InputFileError, raise_for
+from . import inputs as _inputs
+from ._fortran import api as _api
+from ._namelist import KEY_TYPES, check_groups, merge, to_text
+from .errors import InputError, InputFileError, InputTypeError, SolverError, raise_for
 
-__all__ = ["Result", "run", "resolve", "SCENE_KEYS"]
+__all__ = ["Config", "Result", "run", "resolve", "SCENE_KEYS", "COUNTER_KEYS"]
 
-#: The order of the dimensionless groups returned by the core.
+#: The dimensionless groups of a scene, in the core's order.
 SCENE_KEYS = ("alpha1", "alpha2", "alpha3", "alpha4", "alpha5", "alpha6", "beta", "omega",
               "theta", "l_over_d", "g0_over_d", "delta_hat", "xi0")
+#: The work counters of a run, in the core's order.
+COUNTER_KEYS = ("steps", "contact_steps", "rejected_steps", "rhs_evaluations", "phase_switches")
 
-NamelistLike = Union[str, os.PathLike, Mapping]
+NamelistLike = Union[str, os.PathLike, Mapping, "Config"]
 
 
-@dataclass
+def _input_path(nml) -> Path:
+    """An existing file, or the packaged input of that name; InputFileError otherwise."""
+    path = Path(nml)
+    if path.is_file():
+        return path
+    if path.exists():
+        raise InputFileError(f"input file '{path}' is not a regular file")
+    if path.suffix in ("", ".nml") and len(path.parts) == 1:
+        try:
+            return _inputs.path(path.name)
+        except InputFileError:
+            pass
+    raise InputFileError(f"input file '{path}' not found, and no packaged input has that name "
+                         f"(tmafm.inputs.names(): {', '.join(_inputs.names())})")
+
+
+def _read_text(path: Path) -> str:
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise InputFileError(f"input file '{path}' cannot be read: {exc.strerror}") from exc
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not a UTF-8 text file (byte {exc.start})") from exc
+
+
+def _check_known(groups: Mapping, what: str) -> None:
+    """Unknown keys are named here, against the input they came from."""
+    for group, values in groups.items():
+        for key in values:
+            if key not in KEY_TYPES[group]:
+                raise InputError(f"{what}: &{group} {key}: unknown key (known: "
+                                 f"{', '.join(KEY_TYPES[group])})")
+
+
+def _source(nml, overrides: Mapping) -> tuple[str, str]:
+    """(namelist text, label for messages) of any accepted input."""
+    if overrides:
+        overrides = check_groups(overrides, f"override {dict(overrides)!r}")
+        _check_known(overrides, f"override {dict(overrides)!r}")
+    if isinstance(nml, Config):
+        if not overrides:
+            return nml.text, nml.label
+        return to_text(merge(check_groups(nml.to_dict()), overrides)), f"{nml.label} + overrides"
+    if isinstance(nml, (str, os.PathLike)):
+        path = _input_path(nml)
+        text = _read_text(path)
+        if not overrides:
+            return text, str(path)
+        try:
+            base = f90nml.reads(text).todict()
+        except Exception as exc:  # f90nml raises assorted errors on malformed text
+            raise InputError(f"{path}: cannot parse namelist: {exc}") from exc
+        base = {g: dict(v) for g, v in base.items() if not g.startswith("_")}
+        return to_text(merge(check_groups(base, str(path)), overrides)), f"{path} + overrides"
+    if isinstance(nml, Mapping):
+        groups = check_groups(nml, "<dict input>")
+        _check_known(groups, "<dict input>")
+        return to_text(merge(groups, overrides)), "<dict input>"
+    raise InputTypeError(f"nml must be a path, a packaged input name, a dict of groups or a Config, "
+                     f"not {type(nml).__name__}")
+
+
+class Config:
+    """A validated, resolved input held in memory (the core's ``config_t``).
+
+    Build it from a namelist path, a packaged input name (``tmafm.inputs.names()``), a dict of
+    groups or another Config, plus overrides: ``Config("fig2_n4", solver={"tau_end": 10})``.
+    The input is read once; N is chosen here when ``&model n_modes = 0``.
+    """
+
+    def __init__(self, nml: NamelistLike = None, **overrides):
+        text, self.label = _source({} if nml is None else nml, overrides)
+        handle, ierr, errmsg = _api.config_from_text(text, self.label)
+        raise_for(ierr, errmsg)
+        self._f = handle
+        self._text = None
+        self._scene = None
+
+    @property
+    def n_modes(self) -> int:
+        """Number of Galerkin modes N (the chosen one when automatic)."""
+        return int(self._f.n_modes)
+
+    @property
+    def n_samples(self) -> int:
+        """Number of output samples a run gives."""
+        return int(_api.config_sample_count(self._f))
+
+    @property
+    def scene(self) -> dict:
+        """The dimensionless groups (also when the input gave &physical)."""
+        if self._scene is None:
+            s = self._f.scene
+            self._scene = {key: float(getattr(s, key)) for key in SCENE_KEYS}
+        return dict(self._scene)
+
+    @property
+    def text(self) -> str:
+        """The resolved input as namelist text (every key, defaults included)."""
+        if self._text is None:
+            codes = np.zeros(int(_api.config_text_length(self._f)), dtype=np.int32)
+            _api.config_text_codes(self._f, codes)
+            self._text = codes.astype(np.uint8).tobytes().decode("ascii", "replace")
+        return self._text
+
+    def to_namelist(self) -> f90nml.Namelist:
+        """The resolved input as an f90nml Namelist."""
+        return f90nml.reads(self.text)
+
+    def to_dict(self) -> dict:
+        """The resolved input as a dict of groups."""
+        return {g: dict(v) for g, v in self.to_namelist().todict(complex_tuple=False).items()
+                if not g.startswith("_")}
+
+    def write(self, path) -> Path:
+        """Write the resolved input to `path` (atomically: a temporary file, then a rename)."""
+        path = Path(path)
+        _atomic_write(path, self.text.encode("ascii"))
+        return path
+
+    def model(self):
+        """The model of this configuration (a tmafm.Model)."""
+        from ._model import Model
+        return Model(self)
+
+    def run(self, max_switches: int | None = None) -> "Result":
+        """Run this configuration; the GIL is released while the core integrates."""
+        handle, ierr, errmsg = _api.run_config(self._f)
+        raise_for(ierr, errmsg)
+        n_samples, n_modes, n_switches = _api.run_sizes(handle)
+        if max_switches is not None and n_switches > max_switches:
+            raise SolverError(f"the run changed phase {n_switches} times, more than "
+                              f"max_switches = {max_switches}")
+        tau, vt, vtdot = (np.empty(n_samples) for _ in range(3))
+        contact = np.empty(n_samples, dtype=np.int32)
+        a, adot = (np.empty((n_samples, n_modes), order="F") for _ in range(2))
+        _api.run_samples(handle, tau, vt, vtdot, contact, a, adot)
+        switches = np.empty(n_switches)
+        _api.run_switches(handle, switches)
+        counters = np.zeros(5, dtype=np.int64)
+        _api.run_counters(handle, counters)
+        return Result(tau=tau, vt=vt, vtdot=vtdot, contact=contact.astype(np.int8), a=a,
+                      adot=adot, counters=dict(zip(COUNTER_KEYS, map(int, counters))),
+                      switches=switches, config=self)
+
+    def __repr__(self) -> str:
+        return f"tmafm.Config({self.label!r}, n_modes={self.n_modes})"
+
+
+def _atomic_write(path: Path, data: bytes) -> None:
+    """Write `data` to a temporary file next to `path`, then rename it over `path`."""
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        fd, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=folder)
+    except OSError as exc:
+        raise InputFileError(f"cannot write '{path}': {exc.strerror}") from exc
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+        os.replace(temporary, path)
+    except BaseException:
+        try:
+            os.unlink(temporary)
+        except OSError:
+            pass
+        raise
+
+
 class Result:
-    """A sampled trajectory and the fully resolved input that produced it.
+    """A sampled trajectory and the resolved input that produced it.
 
     Arrays have one row per sample, at ``tau = k * sample_dtau``.  ``a`` and ``adot`` are
     samples x N (Fortran order).  ``contact`` is 1 where V_T <= 0 at the sample.
     ``switches`` holds the times of the phase changes: located switches for the located
     methods, and the step starts where the phase changed for ``rk4_paper``.
     ``counters`` has steps, contact_steps, rejected_steps, rhs_evaluations, phase_switches.
+    ``resolved`` (an f90nml Namelist) and ``scene`` are computed when first asked for.
     """
 
-    tau: np.ndarray
-    vt: np.ndarray
-    vtdot: np.ndarray
-    contact: np.ndarray
-    a: np.ndarray
-    adot: np.ndarray
-    resolved: f90nml.Namelist
-    scene: dict
-    counters: dict = field(default_factory=dict)
-    switches: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    def __init__(self, tau, vt, vtdot, contact, a, adot, resolved=None, scene=None,
+                 counters=None, switches=None, *, config: Config | None = None,
+                 resolved_text: str | None = None):
+        self.tau, self.vt, self.vtdot, self.contact, self.a, self.adot = (
+            tau, vt, vtdot, contact, a, adot)
+        self.counters = dict(counters or {})
+        self.switches = np.zeros(0) if switches is None else switches
+        self.config = config
+        self._resolved = resolved
+        self._scene = scene
+        self._resolved_text = resolved_text
 
     @property
     def n_modes(self) -> int:
         """Number of Galerkin modes N."""
         return self.a.shape[1]
 
+    @property
+    def resolved_text(self) -> str:
+        """The resolved input as namelist text."""
+        if self._resolved_text is None:
+            if self.config is not None:
+                self._resolved_text = self.config.text
+            elif self._resolved is not None:
+                self._resolved_text = str(self._resolved)
+            else:
+                raise AttributeError("this Result has no resolved input")
+        return self._resolved_text
 
-def _merge(base: Mapping, overrides: Mapping) -> dict:
-    """Groups of `base` patched key by key with those of `overrides`."""
-    merged = {}
-    for source in (base, overrides):
-        for group, values in source.items():
-            if not isinstance(values, Mapping):
-                raise InputError(f"&{group}: a group must be a dict of keys, got {values!r}")
-            merged.setdefault(str(group).lower(), {}).update(values)
-    return merged
+    @property
+    def resolved(self) -> f90nml.Namelist:
+        """The fully resolved input (an f90nml Namelist), parsed on first use."""
+        if self._resolved is None:
+            self._resolved = f90nml.reads(self.resolved_text)
+        return self._resolved
 
+    @resolved.setter
+    def resolved(self, value) -> None:
+        self._resolved = value
+
+    @property
+    def scene(self) -> dict:
+        """The dimensionless groups actually used (also when given in SI units)."""
+        if self._scene is None:
+            if self.config is not None:
+                self._scene = self.config.scene
+            else:
+                self._scene = _scene_of_text(self.resolved_text)
+        return self._scene
+
+    @scene.setter
+    def scene(self, value) -> None:
+        self._scene = value
+
+    def save(self, path):
+        """Save as .npz in the executable's binary layout (atomically); tmafm.load reads it."""
+        from ._resultio import save
+        return save(self, path)
+
+    def __repr__(self) -> str:
+        return (f"tmafm.Result({self.tau.size} samples, N = {self.n_modes}, "
+                f"tau in [0, {self.tau[-1] if self.tau.size else 0:g}])")
+
+
+def _scene_of_text(text: str) -> dict:
+    """The &scene of a resolved text; a &physical input carries it as derived comment lines."""
+    marker = "! derived by Eq. (12): "
+    lines = []
+    for line in text.splitlines():
+        stripped = line.lstrip()
+        lines.append(stripped[len(marker):] if stripped.startswith(marker) else line)
+    groups = f90nml.reads("\n".join(lines) + "\n")
+    scene = groups.get("scene", {})
+    return {key: float(scene[key]) for key in SCENE_KEYS if key in scene}
+
+
+def resolve(nml: NamelistLike, **overrides) -> tuple[f90nml.Namelist, dict]:
+    """Validate an input and return (the resolved namelist, the dimensionless scene).
+
+    ``overrides`` are groups to patch, e.g. ``resolve(path, solver={'tau_end': 5})``.
+    """
+    config = Config(nml, **overrides)
+    return config.to_namelist(), config.scene
+
+
+def run(nml: NamelistLike, max_switches: int | None = None, **overrides) -> Result:
+    """Run a namelist path, a packaged input name, a dict of groups or a Config; return a Result.
+
+    ``overrides`` patch groups, e.g. ``run('fig2_n4', solver={'tau_end': 10})``.  Nothing is
+    written to disk.  ``max_switches``, if given, is the most phase changes accepted.
+    Raises InputError (a ValueError) for bad values, InputFileError for a missing file
+    and BlowUpError when the integration diverges.
+    """
+    return Config(nml, **overrides).run(max_switches)
+
+
+# --- The file-based path of the flat _core entry points (used by tmafm._peer) ---------------
 
 class _NamelistFile:
-    """The namelist as a file path: the user's own file, or a temporary one written by f90nml."""
+    """The namelist as a file path for the flat ``_core`` entry points that take one."""
 
     def __init__(self, nml: NamelistLike, overrides: Mapping | None):
         self._temporary = None
         self.label = "<dict input>"
-        if isinstance(nml, (str, os.PathLike)):
-            path = Path(nml)
-            self.label = str(path)
-            if not path.is_file():
-                raise InputFileError(f"input file '{path}' not found")
-            if not overrides:
-                self.path = str(path)
-                return
-            try:
-                groups = f90nml.read(str(path))
-            except Exception as exc:  # f90nml raises assorted errors on malformed files
-                raise InputError(f"{path}: cannot parse namelist: {exc}") from exc
-        elif isinstance(nml, Mapping):
-            groups = copy.deepcopy(dict(nml))
-        else:
-            raise TypeError(f"nml must be a path or a dict of groups, not {type(nml).__name__}")
-        groups = _merge(groups, overrides or {})
+        if isinstance(nml, (str, os.PathLike)) and not overrides:
+            path = _input_path(nml)
+            self.label = self.path = str(path)
+            return
+        config = nml if isinstance(nml, Config) and not overrides else Config(
+            copy.deepcopy(nml) if isinstance(nml, Mapping) else nml, **(overrides or {}))
+        self.label = config.label
         handle = tempfile.NamedTemporaryFile("w", suffix=".nml", delete=False)
-        handle.close()
         self._temporary = handle.name
-        f90nml.write(f90nml.Namelist(groups), handle.name, force=True)
+        with handle:
+            handle.write(config.text)
         self.path = handle.name
 
     def check(self, ierr, errmsg) -> None:
@@ -111,40 +347,6 @@ class _NamelistFile:
 
 
 def _resolve_source(source: _NamelistFile):
-    with tempfile.TemporaryDirectory() as scratch:
-        resolved_file = os.path.join(scratch, "resolved.nml")
-        n_modes, n_samples, scene, ierr, errmsg = _core.resolve(source.path, resolved_file)
-        source.check(ierr, errmsg)
-        resolved = f90nml.read(resolved_file)
-    return int(n_modes), int(n_samples), dict(zip(SCENE_KEYS, map(float, scene))), resolved
-
-
-def resolve(nml: NamelistLike, **overrides) -> tuple[f90nml.Namelist, dict]:
-    """Validate an input and return (the resolved namelist, the dimensionless scene).
-
-    ``overrides`` are groups to patch, e.g. ``resolve(path, solver={'tau_end': 5})``.
-    """
-    with _NamelistFile(nml, overrides) as source:
-        _, _, scene, resolved = _resolve_source(source)
-    return resolved, scene
-
-
-def run(nml: NamelistLike, max_switches: int = 100_000, **overrides) -> Result:
-    """Run a namelist file (path) or a dict of groups, as f90nml gives, and return a Result.
-
-    ``overrides`` patch groups, e.g. ``run('inputs/fig2_n4.nml', solver={'tau_end': 10})``.
-    ``max_switches`` bounds the number of phase changes returned in ``Result.switches``.
-    Raises InputError (a ValueError) for bad values, InputFileError for a missing file
-    and BlowUpError when the integration diverges.
-    """
-    with _NamelistFile(nml, overrides) as source:
-        n_modes, n_samples, scene, resolved = _resolve_source(source)
-        (tau, vt, vtdot, contact, a, adot, switch_tau, counters, ierr, errmsg) = _core.run(
-            source.path, n_samples, n_modes, max_switches)
-        source.check(ierr, errmsg)
-    counters = dict(zip(("steps", "contact_steps", "rejected_steps", "rhs_evaluations",
-                         "phase_switches"), map(int, counters)))
-    return Result(
-        tau=tau, vt=vt, vtdot=vtdot, contact=contact.astype(np.int8), a=a, adot=adot,
-        resolved=resolved, scene=scene, counters=counters,
-        switches=np.array(switch_tau[:counters["phase_switches"]]))
+    """(N, samples, scene, resolved namelist) of a namelist file, through the core."""
+    config = Config(source.path)
+    return config.n_modes, config.n_samples, config.scene, config.to_namelist()

@@ -2,7 +2,7 @@
 in and out of contact, per-period contact measures and dissipation, and the harmonics of V_T.
 
 Everything works on a :class:`tmafm.Result`.  Array work is numpy; what needs the model
-(contact forces, powers, modal energy) comes from the Fortran core (``_core.energy_flow``),
+(contact forces, powers, modal energy) comes from the Fortran core (``tmafm.Model``),
 so no physics is written here.
 
 Definitions used throughout:
@@ -21,14 +21,11 @@ Definitions used throughout:
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 
-import f90nml
 import numpy as np
 
-from . import _core
-from .errors import raise_for
+from ._model import POWER_NAMES, Model
+from ._run import Config
 
 __all__ = ["drive_period", "sample_dtau_for", "poincare_sections", "section_distances",
            "default_tolerance", "state_scale",
@@ -36,8 +33,6 @@ __all__ = ["drive_period", "sample_dtau_for", "poincare_sections", "section_dist
            "energy_flow", "per_period", "energy_balance", "lockin", "harmonics", "summary",
            "POWER_NAMES"]
 
-#: The powers returned by the core, in order (tmafm_model energy_flow).
-POWER_NAMES = ("drive", "beam_damping", "contact_damping", "contact_normal", "contact_friction")
 
 
 def drive_period(result) -> float:
@@ -150,23 +145,25 @@ def steady_state(result, tol: float | None = None, max_period: int = 16, hold: i
     return {"reached": True, "tau": float(times[start]), "period": n, "tol": tol}
 
 
-def _namelist_file(result) -> str:
-    handle = tempfile.NamedTemporaryFile("w", suffix=".nml", delete=False)
-    handle.close()
-    f90nml.write(result.resolved, handle.name, force=True)
-    return handle.name
+def _model_of(result) -> Model:
+    """The model of a run: its own Config when it has one, else its resolved input (in memory)."""
+    if getattr(result, "config", None) is not None:
+        return Model(result.config)
+    groups = {g: dict(v) for g, v in result.resolved.todict(complex_tuple=False).items()
+              if not g.startswith("_")}
+    n = result.n_modes
+    groups.setdefault("model", {})["n_modes"] = n  # the N the run used (also when automatic)
+    initial = groups.setdefault("initial", {})
+    for key in ("a0", "adot0"):
+        values = list(np.atleast_1d(initial.get(key, [])))[:n]
+        initial[key] = values + [0.0] * (n - len(values))
+    return Model(Config(groups))
 
 
 def energy_flow(result) -> dict:
     """Per sample: the powers (POWER_NAMES), the modal energy, and the contact state."""
-    path = _namelist_file(result)
-    try:
-        power, energy, state, ierr, errmsg = _core.energy_flow(
-            path, result.tau, np.asfortranarray(result.a), np.asfortranarray(result.adot),
-            result.contact.astype(np.int32))
-    finally:
-        os.unlink(path)
-    raise_for(ierr, errmsg)
+    power, energy, state = _model_of(result).trajectory_energy_flow(
+        result.tau, result.a, result.adot, result.contact)
     out = {name: power[:, k] for k, name in enumerate(POWER_NAMES)}
     out["energy"] = energy
     for k, name in enumerate(("theta1", "radius", "normal_group", "friction_group", "p1", "p2")):

@@ -4,8 +4,8 @@ The Fortran core reports failures as an integer code and a one-line message
 (``fortran/src/base/tmafm_errors.f90``); :func:`raise_for` maps each code to one class.
 """
 
-__all__ = ["TmafmError", "InputError", "InputFileError", "BlowUpError", "SolverError",
-           "raise_for"]
+__all__ = ["TmafmError", "InputError", "InputTypeError", "InputFileError", "BlowUpError",
+           "SolverError", "raise_for"]
 
 
 class TmafmError(Exception):
@@ -14,6 +14,11 @@ class TmafmError(Exception):
 
 class InputError(TmafmError, ValueError):
     """A namelist key is unknown, a value has the wrong type, or a value is out of range."""
+
+
+class InputTypeError(InputError, TypeError):
+    """An argument is not of a type tmafm accepts (e.g. ``tmafm.run(42)``): an InputError that is
+    also the TypeError Python code expects."""
 
 
 class InputFileError(TmafmError, FileNotFoundError):

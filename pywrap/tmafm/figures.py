@@ -3,7 +3,9 @@ paper's scheme (rk4_paper) and with a located, error-controlled method (flight_e
 the `paper` convention; Figs. 2 and 6 also in `consistent`.  Also writes summary.json with
 the analysis of every case (tmafm.analysis.summary) and the basin scan of Figs. 4-5.
 
-    python -m tmafm.figures --out docs/figures [--inputs inputs] [--periods 100] [--basin 41]
+    python -m tmafm.figures --out docs/figures [--inputs FOLDER] [--periods 100] [--basin 41]
+
+The inputs are the packaged ones (tmafm.inputs) unless --inputs names a folder.
 
 Each run covers max(its own tau_end, `periods` drive periods), sampled 200 times a period;
 the analysis uses the second half of the run.
@@ -19,7 +21,9 @@ from pathlib import Path
 import numpy as np
 
 from . import analysis
-from ._run import resolve, run
+from . import inputs as packaged
+from ._extras import require
+from ._run import Config
 
 __all__ = ["main", "METHODS", "CASES"]
 
@@ -37,17 +41,17 @@ CASES = {
 }
 
 
-def simulate(inputs: Path, name: str, method: str, convention: str, periods: int, **extra):
+def simulate(inputs: Path | None, name: str, method: str, convention: str, periods: int, **extra):
     """One case, long enough for `periods` drive periods, 200 samples a period."""
-    resolved, scene = resolve(inputs / f"{name}.nml")
-    period = 2 * math.pi / scene["omega"]
-    tau_end = max(float(resolved["solver"]["tau_end"]), periods * period)
+    base = Config(packaged.path(name) if inputs is None else inputs / f"{name}.nml")
+    period = 2 * math.pi / base.scene["omega"]
+    tau_end = max(float(base.to_dict()["solver"]["tau_end"]), periods * period)
     tau_end = math.ceil(tau_end / period - 1e-9) * period
     groups = {"model": {"convention": convention}, "solver": {**METHODS[method], "tau_end": tau_end},
               "output": {"sample_dtau": period / 200}}
     for group, values in extra.items():
         groups.setdefault(group, {}).update(values)
-    return run(inputs / f"{name}.nml", **groups)
+    return Config(base, **groups).run()
 
 
 def _jsonable(x):
@@ -88,7 +92,7 @@ def _label_axes(ax_t, ax_p):
 
 
 def make_figures(inputs: Path, out: Path, periods: int, basin_points: int, progress=print) -> dict:
-    import matplotlib
+    matplotlib = require("matplotlib", "tmafm.figures")
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -205,7 +209,7 @@ def make_figures(inputs: Path, out: Path, periods: int, basin_points: int, progr
 def basin_scan(inputs: Path, out: Path, periods: int, points: int, progress=print) -> dict:
     """Figs. 4-5: classify the steady state for a1(0) on a fine grid in [0, 1e-3], with the
     located method, in both conventions."""
-    import matplotlib
+    matplotlib = require("matplotlib", "tmafm.figures")
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -239,7 +243,8 @@ def main(argv=None) -> None:
     """Command line: regenerate the figures and summary.json."""
     parser = argparse.ArgumentParser(description="Regenerate the paper's Figs. 2-7")
     parser.add_argument("--out", type=Path, default=Path("docs/figures"))
-    parser.add_argument("--inputs", type=Path, default=Path("inputs"))
+    parser.add_argument("--inputs", type=Path, default=None,
+                        help="folder of the figure inputs (default: the packaged inputs)")
     parser.add_argument("--periods", type=int, default=100, help="drive periods per run (at least)")
     parser.add_argument("--basin", type=int, default=41, help="points of the a1(0) scan (0: none)")
     args = parser.parse_args(argv)

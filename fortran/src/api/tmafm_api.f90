@@ -1,0 +1,171 @@
+!> Entry points of the Python package's object layer (f90wrap wraps this module together with
+!> the core's public types config_t, model_t, scene_t and trajectory_t).
+!>
+!> Everything works in memory: a configuration comes from namelist text, its resolved input
+!> goes back as text, and a run fills a trajectory_t that Python reads in place.  No physics
+!> here; every routine calls the library, returns ierr (tmafm_errors codes) and a one-line
+!> errmsg, and keeps no state between calls, so two threads may run two configurations at once.
+module tmafm_api
+   use tmafm_kinds, only: dp, i8
+   use tmafm_errors, only: ok, errmsg_len
+   use tmafm_settings, only: sample_count
+   use tmafm_config, only: config_t
+   use tmafm_contact, only: contact_brackets_t
+   use tmafm_model, only: model_t, n_powers
+   use tmafm_trajectory, only: trajectory_t
+   use tmafm_simulation, only: build_model, simulate, choose_mode_count
+   use tmafm_namelist, only: read_config_text, config_text
+   implicit none
+   private
+
+   public :: api_errmsg_len, run_t, config_from_text, config_sample_count, config_text_length, &
+      config_text_codes, model_of_config, run_config, run_sizes, run_samples, run_switches, &
+      run_counters, trajectory_energy_flow
+
+   !> Length of the error messages returned to Python.
+   integer, parameter :: api_errmsg_len = errmsg_len
+
+   !> The trajectory of one run, held for Python to copy out (run_sizes, run_samples, ...).
+   type :: run_t
+      private
+      type(trajectory_t) :: traj
+   end type run_t
+
+contains
+
+   !> Read and validate namelist text, and choose N when &model n_modes = 0.
+   subroutine config_from_text(text, source_label, config, ierr, errmsg)
+      character(len=*), intent(in) :: text
+      character(len=*), intent(in) :: source_label
+      type(config_t), intent(out) :: config
+      integer, intent(out) :: ierr
+      character(len=api_errmsg_len), intent(out) :: errmsg
+      call read_config_text(text, source_label, config, ierr, errmsg)
+      if (ierr == ok) call choose_mode_count(config, ierr, errmsg)
+   end subroutine config_from_text
+
+   !> Number of output samples of a configuration's run.
+   function config_sample_count(config) result(n)
+      type(config_t), intent(in) :: config
+      integer :: n
+      n = sample_count(config%solver)
+   end function config_sample_count
+
+   !> Number of characters of the resolved input text.
+   function config_text_length(config) result(n)
+      type(config_t), intent(in) :: config
+      integer :: n
+      n = len(config_text(config))
+   end function config_text_length
+
+   !> The resolved input text as character codes, into `codes` (sized by config_text_length).
+   subroutine config_text_codes(config, codes)
+      type(config_t), intent(in) :: config
+      integer, intent(inout) :: codes(:)
+      character(len=:), allocatable :: text
+      integer :: k
+      text = config_text(config)
+      codes = 0
+      do k = 1, min(len(text), size(codes))
+         codes(k) = iachar(text(k:k))
+      end do
+   end subroutine config_text_codes
+
+   !> The model of a configuration (its N already chosen).
+   subroutine model_of_config(config, model, ierr, errmsg)
+      type(config_t), intent(in) :: config
+      type(model_t), intent(out) :: model
+      integer, intent(out) :: ierr
+      character(len=api_errmsg_len), intent(out) :: errmsg
+      call build_model(config, model, ierr, errmsg)
+   end subroutine model_of_config
+
+   !> Run a configuration.  Python calls this without holding the GIL.
+   subroutine run_config(config, run, ierr, errmsg)
+      type(config_t), intent(in) :: config
+      type(run_t), intent(out) :: run
+      integer, intent(out) :: ierr
+      character(len=api_errmsg_len), intent(out) :: errmsg
+      call simulate(config, run%traj, ierr, errmsg)
+   end subroutine run_config
+
+   !> Sizes of a run's arrays: samples, modes and phase switches.
+   subroutine run_sizes(run, n_samples, n_modes, n_switches)
+      type(run_t), intent(in) :: run
+      integer, intent(out) :: n_samples
+      integer, intent(out) :: n_modes
+      integer, intent(out) :: n_switches
+      n_samples = 0
+      n_modes = 0
+      n_switches = run%traj%n_switches
+      if (allocated(run%traj%a)) then
+         n_samples = size(run%traj%a, 1)
+         n_modes = size(run%traj%a, 2)
+      end if
+   end subroutine run_sizes
+
+   !> Copy the samples into arrays sized by run_sizes (a and adot: samples x N).
+   subroutine run_samples(run, tau, vt, vtdot, contact, a, adot)
+      type(run_t), intent(in) :: run
+      real(dp), intent(inout) :: tau(:)
+      real(dp), intent(inout) :: vt(:)
+      real(dp), intent(inout) :: vtdot(:)
+      integer, intent(inout) :: contact(:)
+      real(dp), intent(inout) :: a(:, :)
+      real(dp), intent(inout) :: adot(:, :)
+      if (.not. allocated(run%traj%a)) return
+      if (size(tau) /= size(run%traj%tau) .or. any(shape(a) /= shape(run%traj%a))) return
+      tau = run%traj%tau
+      vt = run%traj%vt
+      vtdot = run%traj%vtdot
+      contact = run%traj%contact
+      a = run%traj%a
+      adot = run%traj%adot
+   end subroutine run_samples
+
+   !> Copy the times of the phase changes into an array sized by run_sizes.
+   subroutine run_switches(run, switch_tau)
+      type(run_t), intent(in) :: run
+      real(dp), intent(inout) :: switch_tau(:)
+      integer :: n
+      n = min(size(switch_tau), run%traj%n_switches)
+      switch_tau(1:n) = run%traj%switch_tau(1:n)
+   end subroutine run_switches
+
+   !> The work counters: steps, contact_steps, rejected_steps, rhs_evaluations, phase_switches.
+   subroutine run_counters(run, counters)
+      type(run_t), intent(in) :: run
+      integer(i8), intent(inout) :: counters(:)
+      counters = 0
+      counters(1:min(5, size(counters))) = [run%traj%steps, run%traj%contact_steps, &
+         run%traj%rejected_steps, run%traj%rhs_evaluations, int(run%traj%n_switches, i8)]
+   end subroutine run_counters
+
+   !> Along sampled states: the powers of model_t%energy_flow, the modal energy, and the contact
+   !> state [theta1, A, f_c, h, P1, P2] where contact(k) = 1 (zeros elsewhere).
+   subroutine trajectory_energy_flow(model, tau, a, adot, contact, power, energy, state)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: tau(:)
+      real(dp), intent(in) :: a(:, :)
+      real(dp), intent(in) :: adot(:, :)
+      integer, intent(in) :: contact(:)
+      real(dp), intent(inout) :: power(:, :)
+      real(dp), intent(inout) :: energy(:)
+      real(dp), intent(inout) :: state(:, :)
+      type(contact_brackets_t) :: s
+      integer :: k
+
+      power = 0
+      energy = 0
+      state = 0
+      do k = 1, size(tau)
+         call model%energy_flow(tau(k), a(k, :), adot(k, :), contact(k) == 1, power(k, 1:n_powers), &
+                                energy(k))
+         if (contact(k) == 1) then
+            s = model%contact(tau(k), a(k, :))
+            state(k, :) = [s%theta1, s%radius, s%normal, s%friction, s%transverse, s%axial]
+         end if
+      end do
+   end subroutine trajectory_energy_flow
+
+end module tmafm_api

@@ -1,0 +1,133 @@
+"""The equations of motion in Python's hands: a thin class over the core's ``model_t``.
+
+Every method calls the type-bound procedure of ``model_t`` that the integrators call
+(``fortran/src/physics/tmafm_model.f90``); no physics is written here.  The arrays of the model
+(p, s, q, G, M, ...) are returned as copies, so they never dangle.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from ._fortran import api as _api
+from ._run import Config
+from .errors import InputError, raise_for
+
+__all__ = ["Model", "ContactState", "POWER_NAMES"]
+
+#: The powers of Model.energy_flow, in the core's order (tmafm_model power_* indices).
+POWER_NAMES = ("drive", "beam_damping", "contact_damping", "contact_normal", "contact_friction")
+
+
+class ContactState(NamedTuple):
+    """The contact at one state: tip gap, angle, radius, force groups and the brackets of Eq. (11)."""
+
+    vt: float
+    theta1: float
+    radius: float
+    normal: float
+    friction: float
+    transverse: float
+    axial: float
+
+
+def _vector(name: str, value, size: int) -> np.ndarray:
+    array = np.ascontiguousarray(value, dtype=np.float64)
+    if array.shape != (size,):
+        raise InputError(f"{name} must have shape ({size},), got {array.shape}")
+    return array
+
+
+class Model:
+    """The model of an input: ``Model("fig2_n4")``, ``Model({"model": {"n_modes": 3}})``,
+    ``Model(path, model={"convention": "consistent"})`` or ``Model(config)``.
+
+    Properties (copies): n_modes, scene, beta (mode roots), tip (p = phi(xi0)),
+    slope (s = phi'(xi0)), integral (q), axial (G), mass (M), eigen (Lambda = beta^4).
+    """
+
+    def __init__(self, nml=None, **overrides):
+        config = nml if isinstance(nml, Config) and not overrides else Config(nml, **overrides)
+        handle, ierr, errmsg = _api.model_of_config(config._f)
+        raise_for(ierr, errmsg)
+        self.config = config
+        self._f = handle
+        self.n_modes = int(handle.n_modes)
+
+    @property
+    def scene(self) -> dict:
+        """The dimensionless groups."""
+        return self.config.scene
+
+    def _copy(self, name: str) -> np.ndarray:
+        return np.array(getattr(self._f, name), order="F", copy=True)
+
+    beta = property(lambda self: self._copy("beta"), doc="Mode roots beta_j.")
+    eigen = property(lambda self: self._copy("eigen"), doc="Modal stiffnesses Lambda = beta^4.")
+    tip = property(lambda self: self._copy("tip"), doc="p = phi(xi0), where the contact acts.")
+    slope = property(lambda self: self._copy("slope"), doc="s = phi'(xi0), the tip slopes.")
+    integral = property(lambda self: self._copy("integral"), doc="q = int_0^1 phi.")
+    axial = property(lambda self: self._copy("axial"), doc="G_ij = int phi_i phi_j''.")
+    mass = property(lambda self: self._copy("mass"), doc="M = I + alpha1 m m^T.")
+    mass_point = property(lambda self: self._copy("mass_point"), doc="m: where the tip mass sits.")
+    moment_shape = property(lambda self: self._copy("moment_shape"), doc="r: the moment shape.")
+    kappas = property(lambda self: (float(self._f.kappa5), float(self._f.kappa6)),
+                      doc="(kappa5, kappa6): the force scales of the brackets.")
+
+    def derivative(self, tau: float, y, in_contact: bool) -> np.ndarray:
+        """dy/dtau of the state y = (a, a') in a phase: (a', a''), length 2N."""
+        n = self.n_modes
+        y = _vector("y", y, 2 * n)
+        rate = np.zeros(2 * n)
+        self._f.derivative(float(tau), y, bool(in_contact), rate)
+        return rate
+
+    def matrices(self, tau: float, a, in_contact: bool):
+        """(M, C, K, F) of Eq. (15) at displacements a: M a'' + C a' + K a = F."""
+        n = self.n_modes
+        a = _vector("a", a, n)
+        mass, damping, stiffness = (np.zeros((n, n), order="F") for _ in range(3))
+        force = np.zeros(n)
+        self._f.matrices(float(tau), a, bool(in_contact), mass, damping, stiffness, force)
+        return mass, damping, stiffness, force
+
+    def contact(self, tau: float, a) -> ContactState:
+        """V_T and the contact state (theta1, radius A, f_c, h, P1, P2) at displacements a."""
+        n = self.n_modes
+        a = _vector("a", a, n)
+        vt = float(self._f.tip_gap(float(tau), a))
+        s = self._f.contact(float(tau), a)
+        return ContactState(vt, float(s.theta1), float(s.radius), float(s.normal),
+                            float(s.friction), float(s.transverse), float(s.axial))
+
+    def energy_flow(self, tau: float, a, adot, in_contact: bool) -> dict:
+        """The power of each generalized force (POWER_NAMES) and the modal energy ('energy')."""
+        n = self.n_modes
+        a = _vector("a", a, n)
+        adot = _vector("adot", adot, n)
+        power = np.zeros(len(POWER_NAMES))
+        energy = self._f.energy_flow(float(tau), a, adot, bool(in_contact), power)
+        out = dict(zip(POWER_NAMES, map(float, power)))
+        out["energy"] = float(energy)
+        return out
+
+    def trajectory_energy_flow(self, tau, a, adot, contact):
+        """Along samples: (powers samples x 5, energy, contact state samples x 6)."""
+        tau = np.ascontiguousarray(tau, dtype=np.float64)
+        k = tau.size
+        a = np.asfortranarray(a, dtype=np.float64)
+        adot = np.asfortranarray(adot, dtype=np.float64)
+        contact = np.ascontiguousarray(contact, dtype=np.int32)
+        if a.shape != (k, self.n_modes) or adot.shape != a.shape or contact.shape != (k,):
+            raise InputError(f"a and adot must be samples x N = ({k}, {self.n_modes}), and "
+                             f"contact of length {k}")
+        power = np.zeros((k, len(POWER_NAMES)), order="F")
+        energy = np.zeros(k)
+        state = np.zeros((k, 6), order="F")
+        _api.trajectory_energy_flow(self._f, tau, a, adot, contact, power, energy, state)
+        return power, energy, state
+
+    def __repr__(self) -> str:
+        return f"tmafm.Model({self.config.label!r}, n_modes={self.n_modes})"

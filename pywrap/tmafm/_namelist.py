@@ -1,0 +1,150 @@
+"""Python input -> namelist text, with every value's type checked before the core sees it.
+
+The core's strict parser is the second line of defence; this one gives Python users an
+InputError that names the group and key for what Python can tell on its own: None, bools
+where a number is expected, nested lists, strings where numbers are expected, non-finite
+numbers, unknown groups, non-dict groups, non-string keys.  Keys the core knows are typed by
+KEY_TYPES; any other key is passed on (as a number, string or list) and the core refuses it.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import re
+from collections.abc import Mapping
+
+import numpy as np
+
+from .errors import InputError
+
+__all__ = ["GROUPS", "KEY_TYPES", "check_groups", "merge", "to_text"]
+
+#: The namelist groups, in the order the text is written.
+GROUPS = ("model", "scene", "physical", "initial", "solver", "output")
+
+_REAL, _INT, _STR, _LIST = "real", "integer", "string", "list of reals"
+_PHYSICAL = ("length", "width", "thickness", "density", "youngs_modulus_tip", "poisson_ratio_tip",
+             "youngs_modulus_sample", "poisson_ratio_sample", "tip_radius", "adhesion_energy",
+             "tilt", "gap", "tip_length", "static_offset", "tip_position", "tip_mass",
+             "beam_damping", "contact_damping", "drive_amplitude", "drive_angular_frequency")
+_SCENE = ("alpha1", "alpha2", "alpha3", "alpha4", "alpha5", "alpha6", "beta", "omega", "theta",
+          "l_over_d", "g0_over_d", "delta_hat", "xi0")
+
+#: The type of every key the core knows: group -> key -> 'real' | 'integer' | 'string' | list.
+KEY_TYPES = {
+    "model": {"n_modes": _INT, "mode_tol": _REAL, "mode_horizon": _REAL, "contact_law": _STR,
+              "convention": _STR, "errata": _STR},
+    "scene": {key: _REAL for key in _SCENE},
+    "physical": {key: _REAL for key in _PHYSICAL},
+    "initial": {"a0": _LIST, "adot0": _LIST},
+    "solver": {"method": _STR, "dtau": _REAL, "contact_refine": _INT, "rtol": _REAL,
+               "atol": _REAL, "tau_end": _REAL, "blowup_limit": _REAL, "max_steps": _INT},
+    "output": {"file": _STR, "sample_dtau": _REAL, "format": _STR},
+}
+
+_KEY = re.compile(r"[a-z][a-z0-9_]*\Z")
+
+
+def _is_real(value) -> bool:
+    return isinstance(value, (numbers.Real, np.floating, np.integer)) and not isinstance(
+        value, (bool, np.bool_))
+
+
+def _is_int(value) -> bool:
+    return isinstance(value, (numbers.Integral, np.integer)) and not isinstance(
+        value, (bool, np.bool_))
+
+
+def _real_text(where: str, value) -> str:
+    number = float(value)
+    if not math.isfinite(number):
+        raise InputError(f"{where} = {value!r}: must be a finite number")
+    return repr(number)
+
+
+def _value_text(group: str, key: str, value) -> str:
+    """The namelist text of one value, after the type checks."""
+    where = f"&{group} {key}"
+    kind = KEY_TYPES.get(group, {}).get(key)
+    if value is None:
+        raise InputError(f"{where} = None: give a value (or leave the key out for its default)")
+    if isinstance(value, (bool, np.bool_)):
+        raise InputError(f"{where} = {value!r}: a bool is not a {kind or 'value'} here")
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, (list, tuple)):
+        if kind not in (_LIST, None):
+            raise InputError(f"{where} = {value!r}: must be one {kind}, not a list")
+        if not value:
+            raise InputError(f"{where} = []: give at least one value (or leave the key out)")
+        for item in value:
+            if isinstance(item, (list, tuple, np.ndarray, Mapping)):
+                raise InputError(f"{where} = {value!r}: nested lists are not allowed")
+            if not _is_real(item):
+                raise InputError(f"{where} = {value!r}: every entry must be a number, "
+                                 f"got {item!r}")
+        return ", ".join(_real_text(where, item) for item in value)
+    if isinstance(value, str):
+        if kind in (_REAL, _INT, _LIST):
+            raise InputError(f"{where} = {value!r}: must be a {kind}, not a string")
+        if any(ch in value for ch in "\n\r\0"):
+            raise InputError(f"{where} = {value!r}: a string must be one line")
+        return "'" + value.replace("'", "''") + "'"
+    if _is_int(value):
+        if kind == _STR:
+            raise InputError(f"{where} = {value!r}: must be a quoted string, not a number")
+        return str(int(value))
+    if _is_real(value):
+        if kind == _STR:
+            raise InputError(f"{where} = {value!r}: must be a quoted string, not a number")
+        if kind == _INT:
+            raise InputError(f"{where} = {value!r}: must be an integer")
+        return _real_text(where, value)
+    raise InputError(f"{where} = {value!r}: a {type(value).__name__} is not a namelist value")
+
+
+def check_groups(groups, what: str = "input") -> dict:
+    """Validate the shape of a dict of groups; return it with lower-case names (a new dict)."""
+    if not isinstance(groups, Mapping):
+        raise InputError(f"{what}: must be a dict of groups, not {type(groups).__name__}")
+    checked: dict = {}
+    for group, values in groups.items():
+        if not isinstance(group, str):
+            raise InputError(f"{what}: group names must be strings, got {group!r}")
+        name = group.lower()
+        if name not in GROUPS:
+            raise InputError(f"{what}: unknown namelist group &{group} "
+                             f"(known: {', '.join('&' + g for g in GROUPS)})")
+        if not isinstance(values, Mapping):
+            raise InputError(f"{what}: &{name} must be a dict of keys, not {values!r}")
+        target = checked.setdefault(name, {})
+        for key, value in values.items():
+            if not isinstance(key, str):
+                raise InputError(f"{what}: &{name}: key names must be strings, got {key!r}")
+            low = key.lower()
+            if not _KEY.match(low):
+                raise InputError(f"{what}: &{name} key {key!r} is not a namelist name")
+            target[low] = value
+    return checked
+
+
+def merge(base: Mapping, overrides: Mapping) -> dict:
+    """Groups of `base` patched key by key with those of `overrides` (both already checked)."""
+    merged = {group: dict(values) for group, values in base.items()}
+    for group, values in overrides.items():
+        merged.setdefault(group, {}).update(values)
+    return merged
+
+
+def to_text(groups: Mapping) -> str:
+    """Namelist text of checked groups; raises InputError naming the group and key of a bad value."""
+    lines = []
+    for group in GROUPS:
+        if group not in groups:
+            continue
+        lines.append(f"&{group}")
+        for key, value in groups[group].items():
+            lines.append(f"    {key} = {_value_text(group, key, value)}")
+        lines.append("/")
+    return "\n".join(lines) + "\n"

@@ -16,24 +16,24 @@ CASES = {
     "n_modes_too_many": ("&model n_modes = 31 /\n", ["n_modes", "31", "1..30"], INPUT_ERROR),
     "n_modes_negative": ("&model n_modes = -1 /\n", ["n_modes", "-1", "1..30"], INPUT_ERROR),
     "mode_tol_zero": ("&model n_modes = 0, mode_tol = 0 /\n", ["mode_tol", "> 0.0E+000"], INPUT_ERROR),
-    "rtol_too_small": ("&solver rtol = 1e-20 /\n", ["rtol", "1.0E-020", ">= 1.0E-015"], INPUT_ERROR),
-    "atol_negative": ("&solver atol = -1 /\n", ["atol", "-1.0E+000"], INPUT_ERROR),
-    "wrong_type_integer": ("&model n_modes = 'four' /\n", ["&model"], INPUT_ERROR),
-    "wrong_type_real": ("&scene alpha3 = 'x' /\n", ["&scene"], INPUT_ERROR),
-    "negative_damping": ("&scene alpha3 = -0.4 /\n", ["alpha3", "-4.0E-001", ">= 0"], INPUT_ERROR),
-    "tilt_too_large": ("&scene theta = 2.0 /\n", ["theta", "2.0E+000", "< 1.57"], INPUT_ERROR),
-    "xi0_outside_beam": ("&scene xi0 = 1.5 /\n", ["xi0", "1.5E+000", "<= 1.0E+000"], INPUT_ERROR),
+    "rtol_too_small": ("&solver rtol = 1e-20 /\n", ["rtol = 1e-20", ">= 1.0E-015"], INPUT_ERROR),
+    "atol_negative": ("&solver atol = -1 /\n", ["atol = -1:"], INPUT_ERROR),
+    "wrong_type_integer": ("&model n_modes = 'four' /\n", ["&model n_modes = 'four'", "integer"], INPUT_ERROR),
+    "wrong_type_real": ("&scene alpha3 = 'x' /\n", ["&scene alpha3 = 'x'", "number"], INPUT_ERROR),
+    "negative_damping": ("&scene alpha3 = -0.4 /\n", ["alpha3 = -0.4:", ">= 0"], INPUT_ERROR),
+    "tilt_too_large": ("&scene theta = 2.0 /\n", ["theta = 2.0:", "< 1.57"], INPUT_ERROR),
+    "xi0_outside_beam": ("&scene xi0 = 1.5 /\n", ["xi0 = 1.5:", "<= 1.0E+000"], INPUT_ERROR),
     "beta_zero": ("&scene beta = 0.0 /\n", ["beta", "> 0.0E+000"], INPUT_ERROR),
-    "nan_value": ("&scene alpha2 = NaN /\n", ["alpha2", "NaN", "finite"], INPUT_ERROR),
+    "nan_value": ("&scene alpha2 = NaN /\n", ["alpha2 = NaN:", "finite"], INPUT_ERROR),
     "bad_law": ("&model contact_law = 'jkr' /\n", ["contact_law", "'jkr'", "'hertz' or 'dmt'"], INPUT_ERROR),
     "bad_convention": ("&model convention = 'mine' /\n", ["convention", "'mine'"], INPUT_ERROR),
     "bad_errata": ("&model errata = 'E5' /\n", ["errata", "'E5'"], INPUT_ERROR),
     "bad_method": ("&solver method = 'euler' /\n", ["method", "'euler'", "rk4_paper", "flight_exact"], INPUT_ERROR),
-    "negative_dtau": ("&solver dtau = -1e-3 /\n", ["dtau", "-1.0E-003"], INPUT_ERROR),
+    "negative_dtau": ("&solver dtau = -1e-3 /\n", ["dtau = -1e-3:"], INPUT_ERROR),
     "refine_zero": ("&solver contact_refine = 0 /\n", ["contact_refine", "0"], INPUT_ERROR),
-    "tau_end_zero": ("&solver tau_end = 0 /\n", ["tau_end", "0.0E+000"], INPUT_ERROR),
+    "tau_end_zero": ("&solver tau_end = 0 /\n", ["tau_end = 0:"], INPUT_ERROR),
     "sample_above_end": ("&solver tau_end = 1.0 /\n&output sample_dtau = 2.0 /\n",
-                         ["sample_dtau", "2.0E+000"], INPUT_ERROR),
+                         ["sample_dtau = 2.0:"], INPUT_ERROR),
     "empty_file_name": ("&output file = '' /\n", ["file", "must name a file"], INPUT_ERROR),
     "a0_too_short": ("&model n_modes = 3 /\n&initial a0 = 1e-4, 0 /\n",
                      ["a0", "2 values", "n_modes = 3"], INPUT_ERROR),
@@ -43,7 +43,7 @@ CASES = {
                        ["adot0", "1 values", "n_modes = 2"], INPUT_ERROR),
     "scene_and_physical": ("&scene alpha1 = 0.05 /\n&physical length = 3e-4 /\n",
                            ["&scene", "&physical"], INPUT_ERROR),
-    "physical_negative_length": ("&physical length = -1 /\n", ["length", "-1.0E+000"], INPUT_ERROR),
+    "physical_negative_length": ("&physical length = -1 /\n", ["length = -1:"], INPUT_ERROR),
     "repeated_group": ("&model n_modes = 2 /\n&model n_modes = 3 /\n", ["&model", "twice"], INPUT_ERROR),
 }
 
@@ -95,7 +95,7 @@ def test_unwritable_output(tmp_path, run_exe):
 
 
 def test_python_dict_errors_name_the_key_not_a_temporary_file():
-    with pytest.raises(tmafm.InputError, match=r"^<dict input>: &scene alpha3 = -1.0E\+000"):
+    with pytest.raises(tmafm.InputError, match=r"^<dict input>: &scene alpha3 = -1\.0: must be finite"):
         tmafm.run({"scene": {"alpha3": -1.0}})
 
 

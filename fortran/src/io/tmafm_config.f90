@@ -7,7 +7,11 @@ module tmafm_config
    implicit none
    private
 
-   public :: config_t, path_len
+   public :: config_t, path_len, output_formats
+
+   !> The values &output format accepts: 'text' (columns after '#' header lines) or 'npy'
+   !> (the binary format).
+   character(len=*), parameter :: output_formats(*) = [character(len=8) :: 'text', 'npy']
 
    !> Longest file path tmafm accepts.
    integer, parameter :: path_len = 1024
@@ -49,6 +53,8 @@ module tmafm_config
       type(run_settings_t) :: solver
       !> &output file: where the executable writes the trajectory.
       character(len=path_len) :: output_file = 'tmafm_output.dat'
+      !> &output format: 'text' (default) or 'npy'.
+      character(len=16) :: output_format = 'text'
    end type config_t
 
 end module tmafm_config

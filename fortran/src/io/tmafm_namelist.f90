@@ -1,75 +1,137 @@
-!> Namelist input: read, validate and echo the groups &model, &scene, &physical,
-!> &initial, &solver and &output.
+!> Namelist input: read, type-check and validate the groups &model, &scene, &physical,
+!> &initial, &solver and &output; write the resolved input back as namelist text.
 !>
-!> Each group is read into locals that start at the defaults of config_t, after a
-!> rewind, so groups may come in any order and any may be absent.  Every key is then
-!> validated once, here, with a one-line message naming the group, key, value and range.
+!> No Fortran `read(nml=)`: the whole input is read into memory (tmafm_input_file), parsed
+!> by tmafm_nml_syntax, and every entry is taken here with its type checked against its key
+!> (an integer key takes only an integer, a real key an integer or a real, a string key only a
+!> quoted string, a scalar key exactly one value).  Unknown, repeated or unused groups and keys
+!> are errors.  Each error is one line:
+!>    <source>: &group key = <value as written>: <what is wrong> (line N)
+!> After the keys, the derived quantities are checked before any run starts: the groups of
+!> Eq. (12) from &physical, the sample count and trajectory memory, and the worst-case step
+!> count of fixed-step methods against &solver max_steps.
 module tmafm_namelist
-   use, intrinsic :: iso_fortran_env, only: iostat_end
-   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_quiet_nan, ieee_is_nan
-   use tmafm_kinds, only: dp
-   use tmafm_errors, only: ok, err_input, err_file
+   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_quiet_nan, &
+      ieee_positive_inf, ieee_negative_inf
+   use tmafm_kinds, only: dp, i8
+   use tmafm_errors, only: ok, err_input
+   use tmafm_text, only: real_text, int_text, lower, short_real_text
    use tmafm_modes, only: max_modes
-   use tmafm_scene, only: scene_t, physical_t, scene_from_physical
-   use tmafm_settings, only: run_settings_t, method_rk4_paper, method_rk4_event, method_dopri5, &
-      method_flight_exact, known_methods, sample_count
+   use tmafm_scene, only: scene_t, physical_t, scene_from_physical, scene_names, scene_values, &
+      scene_lower, scene_upper, scene_lower_closed, scene_upper_open, physical_names, &
+      physical_values, scene_depends_on
+   use tmafm_settings, only: run_settings_t, is_known_method, method_choices, check_run_size, &
+      max_max_steps
    use tmafm_errata, only: errata_t, errata_for_convention, parse_errata, errata_label
-   use tmafm_config, only: config_t
+   use tmafm_config, only: config_t, output_formats
+   use tmafm_nml_syntax, only: nml_document_t, nml_group_t, nml_entry_t, nml_value_t, &
+      parse_namelist, value_integer, value_real, value_logical, value_string, value_word, &
+      value_kind_name, value_other
+   use tmafm_input_file, only: read_text_file
    implicit none
    private
 
-   public :: read_config, write_config, config_errata, real_text
+   public :: read_config, read_config_text, write_config, config_text, config_errata, real_text
 
    !> The namelist groups tmafm knows.
    character(len=*), parameter :: known_groups(6) = &
       [character(len=8) :: 'model', 'scene', 'physical', 'initial', 'solver', 'output']
-   !> The most output samples one run may ask for.
-   integer, parameter :: max_samples = 50000000
+   character(len=*), parameter :: model_keys = &
+      'n_modes, mode_tol, mode_horizon, contact_law, convention, errata'
+   character(len=*), parameter :: initial_keys = 'a0, adot0'
+   character(len=*), parameter :: solver_keys = &
+      'method, dtau, contact_refine, rtol, atol, tau_end, blowup_limit, max_steps'
+   character(len=*), parameter :: output_keys = 'file, sample_dtau, format'
+   real(dp), parameter :: half_pi = acos(-1.0_dp)/2
+
+   !> What an error message needs to name the place: the source and the group.
+   type :: place_t
+      character(len=:), allocatable :: label
+      character(len=:), allocatable :: group
+   end type place_t
 
 contains
 
-   !> Read and validate the namelist file `path` into `config`.
+   !> Read and validate the namelist file `path` into `config` (the whole file is read first;
+   !> pipes work).  A file problem gives err_file, an input problem err_input.
    subroutine read_config(path, config, ierr, errmsg)
       character(len=*), intent(in) :: path
       type(config_t), intent(out) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
-      logical :: exists, present_groups(size(known_groups))
-      integer :: unit, iostat
+      character(len=:), allocatable :: text
 
+      call read_text_file(path, text, ierr, errmsg)
+      if (ierr /= ok) return
+      call read_config_text(text, trim(path), config, ierr, errmsg)
+   end subroutine read_config
+
+   !> Parse and validate namelist `text` (lines separated by new_line('a')) into `config`;
+   !> `source_label` names the input in messages (a path, or e.g. '<dict input>').
+   subroutine read_config_text(text, source_label, config, ierr, errmsg)
+      character(len=*), intent(in) :: text
+      character(len=*), intent(in) :: source_label
+      type(config_t), intent(out) :: config
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      type(nml_document_t) :: doc
+      integer :: where(size(known_groups)), g, k
+
+      call parse_namelist(text, source_label, doc, ierr, errmsg)
+      if (ierr /= ok) return
+      ierr = err_input
+      where = 0
+      do g = 1, doc%n_groups
+         k = index_of(known_groups, doc%groups(g)%name)
+         if (k == 0) then
+            errmsg = source_label//': unknown namelist group &'//doc%groups(g)%name//' at line '// &
+                     int_text(doc%groups(g)%line)//' (known: &model, &scene, &physical, '// &
+                     '&initial, &solver, &output)'
+            return
+         end if
+         if (where(k) /= 0) then
+            errmsg = source_label//': namelist group &'//doc%groups(g)%name//' appears twice '// &
+                     '(lines '//int_text(doc%groups(where(k))%line)//' and '// &
+                     int_text(doc%groups(g)%line)//')'
+            return
+         end if
+         where(k) = g
+      end do
+      if (doc%n_groups == 0) then
+         errmsg = source_label//': no namelist group found (an empty input is refused; '// &
+                  'write &model / to run every default)'
+         return
+      end if
+      if (where(2) /= 0 .and. where(3) /= 0) then
+         errmsg = source_label//': give either &scene or &physical, not both'
+         return
+      end if
       ierr = ok
       errmsg = ''
-      inquire (file=path, exist=exists)
-      if (.not. exists) then
-         ierr = err_file
-         errmsg = 'input file '''//trim(path)//''' not found'
-         return
-      end if
-      open (newunit=unit, file=path, status='old', action='read', iostat=iostat)
-      if (iostat /= 0) then
-         ierr = err_file
-         errmsg = 'input file '''//trim(path)//''' cannot be opened'
-         return
-      end if
 
-      call scan_groups(unit, path, present_groups, ierr, errmsg)
-      if (ierr == ok) call read_model(unit, path, config, ierr, errmsg)
-      if (ierr == ok) then
-         if (present_groups(2) .and. present_groups(3)) then
-            ierr = err_input
-            errmsg = trim(path)//': give either &scene or &physical, not both'
-         end if
+      if (where(1) /= 0) call read_model(place(1), doc%groups(where(1)), config, ierr, errmsg)
+      if (ierr /= ok) return
+      if (where(3) /= 0) then
+         call read_physical(place(3), doc%groups(where(3)), config, ierr, errmsg)
+      else if (where(2) /= 0) then
+         call read_scene(place(2), doc%groups(where(2)), config, ierr, errmsg)
       end if
-      if (ierr == ok .and. present_groups(3)) then
-         call read_physical(unit, path, config, ierr, errmsg)
-      else if (ierr == ok) then
-         call read_scene(unit, path, config, ierr, errmsg)
-      end if
-      if (ierr == ok) call read_initial(unit, path, config, ierr, errmsg)
-      if (ierr == ok) call read_solver(unit, path, config, ierr, errmsg)
-      if (ierr == ok) call read_output(unit, path, config, ierr, errmsg)
-      close (unit)
-   end subroutine read_config
+      if (ierr /= ok) return
+      if (where(4) /= 0) call read_initial(place(4), doc%groups(where(4)), config, ierr, errmsg)
+      if (ierr /= ok) return
+      if (where(5) /= 0) call read_solver(place(5), doc%groups(where(5)), config, ierr, errmsg)
+      if (ierr /= ok) return
+      if (where(6) /= 0) call read_output(place(6), doc%groups(where(6)), config, ierr, errmsg)
+      if (ierr /= ok) return
+      call check_derived(source_label, doc, where, config, ierr, errmsg)
+   contains
+      function place(k) result(p)
+         integer, intent(in) :: k
+         type(place_t) :: p
+         p%label = source_label
+         p%group = trim(known_groups(k))
+      end function place
+   end subroutine read_config_text
 
    !> The corrections a config asks for (its resolved &model errata list).
    pure function config_errata(config) result(errata)
@@ -80,123 +142,75 @@ contains
       call parse_errata(config%errata, errata, ierr, bad)
    end function config_errata
 
-   !> Find every group name in the file; an unknown or repeated group is an error.
-   subroutine scan_groups(unit, path, present_groups, ierr, errmsg)
-      integer, intent(in) :: unit
-      character(len=*), intent(in) :: path
-      logical, intent(out) :: present_groups(:)
-      integer, intent(out) :: ierr
-      character(len=*), intent(out) :: errmsg
-      character(len=4096) :: line
-      character(len=64) :: name
-      integer :: iostat, first, last, k, line_number
+   ! --- the groups -------------------------------------------------------------------------
 
-      ierr = ok
-      present_groups = .false.
-      line_number = 0
-      do
-         read (unit, '(a)', iostat=iostat) line
-         if (iostat /= 0) exit
-         line_number = line_number + 1
-         line = adjustl(line)
-         if (line(1:1) /= '&' .and. line(1:1) /= '$') cycle
-         first = 2
-         last = scan(line(first:), ' ,/!'//achar(9))
-         if (last == 0) then
-            last = len_trim(line)
-         else
-            last = first + last - 2
-         end if
-         name = lower(line(first:last))
-         if (name == 'end' .or. len_trim(name) == 0) cycle
-         k = findloc(known_groups, trim(name), dim=1)
-         if (k == 0) then
-            ierr = err_input
-            write (errmsg, '(5a,i0,a)') trim(path), ': unknown namelist group &', trim(name), &
-               ' (known: &model, &scene, &physical, &initial, &solver, &output)', &
-               ' at line ', line_number, ''
-            return
-         end if
-         if (present_groups(k)) then
-            ierr = err_input
-            errmsg = trim(path)//': namelist group &'//trim(name)//' appears twice'
-            return
-         end if
-         present_groups(k) = .true.
-      end do
-      rewind (unit)
-   end subroutine scan_groups
-
-   !> Turn a namelist read status into ierr/errmsg; an absent group (end of file) is fine.
-   subroutine check_read(iostat, iomsg, path, group, ierr, errmsg)
-      integer, intent(in) :: iostat
-      character(len=*), intent(in) :: iomsg
-      character(len=*), intent(in) :: path
-      character(len=*), intent(in) :: group
-      integer, intent(out) :: ierr
-      character(len=*), intent(out) :: errmsg
-      ierr = ok
-      errmsg = ''
-      if (iostat == 0 .or. iostat == iostat_end) return
-      ierr = err_input
-      errmsg = trim(path)//': &'//group//': '//trim(iomsg)// &
-               ' (unknown key, or a value of the wrong type)'
-   end subroutine check_read
-
-   subroutine read_model(unit, path, config, ierr, errmsg)
-      integer, intent(in) :: unit
-      character(len=*), intent(in) :: path
+   subroutine read_model(p, g, config, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_group_t), intent(in) :: g
       type(config_t), intent(inout) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
-      integer :: n_modes, iostat
+      integer(i8) :: n_modes
       real(dp) :: mode_tol, mode_horizon
-      character(len=64) :: contact_law, convention, errata
-      character(len=256) :: iomsg
+      character(len=:), allocatable :: contact_law, convention, errata
       type(errata_t) :: parsed
       character(len=64) :: bad
-      namelist /model/ n_modes, contact_law, convention, errata, mode_tol, mode_horizon
+      integer :: k
 
       n_modes = config%n_modes
       mode_tol = config%mode_tol
       mode_horizon = config%mode_horizon
-      contact_law = config%contact_law
-      convention = config%convention
-      errata = config%errata
-      rewind (unit)
-      read (unit, nml=model, iostat=iostat, iomsg=iomsg)
-      call check_read(iostat, iomsg, path, 'model', ierr, errmsg)
+      contact_law = trim(config%contact_law)
+      convention = trim(config%convention)
+      errata = trim(config%errata)
+      call check_repeats(p, g, ierr, errmsg)
+      do k = 1, g%n_entries
+         if (ierr /= ok) return
+         associate (e => g%entries(k))
+            select case (e%key)
+            case ('n_modes')
+               call get_integer(p, e, n_modes, ierr, errmsg)
+               if (ierr == ok .and. (n_modes < 0 .or. n_modes > max_modes)) then
+                  call key_error(p, e, 'must be in 1..'//int_text(max_modes)// &
+                                 ' (or 0 to choose N by mode_tol)', ierr, errmsg)
+               end if
+            case ('mode_tol')
+               call get_real(p, e, mode_tol, ierr, errmsg)
+               call check_range(p, e, mode_tol, 0.0_dp, 1.0_dp, .false., .false., ierr, errmsg)
+            case ('mode_horizon')
+               call get_real(p, e, mode_horizon, ierr, errmsg)
+               call check_range(p, e, mode_horizon, 0.0_dp, 1.0e4_dp, .false., .false., ierr, errmsg)
+            case ('contact_law')
+               call get_string(p, e, len(config%contact_law), contact_law, ierr, errmsg)
+               contact_law = lower(trim(adjustl(contact_law)))
+               if (ierr == ok .and. contact_law /= 'hertz' .and. contact_law /= 'dmt') then
+                  call key_error(p, e, "must be 'hertz' or 'dmt'", ierr, errmsg)
+               end if
+            case ('convention')
+               call get_string(p, e, len(config%convention), convention, ierr, errmsg)
+               convention = lower(trim(adjustl(convention)))
+               if (ierr == ok .and. convention /= 'paper' .and. convention /= 'consistent') then
+                  call key_error(p, e, "must be 'paper' or 'consistent'", ierr, errmsg)
+               end if
+            case ('errata')
+               call get_string(p, e, len(config%errata), errata, ierr, errmsg)
+               if (ierr == ok .and. lower(trim(adjustl(errata))) /= 'convention') then
+                  call parse_errata(errata, parsed, ierr, bad)
+                  if (ierr /= ok) call key_error(p, e, "must be 'convention', 'all', 'none' "// &
+                                                 'or a list of E1,E2,E3,E4,E6,E7', ierr, errmsg)
+               end if
+            case default
+               call unknown_key(p, e, model_keys, ierr, errmsg)
+            end select
+         end associate
+      end do
       if (ierr /= ok) return
-
-      contact_law = lower(adjustl(contact_law))
-      convention = lower(adjustl(convention))
-      call check_range(path, 'model', 'mode_tol', mode_tol, 0.0_dp, 1.0_dp, .false., ierr, errmsg)
-      call check_range(path, 'model', 'mode_horizon', mode_horizon, 0.0_dp, 1.0e4_dp, .false., &
-                       ierr, errmsg)
-      if (ierr /= ok) return
-      if (n_modes < 0 .or. n_modes > max_modes) then
-         write (errmsg, '(2a,i0,a,i0,a)') trim(path), ': &model n_modes = ', n_modes, &
-            ': must be in 1..', max_modes, ' (or 0 to choose N by mode_tol)'
-         ierr = err_input
-      else if (contact_law /= 'hertz' .and. contact_law /= 'dmt') then
-         call choice_error(path, 'model', 'contact_law', contact_law, "'hertz' or 'dmt'", ierr, errmsg)
-      else if (convention /= 'paper' .and. convention /= 'consistent') then
-         call choice_error(path, 'model', 'convention', convention, "'paper' or 'consistent'", &
-                           ierr, errmsg)
-      end if
-      if (ierr /= ok) return
-
-      if (lower(adjustl(errata)) == 'convention') then
+      if (lower(trim(adjustl(errata))) == 'convention') then
          parsed = errata_for_convention(convention)
       else
          call parse_errata(errata, parsed, ierr, bad)
-         if (ierr /= ok) then
-            call choice_error(path, 'model', 'errata', errata, &
-               "'convention', 'all', 'none' or a list of E1,E2,E3,E4,E6,E7", ierr, errmsg)
-            return
-         end if
       end if
-      config%n_modes = n_modes
+      config%n_modes = int(n_modes)
       config%auto_modes = n_modes == 0
       config%mode_tol = mode_tol
       config%mode_horizon = mode_horizon
@@ -205,479 +219,779 @@ contains
       config%errata = errata_label(parsed)
    end subroutine read_model
 
-   subroutine read_scene(unit, path, config, ierr, errmsg)
-      integer, intent(in) :: unit
-      character(len=*), intent(in) :: path
+   subroutine read_scene(p, g, config, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_group_t), intent(in) :: g
       type(config_t), intent(inout) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
-      real(dp) :: alpha1, alpha2, alpha3, alpha4, alpha5, alpha6, beta, omega, theta
-      real(dp) :: l_over_d, g0_over_d, delta_hat, xi0
-      real(dp), parameter :: half_pi = acos(-1.0_dp)/2
-      integer :: iostat
-      character(len=256) :: iomsg
-      namelist /scene/ alpha1, alpha2, alpha3, alpha4, alpha5, alpha6, beta, omega, theta, &
-         l_over_d, g0_over_d, delta_hat, xi0
+      real(dp) :: values(size(scene_names))
+      integer :: k, j
 
-      associate (s => config%scene)
-         alpha1 = s%alpha1; alpha2 = s%alpha2; alpha3 = s%alpha3; alpha4 = s%alpha4
-         alpha5 = s%alpha5; alpha6 = s%alpha6; beta = s%beta; omega = s%omega
-         theta = s%theta; l_over_d = s%l_over_d; g0_over_d = s%g0_over_d
-         delta_hat = s%delta_hat; xi0 = s%xi0
-      end associate
-      rewind (unit)
-      read (unit, nml=scene, iostat=iostat, iomsg=iomsg)
-      call check_read(iostat, iomsg, path, 'scene', ierr, errmsg)
+      values = scene_values(config%scene)
+      call check_repeats(p, g, ierr, errmsg)
+      do k = 1, g%n_entries
+         if (ierr /= ok) return
+         associate (e => g%entries(k))
+            j = index_of(scene_names, e%key)
+            if (j == 0) then
+               call unknown_key(p, e, names_text(scene_names), ierr, errmsg)
+            else
+               call get_real(p, e, values(j), ierr, errmsg)
+               call check_range(p, e, values(j), scene_lower(j), scene_upper(j), &
+                                scene_lower_closed(j), scene_upper_open(j), ierr, errmsg)
+            end if
+         end associate
+      end do
       if (ierr /= ok) return
-
-      call check_range(path, 'scene', 'alpha1', alpha1, 0.0_dp, 1.0e3_dp, .true., ierr, errmsg)
-      call check_range(path, 'scene', 'alpha2', alpha2, 0.0_dp, 1.0_dp, .true., ierr, errmsg)
-      call check_range(path, 'scene', 'alpha3', alpha3, 0.0_dp, 1.0e4_dp, .true., ierr, errmsg)
-      call check_range(path, 'scene', 'alpha4', alpha4, 0.0_dp, 1.0e4_dp, .true., ierr, errmsg)
-      call check_range(path, 'scene', 'alpha5', alpha5, 0.0_dp, 1.0e6_dp, .true., ierr, errmsg)
-      call check_range(path, 'scene', 'alpha6', alpha6, 0.0_dp, 1.0e6_dp, .true., ierr, errmsg)
-      call check_range(path, 'scene', 'beta', beta, 0.0_dp, 1.0e6_dp, .false., ierr, errmsg)
-      call check_range(path, 'scene', 'omega', omega, 0.0_dp, 1.0e6_dp, .true., ierr, errmsg)
-      call check_range(path, 'scene', 'theta', theta, 0.0_dp, half_pi, .true., ierr, errmsg, &
-                       upper_open=.true.)
-      call check_range(path, 'scene', 'l_over_d', l_over_d, 0.0_dp, 1.0e9_dp, .false., ierr, errmsg)
-      call check_range(path, 'scene', 'g0_over_d', g0_over_d, 0.0_dp, 1.0e9_dp, .true., ierr, errmsg)
-      call check_range(path, 'scene', 'delta_hat', delta_hat, -1.0e3_dp, 1.0e3_dp, .true., ierr, &
-                       errmsg)
-      call check_range(path, 'scene', 'xi0', xi0, 0.0_dp, 1.0_dp, .false., ierr, errmsg)
-      if (ierr /= ok) return
-      config%scene = scene_t(alpha1, alpha2, alpha3, alpha4, alpha5, alpha6, beta, omega, theta, &
-                             l_over_d, g0_over_d, delta_hat, xi0)
+      config%scene = scene_t(values(1), values(2), values(3), values(4), values(5), values(6), &
+                             values(7), values(8), values(9), values(10), values(11), values(12), &
+                             values(13))
    end subroutine read_scene
 
-   subroutine read_physical(unit, path, config, ierr, errmsg)
-      integer, intent(in) :: unit
-      character(len=*), intent(in) :: path
+   subroutine read_physical(p, g, config, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_group_t), intent(in) :: g
       type(config_t), intent(inout) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
-      real(dp) :: length, width, thickness, density, youngs_modulus_tip, poisson_ratio_tip
-      real(dp) :: youngs_modulus_sample, poisson_ratio_sample, tip_radius, adhesion_energy, tilt
-      real(dp) :: gap, tip_length, static_offset, tip_position, tip_mass, beam_damping
-      real(dp) :: contact_damping, drive_amplitude, drive_angular_frequency, mismatch
-      real(dp), parameter :: half_pi = acos(-1.0_dp)/2
-      integer :: iostat
-      character(len=256) :: iomsg
-      type(physical_t) :: phys
-      namelist /physical/ length, width, thickness, density, youngs_modulus_tip, &
-         poisson_ratio_tip, youngs_modulus_sample, poisson_ratio_sample, tip_radius, &
-         adhesion_energy, tilt, gap, tip_length, static_offset, tip_position, tip_mass, &
-         beam_damping, contact_damping, drive_amplitude, drive_angular_frequency
+      real(dp) :: v(size(physical_names)), mismatch
+      ! Ranges of the SI inputs (their derived groups are checked in check_derived).
+      real(dp), parameter :: low(20) = [0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, -1.0_dp, 0.0_dp, &
+         -1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, -1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, &
+         0.0_dp, 0.0_dp]
+      real(dp), parameter :: high(20) = [1.0_dp, 1.0_dp, 1.0_dp, 1.0e5_dp, 1.0e13_dp, 0.5_dp, &
+         1.0e13_dp, 0.5_dp, 1.0e-2_dp, 1.0e3_dp, half_pi, 1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, &
+         1.0e6_dp, 1.0e6_dp, 1.0_dp, 1.0e12_dp]
+      logical, parameter :: low_closed(20) = [.false., .false., .false., .false., .false., .false., &
+         .false., .false., .false., .false., .true., .false., .true., .true., .false., .true., &
+         .true., .true., .true., .true.]
+      integer :: k, j
+      type(nml_entry_t) :: fixed
 
-      associate (p => config%physical)
-         length = p%length; width = p%width; thickness = p%thickness; density = p%density
-         youngs_modulus_tip = p%youngs_modulus_tip; poisson_ratio_tip = p%poisson_ratio_tip
-         youngs_modulus_sample = p%youngs_modulus_sample
-         poisson_ratio_sample = p%poisson_ratio_sample
-         tip_radius = p%tip_radius; adhesion_energy = p%adhesion_energy; tilt = p%tilt
-         gap = p%gap; tip_length = p%tip_length; static_offset = p%static_offset
-         tip_position = p%tip_position; tip_mass = p%tip_mass; beam_damping = p%beam_damping
-         contact_damping = p%contact_damping; drive_amplitude = p%drive_amplitude
-         drive_angular_frequency = p%drive_angular_frequency
-      end associate
-      rewind (unit)
-      read (unit, nml=physical, iostat=iostat, iomsg=iomsg)
-      call check_read(iostat, iomsg, path, 'physical', ierr, errmsg)
+      v = physical_values(config%physical)
+      call check_repeats(p, g, ierr, errmsg)
+      do k = 1, g%n_entries
+         if (ierr /= ok) return
+         associate (e => g%entries(k))
+            j = index_of(physical_names, e%key)
+            if (j == 0) then
+               call unknown_key(p, e, names_text(physical_names), ierr, errmsg)
+            else
+               call get_real(p, e, v(j), ierr, errmsg)
+               call check_range(p, e, v(j), low(j), high(j), low_closed(j), j == 11, ierr, errmsg)
+            end if
+         end associate
+      end do
       if (ierr /= ok) return
-
-      call check_range(path, 'physical', 'length', length, 0.0_dp, 1.0_dp, .false., ierr, errmsg)
-      call check_range(path, 'physical', 'width', width, 0.0_dp, 1.0_dp, .false., ierr, errmsg)
-      call check_range(path, 'physical', 'thickness', thickness, 0.0_dp, 1.0_dp, .false., ierr, errmsg)
-      call check_range(path, 'physical', 'density', density, 0.0_dp, 1.0e5_dp, .false., ierr, errmsg)
-      call check_range(path, 'physical', 'youngs_modulus_tip', youngs_modulus_tip, 0.0_dp, &
-                       1.0e13_dp, .false., ierr, errmsg)
-      call check_range(path, 'physical', 'poisson_ratio_tip', poisson_ratio_tip, -1.0_dp, &
-                       0.5_dp, .false., ierr, errmsg)
-      call check_range(path, 'physical', 'youngs_modulus_sample', youngs_modulus_sample, 0.0_dp, &
-                       1.0e13_dp, .false., ierr, errmsg)
-      call check_range(path, 'physical', 'poisson_ratio_sample', poisson_ratio_sample, -1.0_dp, &
-                       0.5_dp, .false., ierr, errmsg)
-      call check_range(path, 'physical', 'tip_radius', tip_radius, 0.0_dp, 1.0e-2_dp, .false., &
-                       ierr, errmsg)
-      call check_range(path, 'physical', 'adhesion_energy', adhesion_energy, 0.0_dp, 1.0e3_dp, &
-                       .false., ierr, errmsg)
-      call check_range(path, 'physical', 'tilt', tilt, 0.0_dp, half_pi, .true., ierr, errmsg, &
-                       upper_open=.true.)
-      call check_range(path, 'physical', 'gap', gap, 0.0_dp, 1.0_dp, .false., ierr, errmsg)
-      call check_range(path, 'physical', 'tip_length', tip_length, 0.0_dp, 1.0_dp, .true., ierr, &
-                       errmsg)
-      call check_range(path, 'physical', 'static_offset', static_offset, -1.0_dp, 1.0_dp, .true., &
-                       ierr, errmsg)
-      call check_range(path, 'physical', 'tip_position', tip_position, 0.0_dp, length, .false., &
-                       ierr, errmsg)
-      call check_range(path, 'physical', 'tip_mass', tip_mass, 0.0_dp, 1.0_dp, .true., ierr, errmsg)
-      call check_range(path, 'physical', 'beam_damping', beam_damping, 0.0_dp, 1.0e6_dp, .true., &
-                       ierr, errmsg)
-      call check_range(path, 'physical', 'contact_damping', contact_damping, 0.0_dp, 1.0e6_dp, &
-                       .true., ierr, errmsg)
-      call check_range(path, 'physical', 'drive_amplitude', drive_amplitude, 0.0_dp, 1.0_dp, &
-                       .true., ierr, errmsg)
-      call check_range(path, 'physical', 'drive_angular_frequency', drive_angular_frequency, &
-                       0.0_dp, 1.0e12_dp, .true., ierr, errmsg)
-      if (ierr /= ok) return
-      ! The paper's geometry: d = g0 + delta/cos(theta).
-      mismatch = abs(gap - tip_length - static_offset/cos(tilt))
-      if (mismatch > 1.0e-6_dp*gap) then
-         ierr = err_input
-         errmsg = trim(path)//': &physical gap = '//real_text(gap)//': must equal tip_length '// &
-                  '+ static_offset/cos(tilt) = '//real_text(tip_length + static_offset/cos(tilt))
+      ! tip_position lies on the beam: 0 < x0 <= L.
+      if (v(15) > v(1)) then
+         fixed = entry_or_default(g, 'tip_position', v(15))
+         call key_error(p, fixed, 'must be <= length = '//real_text(v(1)), ierr, errmsg)
          return
       end if
-      phys = physical_t(length, width, thickness, density, youngs_modulus_tip, poisson_ratio_tip, &
-                        youngs_modulus_sample, poisson_ratio_sample, tip_radius, adhesion_energy, &
-                        tilt, gap, tip_length, static_offset, tip_position, tip_mass, beam_damping, &
-                        contact_damping, drive_amplitude, drive_angular_frequency)
+      ! The paper's geometry: d = g0 + delta/cos(theta).
+      mismatch = abs(v(12) - v(13) - v(14)/cos(v(11)))
+      if (mismatch > 1.0e-6_dp*v(12)) then
+         fixed = entry_or_default(g, 'gap', v(12))
+         call key_error(p, fixed, 'must equal tip_length + static_offset/cos(tilt) = '// &
+                        real_text(v(13) + v(14)/cos(v(11))), ierr, errmsg)
+         return
+      end if
+      config%physical = physical_t(v(1), v(2), v(3), v(4), v(5), v(6), v(7), v(8), v(9), v(10), &
+                                   v(11), v(12), v(13), v(14), v(15), v(16), v(17), v(18), v(19), &
+                                   v(20))
       config%from_physical = .true.
-      config%physical = phys
-      config%scene = scene_from_physical(phys)
+      config%scene = scene_from_physical(config%physical)
    end subroutine read_physical
 
-   subroutine read_initial(unit, path, config, ierr, errmsg)
-      integer, intent(in) :: unit
-      character(len=*), intent(in) :: path
+   subroutine read_initial(p, g, config, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_group_t), intent(in) :: g
       type(config_t), intent(inout) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
-      real(dp) :: a0(max_modes), adot0(max_modes)
-      integer :: iostat
-      character(len=256) :: iomsg
-      namelist /initial/ a0, adot0
+      integer :: k
 
-      ! Unset entries stay NaN, so the number of values given can be counted.
-      a0 = ieee_value(1.0_dp, ieee_quiet_nan)
-      adot0 = a0
-      rewind (unit)
-      read (unit, nml=initial, iostat=iostat, iomsg=iomsg)
-      call check_read(iostat, iomsg, path, 'initial', ierr, errmsg)
-      if (ierr /= ok) return
-      call take_modal_values(path, 'a0', a0, config%n_modes, config%a0, config%n_initial, ierr, &
-                             errmsg)
-      if (ierr /= ok) return
-      call take_modal_values(path, 'adot0', adot0, config%n_modes, config%adot0, &
-                             config%n_initial, ierr, errmsg)
+      call check_repeats(p, g, ierr, errmsg)
+      do k = 1, g%n_entries
+         if (ierr /= ok) return
+         associate (e => g%entries(k))
+            select case (e%key)
+            case ('a0')
+               call take_modal_values(p, e, config%n_modes, config%a0, config%n_initial, ierr, &
+                                      errmsg)
+            case ('adot0')
+               call take_modal_values(p, e, config%n_modes, config%adot0, config%n_initial, ierr, &
+                                      errmsg)
+            case default
+               call unknown_key(p, e, initial_keys, ierr, errmsg)
+            end select
+         end associate
+      end do
    end subroutine read_initial
 
-   !> Accept either no values (all zero) or exactly n_modes leading values; with n_modes = 0
-   !> (automatic N) any number of leading values, the rest being zero.
-   subroutine take_modal_values(path, key, given, n_modes, values, n_initial, ierr, errmsg)
-      character(len=*), intent(in) :: path
-      character(len=*), intent(in) :: key
-      real(dp), intent(in) :: given(:)
+   !> Exactly n_modes values (or, with n_modes = 0, any number up to max_modes of leading
+   !> modes, the rest zero); each finite with |value| <= 1 (gap units).
+   subroutine take_modal_values(p, e, n_modes, values, n_initial, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_entry_t), intent(in) :: e
       integer, intent(in) :: n_modes
       real(dp), intent(inout) :: values(:)
       integer, intent(inout) :: n_initial
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
-      integer :: count_given, j
+      real(dp) :: given(max_modes)
+      integer :: n, j
 
-      ierr = ok
-      errmsg = ''
-      count_given = count(.not. ieee_is_nan(given))
-      if (count_given == 0) return
-      if ((n_modes > 0 .and. count_given /= n_modes) &
-          .or. any(ieee_is_nan(given(1:min(count_given, size(given)))))) then
-         ierr = err_input
-         write (errmsg, '(5a,i0,a,i0,a)') trim(path), ': &initial ', key, ': ', &
-            'has ', count_given, ' values but &model n_modes = ', n_modes, &
-            ' (give exactly n_modes values, or none for zeros)'
+      call get_real_list(p, e, given, n, ierr, errmsg)
+      if (ierr /= ok) return
+      if (n_modes > 0 .and. n /= n_modes) then
+         call key_error(p, e, 'has '//int_text(n)//' values but &model n_modes = '// &
+                        int_text(n_modes)//' (give exactly n_modes values, or none for zeros)', &
+                        ierr, errmsg)
          return
       end if
-      do j = 1, count_given
+      do j = 1, n
          if (.not. ieee_is_finite(given(j)) .or. abs(given(j)) > 1.0_dp) then
-            ierr = err_input
-            write (errmsg, '(5a,i0,3a)') trim(path), ': &initial ', key, ': ', 'value ', j, &
-               ' = ', real_text(given(j)), ': must be finite with |value| <= 1 (gap units)'
+            call key_error(p, e, 'value '//int_text(j)//' = '//real_text(given(j))// &
+                           ': must be finite with |value| <= 1 (gap units)', ierr, errmsg)
             return
          end if
       end do
       values = 0
-      values(1:count_given) = given(1:count_given)
-      n_initial = max(n_initial, count_given)
+      values(1:n) = given(1:n)
+      n_initial = max(n_initial, n)
    end subroutine take_modal_values
 
-   subroutine read_solver(unit, path, config, ierr, errmsg)
-      integer, intent(in) :: unit
-      character(len=*), intent(in) :: path
+   subroutine read_solver(p, g, config, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_group_t), intent(in) :: g
       type(config_t), intent(inout) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
-      character(len=64) :: method
-      real(dp) :: dtau, tau_end, blowup_limit, rtol, atol
-      integer :: contact_refine, iostat
-      character(len=256) :: iomsg
-      namelist /solver/ method, dtau, contact_refine, rtol, atol, tau_end, blowup_limit
+      type(run_settings_t) :: s
+      character(len=:), allocatable :: method
+      integer(i8) :: refine
+      integer :: k
 
-      method = config%solver%method
-      dtau = config%solver%dtau
-      contact_refine = config%solver%contact_refine
-      tau_end = config%solver%tau_end
-      blowup_limit = config%solver%blowup_limit
-      rtol = config%solver%rtol
-      atol = config%solver%atol
-      rewind (unit)
-      read (unit, nml=solver, iostat=iostat, iomsg=iomsg)
-      call check_read(iostat, iomsg, path, 'solver', ierr, errmsg)
+      s = config%solver
+      refine = s%contact_refine
+      method = trim(s%method)
+      call check_repeats(p, g, ierr, errmsg)
+      do k = 1, g%n_entries
+         if (ierr /= ok) return
+         associate (e => g%entries(k))
+            select case (e%key)
+            case ('method')
+               call get_string(p, e, len(s%method), method, ierr, errmsg)
+               method = lower(trim(adjustl(method)))
+               if (ierr == ok .and. .not. is_known_method(method)) then
+                  call key_error(p, e, 'must be '//method_choices(), ierr, errmsg)
+               end if
+            case ('dtau')
+               call get_real(p, e, s%dtau, ierr, errmsg)
+               call check_range(p, e, s%dtau, 0.0_dp, 10.0_dp, .false., .false., ierr, errmsg)
+            case ('contact_refine')
+               call get_integer(p, e, refine, ierr, errmsg)
+               if (ierr == ok .and. (refine < 1 .or. refine > 100000)) then
+                  call key_error(p, e, 'must be in 1..100000', ierr, errmsg)
+               end if
+            case ('rtol')
+               call get_real(p, e, s%rtol, ierr, errmsg)
+               call check_range(p, e, s%rtol, 1.0e-15_dp, 1.0e-1_dp, .true., .false., ierr, errmsg)
+            case ('atol')
+               call get_real(p, e, s%atol, ierr, errmsg)
+               call check_range(p, e, s%atol, 0.0_dp, 1.0_dp, .true., .false., ierr, errmsg)
+            case ('tau_end')
+               call get_real(p, e, s%tau_end, ierr, errmsg)
+               call check_range(p, e, s%tau_end, 0.0_dp, 1.0e7_dp, .false., .false., ierr, errmsg)
+            case ('blowup_limit')
+               call get_real(p, e, s%blowup_limit, ierr, errmsg)
+               call check_range(p, e, s%blowup_limit, 0.0_dp, 1.0e10_dp, .false., .false., ierr, &
+                                errmsg)
+            case ('max_steps')
+               call get_integer(p, e, s%max_steps, ierr, errmsg)
+               if (ierr == ok .and. (s%max_steps < 1 .or. s%max_steps > max_max_steps)) then
+                  call key_error(p, e, 'must be in 1..'//int_text(max_max_steps), ierr, errmsg)
+               end if
+            case default
+               call unknown_key(p, e, solver_keys, ierr, errmsg)
+            end select
+         end associate
+      end do
       if (ierr /= ok) return
-
-      method = lower(adjustl(method))
-      if (all(method /= [character(len=64) :: method_rk4_paper, method_rk4_event, method_dopri5, &
-                         method_flight_exact])) then
-         call choice_error(path, 'solver', 'method', method, known_methods, ierr, errmsg)
-         return
-      end if
-      call check_range(path, 'solver', 'dtau', dtau, 0.0_dp, 10.0_dp, .false., ierr, errmsg)
-      call check_range(path, 'solver', 'tau_end', tau_end, 0.0_dp, 1.0e7_dp, .false., ierr, errmsg)
-      call check_range(path, 'solver', 'blowup_limit', blowup_limit, 0.0_dp, 1.0e10_dp, .false., &
-                       ierr, errmsg)
-      call check_range(path, 'solver', 'rtol', rtol, 1.0e-15_dp, 1.0e-1_dp, .true., ierr, errmsg)
-      call check_range(path, 'solver', 'atol', atol, 0.0_dp, 1.0_dp, .true., ierr, errmsg)
-      if (ierr /= ok) return
-      if (contact_refine < 1 .or. contact_refine > 100000) then
-         ierr = err_input
-         write (errmsg, '(2a,i0,a)') trim(path), ': &solver contact_refine = ', contact_refine, &
-            ': must be in 1..100000'
-         return
-      end if
-      config%solver%method = method
-      config%solver%dtau = dtau
-      config%solver%contact_refine = contact_refine
-      config%solver%tau_end = tau_end
-      config%solver%blowup_limit = blowup_limit
-      config%solver%rtol = rtol
-      config%solver%atol = atol
+      s%method = method
+      s%contact_refine = int(refine)
+      config%solver = s
    end subroutine read_solver
 
-   subroutine read_output(unit, path, config, ierr, errmsg)
-      integer, intent(in) :: unit
-      character(len=*), intent(in) :: path
+   subroutine read_output(p, g, config, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_group_t), intent(in) :: g
       type(config_t), intent(inout) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
-      character(len=len(config%output_file)) :: file
+      character(len=:), allocatable :: file, format
       real(dp) :: sample_dtau
-      integer :: iostat
-      character(len=256) :: iomsg
-      namelist /output/ file, sample_dtau
+      integer :: k
 
-      file = config%output_file
+      file = trim(config%output_file)
+      format = trim(config%output_format)
       sample_dtau = config%solver%sample_dtau
-      rewind (unit)
-      read (unit, nml=output, iostat=iostat, iomsg=iomsg)
-      call check_read(iostat, iomsg, path, 'output', ierr, errmsg)
+      call check_repeats(p, g, ierr, errmsg)
+      do k = 1, g%n_entries
+         if (ierr /= ok) return
+         associate (e => g%entries(k))
+            select case (e%key)
+            case ('file')
+               call get_string(p, e, len(config%output_file), file, ierr, errmsg)
+               if (ierr == ok .and. len_trim(file) == 0) then
+                  call key_error(p, e, 'must name a file', ierr, errmsg)
+               end if
+            case ('sample_dtau')
+               call get_real(p, e, sample_dtau, ierr, errmsg)
+               call check_range(p, e, sample_dtau, 0.0_dp, config%solver%tau_end, .false., .false., &
+                                ierr, errmsg)
+            case ('format')
+               call get_string(p, e, len(config%output_format), format, ierr, errmsg)
+               format = lower(trim(adjustl(format)))
+               if (ierr == ok .and. .not. any(output_formats == format)) then
+                  call key_error(p, e, "must be 'text' or 'npy'", ierr, errmsg)
+               end if
+            case default
+               call unknown_key(p, e, output_keys, ierr, errmsg)
+            end select
+         end associate
+      end do
       if (ierr /= ok) return
-      call check_range(path, 'output', 'sample_dtau', sample_dtau, 0.0_dp, &
-                       config%solver%tau_end, .false., ierr, errmsg)
-      if (ierr /= ok) return
-      if (len_trim(file) == 0) then
-         ierr = err_input
-         errmsg = trim(path)//': &output file = '''': must name a file'
-         return
-      end if
       config%output_file = adjustl(file)
+      config%output_format = format
       config%solver%sample_dtau = sample_dtau
-      if (sample_count(config%solver) > max_samples) then
-         ierr = err_input
-         write (errmsg, '(4a,i0,a)') trim(path), ': &output sample_dtau = ', real_text(sample_dtau), &
-            ': gives more than ', max_samples, ' samples; raise it or lower &solver tau_end'
-      end if
    end subroutine read_output
 
-   !> Error unless lower < value < upper (or lower <= value if lower_closed); first error wins.
-   subroutine check_range(path, group, key, value, lower, upper, lower_closed, ierr, errmsg, &
-                          upper_open)
-      character(len=*), intent(in) :: path
-      character(len=*), intent(in) :: group
-      character(len=*), intent(in) :: key
-      real(dp), intent(in) :: value
-      real(dp), intent(in) :: lower
-      real(dp), intent(in) :: upper
-      logical, intent(in) :: lower_closed
-      integer, intent(inout) :: ierr
-      character(len=*), intent(inout) :: errmsg
-      logical, intent(in), optional :: upper_open
-      logical :: good, open_top
-      character(len=2) :: low_mark, high_mark
-
-      if (ierr /= ok) return
-      open_top = .false.
-      if (present(upper_open)) open_top = upper_open
-      good = ieee_is_finite(value)
-      if (good) then
-         if (lower_closed) then
-            good = value >= lower
-         else
-            good = value > lower
-         end if
-         if (open_top) then
-            good = good .and. value < upper
-         else
-            good = good .and. value <= upper
-         end if
-      end if
-      if (good) return
-      low_mark = merge('>=', '> ', lower_closed)
-      high_mark = merge('< ', '<=', open_top)
-      ierr = err_input
-      errmsg = trim(path)//': &'//group//' '//key//' = '//real_text(value)//': must be finite, '// &
-               trim(low_mark)//' '//real_text(lower)//' and '//trim(high_mark)//' '//real_text(upper)
-   end subroutine check_range
-
-   subroutine choice_error(path, group, key, value, allowed, ierr, errmsg)
-      character(len=*), intent(in) :: path
-      character(len=*), intent(in) :: group
-      character(len=*), intent(in) :: key
-      character(len=*), intent(in) :: value
-      character(len=*), intent(in) :: allowed
+   !> Checks across groups, before any run: sample_dtau within tau_end, the scene derived from
+   !> &physical inside the &scene ranges, and the size of the run (and of the automatic-N
+   !> comparison runs) inside the limits.
+   subroutine check_derived(label, doc, where, config, ierr, errmsg)
+      character(len=*), intent(in) :: label
+      type(nml_document_t), intent(in) :: doc
+      integer, intent(in) :: where(:)
+      type(config_t), intent(in) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
-      ierr = err_input
-      errmsg = trim(path)//': &'//group//' '//key//' = '''//trim(value)//''': must be '//allowed
-   end subroutine choice_error
+      real(dp) :: derived(size(scene_names)), phys(size(physical_names)), defaults(size(physical_names))
+      real(dp) :: distance, best
+      integer, allocatable :: keys(:)
+      integer :: k, j, culprit
+      type(run_settings_t) :: trial
+      type(nml_entry_t) :: e
+      type(physical_t) :: default_physical
+      character(len=:), allocatable :: as_written
 
-   !> Write the resolved configuration as namelist text, each line starting with `prefix`.
+      ierr = ok
+      errmsg = ''
+      if (.not. (config%solver%sample_dtau <= config%solver%tau_end)) then
+         ierr = err_input
+         errmsg = label//': &output sample_dtau = '//real_text(config%solver%sample_dtau)// &
+                  ': must be <= &solver tau_end = '//real_text(config%solver%tau_end)
+         return
+      end if
+      if (config%from_physical) then
+         derived = scene_values(config%scene)
+         phys = physical_values(config%physical)
+         defaults = physical_values(default_physical)
+         do k = 1, size(scene_names)
+            if (in_range(derived(k), scene_lower(k), scene_upper(k), scene_lower_closed(k), &
+                         scene_upper_open(k))) cycle
+            ! Name the input furthest from its default among those the group depends on.
+            keys = scene_depends_on(k)
+            culprit = keys(1)
+            best = -1
+            do j = 1, size(keys)
+               distance = abs(phys(keys(j)) - defaults(keys(j)))/max(abs(defaults(keys(j))), tiny(1.0_dp))
+               if (phys(keys(j)) > 0 .and. defaults(keys(j)) > 0) then
+                  distance = abs(log(phys(keys(j))/defaults(keys(j))))
+               end if
+               if (distance > best) then
+                  best = distance
+                  culprit = keys(j)
+               end if
+            end do
+            e = entry_or_default(doc%groups(where(3)), trim(physical_names(culprit)), phys(culprit))
+            as_written = e%written
+            ierr = err_input
+            errmsg = label//': &physical '//trim(physical_names(culprit))//' = '//as_written// &
+                     ' gives '//trim(scene_names(k))//' = '//real_text(derived(k))//' by Eq. (12): '// &
+                     trim(scene_names(k))//' must be '//range_text(scene_lower(k), scene_upper(k), &
+                     scene_lower_closed(k), scene_upper_open(k))//' (it depends on '// &
+                     depends_text(keys)//')'
+            return
+         end do
+      end if
+      call check_run_size(config%solver, max(config%n_modes, 1), ierr, errmsg)
+      if (ierr /= ok) then
+         errmsg = label//': '//trim(errmsg)
+         return
+      end if
+      if (config%auto_modes) then
+         ! The comparison runs of the automatic N, at the most modes the search may reach.
+         trial = config%solver
+         trial%method = 'dopri5'
+         trial%tau_end = config%mode_horizon
+         trial%sample_dtau = min(config%solver%sample_dtau, config%mode_horizon/100)
+         call check_run_size(trial, max_modes, ierr, errmsg)
+         if (ierr /= ok) then
+            errmsg = label//': the automatic-N comparison runs (&model mode_horizon = '// &
+                     real_text(config%mode_horizon)//'): '//trim(errmsg)
+            return
+         end if
+      end if
+   contains
+      function depends_text(keys) result(text)
+         integer, intent(in) :: keys(:)
+         character(len=:), allocatable :: text
+         integer :: i
+         text = trim(physical_names(keys(1)))
+         do i = 2, size(keys)
+            text = text//', '//trim(physical_names(keys(i)))
+         end do
+      end function depends_text
+   end subroutine check_derived
+
+   ! --- typed access to entries ------------------------------------------------------------
+
+   !> The one value of a scalar key.
+   subroutine get_scalar(p, e, value, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_entry_t), intent(in) :: e
+      type(nml_value_t), intent(out) :: value
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      integer :: n, k
+
+      ierr = ok
+      n = 0
+      do k = 1, size(e%values)
+         if (e%values(k)%kind == value_other) then
+            call key_error(p, e, e%values(k)%problem, ierr, errmsg)
+            return
+         end if
+         n = n + e%values(k)%repeat
+      end do
+      if (n /= 1) then
+         call key_error(p, e, 'takes one value, not '//int_text(n), ierr, errmsg)
+         return
+      end if
+      value = e%values(1)
+   end subroutine get_scalar
+
+   subroutine get_real(p, e, x, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_entry_t), intent(in) :: e
+      real(dp), intent(inout) :: x
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      type(nml_value_t) :: value
+
+      call get_scalar(p, e, value, ierr, errmsg)
+      if (ierr /= ok) return
+      call value_to_real(p, e, value, x, ierr, errmsg)
+   end subroutine get_real
+
+   subroutine value_to_real(p, e, value, x, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_entry_t), intent(in) :: e
+      type(nml_value_t), intent(in) :: value
+      real(dp), intent(inout) :: x
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      character(len=:), allocatable :: low
+      integer :: iostat
+
+      ierr = ok
+      if (value%kind /= value_integer .and. value%kind /= value_real) then
+         call key_error(p, e, 'must be a number, not '//kind_phrase(value), ierr, errmsg)
+         return
+      end if
+      low = lower(value%text)
+      if (index(low, 'nan') > 0) then
+         x = ieee_value(x, ieee_quiet_nan)
+      else if (index(low, 'inf') > 0) then
+         if (low(1:1) == '-') then
+            x = ieee_value(x, ieee_negative_inf)
+         else
+            x = ieee_value(x, ieee_positive_inf)
+         end if
+      else
+         read (low, *, iostat=iostat) x
+         if (iostat /= 0) call key_error(p, e, 'cannot be read as a real number', ierr, errmsg)
+      end if
+   end subroutine value_to_real
+
+   subroutine get_integer(p, e, i, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_entry_t), intent(in) :: e
+      integer(i8), intent(inout) :: i
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      type(nml_value_t) :: value
+      integer :: iostat, n_digits
+
+      call get_scalar(p, e, value, ierr, errmsg)
+      if (ierr /= ok) return
+      if (value%kind /= value_integer) then
+         call key_error(p, e, 'must be an integer, not '//kind_phrase(value), ierr, errmsg)
+         return
+      end if
+      n_digits = len(value%text)
+      if (scan(value%text(1:1), '+-') > 0) n_digits = n_digits - 1
+      if (n_digits > 18) then
+         call key_error(p, e, 'is too large', ierr, errmsg)
+         return
+      end if
+      read (value%text, *, iostat=iostat) i
+      if (iostat /= 0) call key_error(p, e, 'cannot be read as an integer', ierr, errmsg)
+   end subroutine get_integer
+
+   !> A quoted string of at most max_len characters.
+   subroutine get_string(p, e, max_len, text, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_entry_t), intent(in) :: e
+      integer, intent(in) :: max_len
+      character(len=:), allocatable, intent(inout) :: text
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      type(nml_value_t) :: value
+
+      call get_scalar(p, e, value, ierr, errmsg)
+      if (ierr /= ok) return
+      if (value%kind == value_word .or. value%kind == value_logical) then
+         call key_error(p, e, 'a string must be quoted: write '//e%key//' = '''//value%text//'''', &
+                        ierr, errmsg)
+      else if (value%kind /= value_string) then
+         call key_error(p, e, 'must be a quoted string, not '//kind_phrase(value), ierr, errmsg)
+      else if (len(value%text) > max_len) then
+         call key_error(p, e, 'is '//int_text(len(value%text))//' characters long, more than the '// &
+                        int_text(max_len)//' allowed', ierr, errmsg)
+      else
+         text = value%text
+      end if
+   end subroutine get_string
+
+   !> A list of numbers (r*value repeats expanded), at most size(values) of them.
+   subroutine get_real_list(p, e, values, n, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_entry_t), intent(in) :: e
+      real(dp), intent(out) :: values(:)
+      integer, intent(out) :: n
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      real(dp) :: x
+      integer :: k, total
+
+      ierr = ok
+      n = 0
+      values = 0
+      total = 0
+      do k = 1, size(e%values)
+         if (e%values(k)%kind == value_other) then
+            call key_error(p, e, e%values(k)%problem, ierr, errmsg)
+            return
+         end if
+         total = total + min(e%values(k)%repeat, size(values) + 1)
+      end do
+      if (total > size(values)) then
+         call key_error(p, e, 'takes at most '//int_text(size(values))//' values', ierr, errmsg)
+         return
+      end if
+      do k = 1, size(e%values)
+         x = 0
+         call value_to_real(p, e, e%values(k), x, ierr, errmsg)
+         if (ierr /= ok) return
+         values(n + 1:n + e%values(k)%repeat) = x
+         n = n + e%values(k)%repeat
+      end do
+   end subroutine get_real_list
+
+   !> Error unless value lies in the range (lower_closed: >= lower, else >; upper_open: <
+   !> upper, else <=).  Does nothing when ierr is already set.
+   subroutine check_range(p, e, value, lower_bound, upper_bound, lower_closed, upper_open, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_entry_t), intent(in) :: e
+      real(dp), intent(in) :: value
+      real(dp), intent(in) :: lower_bound
+      real(dp), intent(in) :: upper_bound
+      logical, intent(in) :: lower_closed
+      logical, intent(in) :: upper_open
+      integer, intent(inout) :: ierr
+      character(len=*), intent(inout) :: errmsg
+      if (ierr /= ok) return
+      if (in_range(value, lower_bound, upper_bound, lower_closed, upper_open)) return
+      call key_error(p, e, 'must be '//range_text(lower_bound, upper_bound, lower_closed, upper_open), &
+                     ierr, errmsg)
+   end subroutine check_range
+
+   pure logical function in_range(value, lower_bound, upper_bound, lower_closed, upper_open)
+      real(dp), intent(in) :: value, lower_bound, upper_bound
+      logical, intent(in) :: lower_closed, upper_open
+      in_range = ieee_is_finite(value)
+      if (.not. in_range) return
+      if (lower_closed) then
+         in_range = value >= lower_bound
+      else
+         in_range = value > lower_bound
+      end if
+      if (upper_open) then
+         in_range = in_range .and. value < upper_bound
+      else
+         in_range = in_range .and. value <= upper_bound
+      end if
+   end function in_range
+
+   function range_text(lower_bound, upper_bound, lower_closed, upper_open) result(text)
+      real(dp), intent(in) :: lower_bound, upper_bound
+      logical, intent(in) :: lower_closed, upper_open
+      character(len=:), allocatable :: text
+      text = 'finite, '//trim(merge('>=', '> ', lower_closed))//' '//real_text(lower_bound)// &
+             ' and '//trim(merge('< ', '<=', upper_open))//' '//real_text(upper_bound)
+   end function range_text
+
+   !> Every key appears once in its group.
+   subroutine check_repeats(p, g, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_group_t), intent(in) :: g
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      integer :: k, j
+      ierr = ok
+      errmsg = ''
+      do k = 2, g%n_entries
+         do j = 1, k - 1
+            if (g%entries(j)%key == g%entries(k)%key) then
+               ierr = err_input
+               errmsg = p%label//': &'//p%group//' '//g%entries(k)%key//' = '//g%entries(k)%written// &
+                        ': the key is given twice (lines '//int_text(g%entries(j)%line)//' and '// &
+                        int_text(g%entries(k)%line)//')'
+               return
+            end if
+         end do
+      end do
+   end subroutine check_repeats
+
+   subroutine unknown_key(p, e, known, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_entry_t), intent(in) :: e
+      character(len=*), intent(in) :: known
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      call key_error(p, e, 'unknown key (&'//p%group//' keys: '//known//')', ierr, errmsg)
+   end subroutine unknown_key
+
+   !> ierr = err_input and the one-line message '<source>: &group key = <as written>: <what> (line N)'.
+   subroutine key_error(p, e, what, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_entry_t), intent(in) :: e
+      character(len=*), intent(in) :: what
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      character(len=:), allocatable :: written
+      ierr = err_input
+      written = e%written
+      if (len(written) > 80) written = written(1:77)//'...'
+      errmsg = p%label//': &'//p%group//' '//e%key//' = '//written//': '//what
+      if (e%line > 0) errmsg = trim(errmsg)//' (line '//int_text(e%line)//')'
+   end subroutine key_error
+
+   !> The entry for `key` in group g, or a stand-in holding the default value (line 0).
+   function entry_or_default(g, key, value) result(e)
+      type(nml_group_t), intent(in) :: g
+      character(len=*), intent(in) :: key
+      real(dp), intent(in) :: value
+      type(nml_entry_t) :: e
+      integer :: k
+      do k = 1, g%n_entries
+         if (g%entries(k)%key == key) then
+            e = g%entries(k)
+            return
+         end if
+      end do
+      e%key = key
+      e%written = real_text(value)//' (default)'
+      e%line = 0
+   end function entry_or_default
+
+   function kind_phrase(value) result(text)
+      type(nml_value_t), intent(in) :: value
+      character(len=:), allocatable :: text
+      text = value_kind_name(value%kind)
+      if (value%kind == value_word) text = text//' (strings must be quoted)'
+      if (value%kind == value_logical) text = text
+   end function kind_phrase
+
+   !> Position of `name` in `names` (blank-padded comparison), 0 if absent.
+   pure integer function index_of(names, name)
+      character(len=*), intent(in) :: names(:)
+      character(len=*), intent(in) :: name
+      do index_of = 1, size(names)
+         if (names(index_of) == name) return
+      end do
+      index_of = 0
+   end function index_of
+
+   function names_text(names) result(text)
+      character(len=*), intent(in) :: names(:)
+      character(len=:), allocatable :: text
+      integer :: k
+      text = trim(names(1))
+      do k = 2, size(names)
+         text = text//', '//trim(names(k))
+      end do
+   end function names_text
+
+   ! --- writing ----------------------------------------------------------------------------
+
+   !> Write the resolved configuration as namelist text, each line starting with `prefix`
+   !> (the same text as config_text).
    subroutine write_config(unit, config, prefix)
       integer, intent(in) :: unit
       type(config_t), intent(in) :: config
       character(len=*), intent(in) :: prefix
-      character(len=:), allocatable :: c
-      integer :: n
+      character(len=:), allocatable :: text
+      integer :: first, eol
 
-      c = prefix
-      n = config%n_modes
-      write (unit, '(a)') c//'&model'
-      if (config%auto_modes) then
-         ! Keep the request, so the file reruns the choice; record the choice as a comment.
-         write (unit, '(a)') c//'    n_modes = 0'
-         write (unit, '(a,i0,a)') c//'    ! chosen n_modes = ', n, &
-            ': max|V_T(N) - V_T(N+1)|/range(V_T) for N = 1, 2, ... = '// &
-            list_text(config%mode_differences(1:config%n_mode_differences))
-      else
-         write (unit, '(a,i0)') c//'    n_modes = ', n
-      end if
-      call put(c, 'mode_tol', config%mode_tol)
-      call put(c, 'mode_horizon', config%mode_horizon)
-      write (unit, '(a)') c//'    contact_law = '''//trim(config%contact_law)//''''
-      write (unit, '(a)') c//'    convention = '''//trim(config%convention)//''''
-      write (unit, '(a)') c//'    errata = '''//trim(config%errata)//''''
-      write (unit, '(a)') c//'/'
-      if (config%from_physical) then
-         associate (p => config%physical)
-            write (unit, '(a)') c//'&physical'
-            call put(c, 'length', p%length)
-            call put(c, 'width', p%width)
-            call put(c, 'thickness', p%thickness)
-            call put(c, 'density', p%density)
-            call put(c, 'youngs_modulus_tip', p%youngs_modulus_tip)
-            call put(c, 'poisson_ratio_tip', p%poisson_ratio_tip)
-            call put(c, 'youngs_modulus_sample', p%youngs_modulus_sample)
-            call put(c, 'poisson_ratio_sample', p%poisson_ratio_sample)
-            call put(c, 'tip_radius', p%tip_radius)
-            call put(c, 'adhesion_energy', p%adhesion_energy)
-            call put(c, 'tilt', p%tilt)
-            call put(c, 'gap', p%gap)
-            call put(c, 'tip_length', p%tip_length)
-            call put(c, 'static_offset', p%static_offset)
-            call put(c, 'tip_position', p%tip_position)
-            call put(c, 'tip_mass', p%tip_mass)
-            call put(c, 'beam_damping', p%beam_damping)
-            call put(c, 'contact_damping', p%contact_damping)
-            call put(c, 'drive_amplitude', p%drive_amplitude)
-            call put(c, 'drive_angular_frequency', p%drive_angular_frequency)
-            write (unit, '(a)') c//'/'
-         end associate
-         ! The derived groups, as comments, so the file stays a valid input.
-         c = prefix//'! derived by Eq. (12): '
-      end if
-      associate (s => config%scene)
-         write (unit, '(a)') c//'&scene'
-         call put(c, 'alpha1', s%alpha1)
-         call put(c, 'alpha2', s%alpha2)
-         call put(c, 'alpha3', s%alpha3)
-         call put(c, 'alpha4', s%alpha4)
-         call put(c, 'alpha5', s%alpha5)
-         call put(c, 'alpha6', s%alpha6)
-         call put(c, 'beta', s%beta)
-         call put(c, 'omega', s%omega)
-         call put(c, 'theta', s%theta)
-         call put(c, 'l_over_d', s%l_over_d)
-         call put(c, 'g0_over_d', s%g0_over_d)
-         call put(c, 'delta_hat', s%delta_hat)
-         call put(c, 'xi0', s%xi0)
-         write (unit, '(a)') c//'/'
-      end associate
-      c = prefix
-      write (unit, '(a)') c//'&initial'
-      if (config%auto_modes) n = max(1, config%n_initial)
-      write (unit, '(a)') c//'    a0 = '//list_text(config%a0(1:n))
-      write (unit, '(a)') c//'    adot0 = '//list_text(config%adot0(1:n))
-      write (unit, '(a)') c//'/'
-      write (unit, '(a)') c//'&solver'
-      write (unit, '(a)') c//'    method = '''//trim(config%solver%method)//''''
-      call put(c, 'dtau', config%solver%dtau)
-      write (unit, '(a,i0)') c//'    contact_refine = ', config%solver%contact_refine
-      call put(c, 'rtol', config%solver%rtol)
-      call put(c, 'atol', config%solver%atol)
-      call put(c, 'tau_end', config%solver%tau_end)
-      call put(c, 'blowup_limit', config%solver%blowup_limit)
-      write (unit, '(a)') c//'/'
-      write (unit, '(a)') c//'&output'
-      write (unit, '(a)') c//'    file = '''//trim(config%output_file)//''''
-      call put(c, 'sample_dtau', config%solver%sample_dtau)
-      write (unit, '(a)') c//'/'
-   contains
-      subroutine put(lead, key, value)
-         character(len=*), intent(in) :: lead
-         character(len=*), intent(in) :: key
-         real(dp), intent(in) :: value
-         write (unit, '(a)') lead//'    '//key//' = '//real_text(value)
-      end subroutine put
+      text = config_text(config)
+      first = 1
+      do while (first <= len(text))
+         eol = index(text(first:), new_line('a'))
+         write (unit, '(a)') prefix//text(first:first + eol - 2)
+         first = first + eol
+      end do
    end subroutine write_config
 
-   !> The shortest scientific text that reads back to exactly `value`.
-   function real_text(value) result(text)
-      real(dp), intent(in) :: value
+   !> The resolved input as namelist text (every key, defaults included), one line per key,
+   !> each line ended by new_line('a').  Reading it back gives the same configuration.
+   function config_text(config) result(text)
+      type(config_t), intent(in) :: config
       character(len=:), allocatable :: text
-      character(len=40) :: buffer, fmt
-      real(dp) :: back
-      integer :: digits, iostat
+      character(len=:), allocatable :: c
+      character, parameter :: nl = new_line('a')
+      integer :: n, k
 
-      do digits = 1, 17
-         write (fmt, '(a,i0,a,i0,a)') '(es', digits + 10, '.', digits, 'e3)'
-         write (buffer, fmt) value
-         read (buffer, *, iostat=iostat) back
-         if (iostat == 0 .and. back == value) exit
+      text = ''
+      c = ''
+      n = config%n_modes
+      call line('&model')
+      if (config%auto_modes) then
+         ! Keep the request, so the file reruns the choice; record the choice as a comment.
+         call line('    n_modes = 0')
+         if (config%n_mode_differences > 0) then
+            call line('    ! chosen n_modes = '//int_text(n)//search_note()// &
+                      '; max|V_T(N) - V_T(N+1)|/range(V_T): '//differences_text())
+         end if
+      else
+         call line('    n_modes = '//int_text(n))
+      end if
+      call put('mode_tol', config%mode_tol)
+      call put('mode_horizon', config%mode_horizon)
+      call line('    contact_law = '//quoted(config%contact_law))
+      call line('    convention = '//quoted(config%convention))
+      call line('    errata = '//quoted(config%errata))
+      call line('/')
+      if (config%from_physical) then
+         call line('&physical')
+         associate (v => physical_values(config%physical))
+            do k = 1, size(physical_names)
+               call put(trim(physical_names(k)), v(k))
+            end do
+         end associate
+         call line('/')
+         ! The derived groups, as comments, so the text stays a valid input.
+         c = '! derived by Eq. (12): '
+      end if
+      call line('&scene')
+      associate (v => scene_values(config%scene))
+         do k = 1, size(scene_names)
+            call put(trim(scene_names(k)), v(k))
+         end do
+      end associate
+      call line('/')
+      c = ''
+      call line('&initial')
+      if (config%auto_modes) n = max(1, config%n_initial)
+      call line('    a0 = '//list_text(config%a0(1:n)))
+      call line('    adot0 = '//list_text(config%adot0(1:n)))
+      call line('/')
+      call line('&solver')
+      call line('    method = '//quoted(config%solver%method))
+      call put('dtau', config%solver%dtau)
+      call line('    contact_refine = '//int_text(config%solver%contact_refine))
+      call put('rtol', config%solver%rtol)
+      call put('atol', config%solver%atol)
+      call put('tau_end', config%solver%tau_end)
+      call put('blowup_limit', config%solver%blowup_limit)
+      call line('    max_steps = '//int_text(config%solver%max_steps))
+      call line('/')
+      call line('&output')
+      call line('    file = '//quoted(config%output_file))
+      call put('sample_dtau', config%solver%sample_dtau)
+      call line('    format = '//quoted(config%output_format))
+      call line('/')
+   contains
+      subroutine line(body)
+         character(len=*), intent(in) :: body
+         text = text//c//body//nl
+      end subroutine line
+      subroutine put(key, value)
+         character(len=*), intent(in) :: key
+         real(dp), intent(in) :: value
+         call line('    '//key//' = '//real_text(value))
+      end subroutine put
+      !> Why the chosen N exceeds the N where the search stopped, if it does.
+      function search_note() result(note)
+         character(len=:), allocatable :: note
+         integer :: searched
+         searched = config%n_mode_differences
+         if (config%mode_differences(searched) > config%mode_tol) searched = searched + 1
+         note = ''
+         if (config%n_modes > searched) note = ' (the search stopped at N = '//int_text(searched)// &
+                                               '; raised to keep every nonzero &initial value)'
+      end function search_note
+      function differences_text() result(list)
+         character(len=:), allocatable :: list
+         integer :: j
+         list = ''
+         do j = 1, config%n_mode_differences
+            if (j > 1) list = list//', '
+            list = list//'N='//int_text(j)//': '//short_real_text(config%mode_differences(j), 3)
+         end do
+      end function differences_text
+   end function config_text
+
+   !> A string value in quotes, inner quotes doubled.
+   pure function quoted(value) result(text)
+      character(len=*), intent(in) :: value
+      character(len=:), allocatable :: text
+      integer :: k
+      text = ''''
+      do k = 1, len_trim(value)
+         if (value(k:k) == '''') then
+            text = text//''''''
+         else
+            text = text//value(k:k)
+         end if
       end do
-      text = trim(adjustl(buffer))
-   end function real_text
+      text = text//''''
+   end function quoted
 
    function list_text(values) result(text)
       real(dp), intent(in) :: values(:)
       character(len=:), allocatable :: text
       integer :: j
-      if (size(values) == 0) then
-         text = 'none'
-         return
-      end if
       text = real_text(values(1))
       do j = 2, size(values)
          text = text//', '//real_text(values(j))
       end do
    end function list_text
-
-   pure function lower(text) result(low)
-      character(len=*), intent(in) :: text
-      character(len=len(text)) :: low
-      integer :: i, code
-      low = text
-      do i = 1, len(text)
-         code = iachar(text(i:i))
-         if (code >= iachar('A') .and. code <= iachar('Z')) low(i:i) = achar(code + 32)
-      end do
-   end function lower
 
 end module tmafm_namelist

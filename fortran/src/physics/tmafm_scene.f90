@@ -11,6 +11,8 @@ module tmafm_scene
    private
 
    public :: scene_t, physical_t, scene_from_physical
+   public :: scene_names, scene_values, scene_lower, scene_upper, scene_lower_closed
+   public :: scene_upper_open, physical_names, physical_values, scene_depends_on
 
    real(dp), parameter :: pi = acos(-1.0_dp)
 
@@ -88,7 +90,86 @@ module tmafm_scene
       real(dp) :: drive_angular_frequency = 143751.31743848347_dp
    end type physical_t
 
+   !> The &scene keys, in the order of scene_values and of the range tables below.
+   character(len=*), parameter :: scene_names(13) = [character(len=9) :: 'alpha1', 'alpha2', &
+      'alpha3', 'alpha4', 'alpha5', 'alpha6', 'beta', 'omega', 'theta', 'l_over_d', 'g0_over_d', &
+      'delta_hat', 'xi0']
+   !> Lower bounds of the &scene groups (given, or derived from &physical by Eq. (12)).
+   real(dp), parameter :: scene_lower(13) = [0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, &
+      0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, -1.0e3_dp, 0.0_dp]
+   !> Upper bounds of the &scene groups.
+   real(dp), parameter :: scene_upper(13) = [1.0e3_dp, 1.0_dp, 1.0e4_dp, 1.0e4_dp, 1.0e6_dp, &
+      1.0e6_dp, 1.0e6_dp, 1.0e6_dp, pi/2, 1.0e9_dp, 1.0e9_dp, 1.0e3_dp, 1.0_dp]
+   !> .true. where the lower bound is allowed (>=), .false. where it is not (>).
+   logical, parameter :: scene_lower_closed(13) = [.true., .true., .true., .true., .true., .true., &
+      .false., .true., .true., .false., .true., .true., .false.]
+   !> .true. where the upper bound is excluded (<), .false. where it is allowed (<=).
+   logical, parameter :: scene_upper_open(13) = [.false., .false., .false., .false., .false., &
+      .false., .false., .false., .true., .false., .false., .false., .false.]
+   !> The &physical keys, in the order of physical_values.
+   character(len=*), parameter :: physical_names(20) = [character(len=23) :: 'length', 'width', &
+      'thickness', 'density', 'youngs_modulus_tip', 'poisson_ratio_tip', 'youngs_modulus_sample', &
+      'poisson_ratio_sample', 'tip_radius', 'adhesion_energy', 'tilt', 'gap', 'tip_length', &
+      'static_offset', 'tip_position', 'tip_mass', 'beam_damping', 'contact_damping', &
+      'drive_amplitude', 'drive_angular_frequency']
+
 contains
+
+   !> The groups of a scene as an array, in the order of scene_names.
+   pure function scene_values(scene) result(values)
+      type(scene_t), intent(in) :: scene
+      real(dp) :: values(13)
+      values = [scene%alpha1, scene%alpha2, scene%alpha3, scene%alpha4, scene%alpha5, &
+                scene%alpha6, scene%beta, scene%omega, scene%theta, scene%l_over_d, &
+                scene%g0_over_d, scene%delta_hat, scene%xi0]
+   end function scene_values
+
+   !> The physical inputs as an array, in the order of physical_names.
+   pure function physical_values(phys) result(values)
+      type(physical_t), intent(in) :: phys
+      real(dp) :: values(20)
+      values = [phys%length, phys%width, phys%thickness, phys%density, phys%youngs_modulus_tip, &
+                phys%poisson_ratio_tip, phys%youngs_modulus_sample, phys%poisson_ratio_sample, &
+                phys%tip_radius, phys%adhesion_energy, phys%tilt, phys%gap, phys%tip_length, &
+                phys%static_offset, phys%tip_position, phys%tip_mass, phys%beam_damping, &
+                phys%contact_damping, phys%drive_amplitude, phys%drive_angular_frequency]
+   end function physical_values
+
+   !> Which &physical keys (indices into physical_names) scene group k depends on by Eq. (12).
+   pure function scene_depends_on(k) result(keys)
+      integer, intent(in) :: k
+      integer, allocatable :: keys(:)
+      ! 1 length, 2 width, 3 thickness, 4 density, 5 E1, 6 nu1, 7 E2, 8 nu2, 9 R, 10 gamma,
+      ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega.
+      select case (k)
+      case (1)
+         keys = [16, 4, 2, 3, 1]
+      case (2)
+         keys = [19, 12]
+      case (3)
+         keys = [17, 1, 5, 2, 3, 4]
+      case (4)
+         keys = [18, 1, 5, 2, 3, 4]
+      case (5)
+         keys = [10, 9, 1, 5, 2, 3]
+      case (6)
+         keys = [5, 6, 7, 8, 12, 9, 10, 1, 2, 3]
+      case (7)
+         keys = [10, 5, 6, 7, 8, 12, 9]
+      case (8)
+         keys = [20, 4, 2, 3, 1, 5]
+      case (9)
+         keys = [11]
+      case (10)
+         keys = [1, 12]
+      case (11)
+         keys = [13, 12]
+      case (12)
+         keys = [14, 12, 11]
+      case default
+         keys = [15, 1]
+      end select
+   end function scene_depends_on
 
    !> The dimensionless groups of Eq. (10)-(12) for a physical scene (E8 corrected in alpha4).
    pure function scene_from_physical(phys) result(scene)

@@ -1,11 +1,18 @@
-!> How a run is integrated and sampled: the &solver and &output settings.
+!> How a run is integrated and sampled: the &solver and &output settings, the method names,
+!> and the counts (samples, worst-case fixed steps) that validation bounds before a run.
 module tmafm_settings
-   use tmafm_kinds, only: dp
+   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+   use tmafm_kinds, only: dp, i8
+   use tmafm_errors, only: ok, err_input
+   use tmafm_text, only: real_text, int_text, short_real_text
    implicit none
    private
 
-   public :: run_settings_t, sample_count
+   public :: run_settings_t, sample_count, sample_count_real, is_known_method, is_fixed_step_method
+   public :: method_choices, fixed_step_count_real
    public :: method_rk4_paper, method_rk4_event, method_dopri5, method_flight_exact, known_methods
+   public :: method_names, default_max_steps, max_max_steps
+   public :: max_samples, max_trajectory_bytes, trajectory_bytes, check_run_size
 
    !> The paper's scheme: RK4, dtau out of contact, dtau/contact_refine in contact, no location.
    character(len=*), parameter :: method_rk4_paper = 'rk4_paper'
@@ -15,9 +22,29 @@ module tmafm_settings
    character(len=*), parameter :: method_dopri5 = 'dopri5'
    !> Exact modal propagation out of contact, dopri5 in contact.
    character(len=*), parameter :: method_flight_exact = 'flight_exact'
-   !> Every method name, for validation messages.
+   !> Every method `&solver method` accepts: adding a method is one line here (and its case in
+   !> the driver).  Fixed-step methods are also listed in fixed_step_names.
+   character(len=*), parameter :: method_names(*) = [character(len=16) :: &
+      method_rk4_paper, &
+      method_rk4_event, &
+      method_dopri5, &
+      method_flight_exact]
+   !> The methods that take fixed steps dtau and dtau/contact_refine (their step count is
+   !> bounded up front by max_steps).
+   character(len=*), parameter :: fixed_step_names(*) = [character(len=16) :: &
+      method_rk4_paper, method_rk4_event]
+   !> Every method name, for messages (method_choices() builds the same text from method_names).
    character(len=*), parameter :: known_methods = &
       "'rk4_paper', 'rk4_event', 'dopri5' or 'flight_exact'"
+   !> Default &solver max_steps: the step budget of one run.
+   integer(i8), parameter :: default_max_steps = 100000000_i8
+   !> Largest &solver max_steps accepted.
+   integer(i8), parameter :: max_max_steps = 1000000000000_i8
+
+   !> The most output samples one run may keep.
+   integer, parameter :: max_samples = 50000000
+   !> The most memory the sampled trajectory of one run may take: 2 GiB.
+   real(dp), parameter :: max_trajectory_bytes = 2.0_dp**31
 
    !> How to integrate and sample a run.
    type :: run_settings_t
@@ -37,15 +64,115 @@ module tmafm_settings
       real(dp) :: sample_dtau = 0.01_dp
       !> A run stops with an error once some |a_j| exceeds this (units of the gap d).
       real(dp) :: blowup_limit = 1.0_dp
+      !> Step budget of one run (accepted + rejected steps); fixed-step runs are checked up front.
+      integer(i8) :: max_steps = default_max_steps
    end type run_settings_t
 
 contains
 
+   !> .true. when `name` (lower case, blank padded) is one of method_names.
+   pure function is_known_method(name) result(known)
+      character(len=*), intent(in) :: name
+      logical :: known
+      known = any(method_names == trim(name))
+   end function is_known_method
+
+   !> .true. when `name` is a fixed-step method (dtau, contact_refine).
+   pure function is_fixed_step_method(name) result(fixed)
+      character(len=*), intent(in) :: name
+      logical :: fixed
+      fixed = any(fixed_step_names == trim(name))
+   end function is_fixed_step_method
+
+   !> The accepted method names as text: 'a', 'b' or 'c'.
+   pure function method_choices() result(text)
+      character(len=:), allocatable :: text
+      integer :: k
+      text = ''''//trim(method_names(1))//''''
+      do k = 2, size(method_names)
+         if (k == size(method_names)) then
+            text = text//' or '''//trim(method_names(k))//''''
+         else
+            text = text//', '''//trim(method_names(k))//''''
+         end if
+      end do
+   end function method_choices
+
+   !> Number of output samples as a real (no overflow): tau = 0, sample_dtau, ..., tau_end.
+   pure function sample_count_real(settings) result(n)
+      type(run_settings_t), intent(in) :: settings
+      real(dp) :: n
+      n = aint(settings%tau_end/settings%sample_dtau*(1.0_dp + 4*epsilon(1.0_dp))) + 1
+   end function sample_count_real
+
    !> Number of output samples for a run: tau = 0, sample_dtau, ..., up to tau_end.
+   !> Valid for validated settings (at most huge(1) samples; validation bounds it far below).
    pure function sample_count(settings) result(n)
       type(run_settings_t), intent(in) :: settings
       integer :: n
-      n = floor(settings%tau_end/settings%sample_dtau*(1.0_dp + 4*epsilon(1.0_dp))) + 1
+      real(dp) :: count
+      count = settings%tau_end/settings%sample_dtau*(1.0_dp + 4*epsilon(1.0_dp))
+      if (.not. (count < real(huge(n) - 1, dp))) then
+         n = huge(n)
+      else
+         n = floor(count) + 1
+      end if
    end function sample_count
+
+   !> Worst-case step count of a fixed-step run as a real (no overflow):
+   !> ceil(tau_end/dtau) * contact_refine, every step taken in contact.
+   pure function fixed_step_count_real(settings) result(n)
+      type(run_settings_t), intent(in) :: settings
+      real(dp) :: n, steps
+      steps = settings%tau_end/settings%dtau*(1.0_dp - 4*epsilon(1.0_dp))
+      n = aint(steps)
+      if (n < steps) n = n + 1
+      n = n*settings%contact_refine
+   end function fixed_step_count_real
+
+   !> Bytes of the sampled trajectory of a run with n_modes modes: (4 + 2N) * 8 per sample.
+   pure function trajectory_bytes(settings, n_modes) result(bytes)
+      type(run_settings_t), intent(in) :: settings
+      integer, intent(in) :: n_modes
+      real(dp) :: bytes
+      bytes = sample_count_real(settings)*(4 + 2*n_modes)*8
+   end function trajectory_bytes
+
+   !> Refuse a run whose samples, trajectory memory or worst-case fixed-step count exceed the
+   !> limits (max_samples, max_trajectory_bytes, max_steps); the message names the keys.
+   subroutine check_run_size(settings, n_modes, ierr, errmsg)
+      type(run_settings_t), intent(in) :: settings
+      integer, intent(in) :: n_modes
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      real(dp) :: samples, bytes, steps
+
+      ierr = ok
+      errmsg = ''
+      samples = sample_count_real(settings)
+      bytes = trajectory_bytes(settings, n_modes)
+      if (.not. (ieee_is_finite(samples) .and. samples <= max_samples)) then
+         ierr = err_input
+         errmsg = '&output sample_dtau = '//real_text(settings%sample_dtau)//' with &solver '// &
+                  'tau_end = '//real_text(settings%tau_end)//' gives '//short_real_text(samples, 3)// &
+                  ' samples, more than '//int_text(max_samples)//': raise sample_dtau or lower tau_end'
+      else if (.not. (bytes <= max_trajectory_bytes)) then
+         ierr = err_input
+         errmsg = '&output sample_dtau = '//real_text(settings%sample_dtau)//' with &solver '// &
+                  'tau_end = '//real_text(settings%tau_end)//' and '//int_text(n_modes)// &
+                  ' modes needs '//short_real_text(bytes, 3)//' bytes for the samples, more than '// &
+                  '2 GiB: raise sample_dtau or lower tau_end'
+      else if (is_fixed_step_method(settings%method)) then
+         steps = fixed_step_count_real(settings)
+         if (.not. (ieee_is_finite(steps) .and. steps <= real(settings%max_steps, dp))) then
+            ierr = err_input
+            errmsg = '&solver dtau = '//real_text(settings%dtau)//' with tau_end = '// &
+                     real_text(settings%tau_end)//' and contact_refine = '// &
+                     int_text(settings%contact_refine)//' may need '//short_real_text(steps, 3)// &
+                     ' steps, more than max_steps = '//int_text(settings%max_steps)// &
+                     ': raise dtau, lower tau_end or contact_refine, or raise max_steps'
+         end if
+      end if
+   end subroutine check_run_size
 
 end module tmafm_settings

@@ -9,7 +9,7 @@ module tmafm_simulation
    use tmafm_driver, only: run_trajectory
    use tmafm_trajectory, only: trajectory_t
    use tmafm_config, only: config_t
-   use tmafm_settings, only: method_dopri5
+   use tmafm_settings, only: method_dopri5, check_run_size
    use tmafm_namelist, only: config_errata, read_config
    implicit none
    private
@@ -57,8 +57,11 @@ contains
       call build_model(config, model, ierr, errmsg)
    end subroutine load_model
 
-   !> For &model n_modes = 0: the smallest N whose V_T over mode_horizon agrees with N+1's
-   !> within mode_tol (relative to the range of V_T).  Sets config%n_modes and the evidence.
+   !> For &model n_modes = 0: the smallest N, counting from N = 1, whose V_T over mode_horizon
+   !> agrees with N+1's within mode_tol (relative to the range of V_T); never fewer than the
+   !> last mode with a nonzero &initial value, so no given initial value is dropped (the
+   !> comparison runs at smaller N start from the first N values: the initial state projected
+   !> on those modes).  Sets config%n_modes and the evidence (one difference per N compared).
    !> The comparison runs use dopri5 at tight tolerances, whatever the run's own method, so
    !> that integration error (or a fixed step past RK4's stability limit) cannot decide N.
    recursive subroutine choose_mode_count(config, ierr, errmsg)
@@ -81,7 +84,7 @@ contains
       trial%solver%rtol = comparison_rtol
       trial%solver%atol = comparison_atol
       config%n_mode_differences = 0
-      n = max(1, config%n_initial)
+      n = 1
       trial%n_modes = n
       call simulate(trial, lower, ierr, errmsg)
       if (ierr /= ok) return
@@ -97,8 +100,21 @@ contains
          call move_alloc(upper%vt, lower%vt)
          n = n + 1
       end do
-      config%n_modes = n
+      config%n_modes = max(n, last_nonzero(config%a0), last_nonzero(config%adot0))
    end subroutine choose_mode_count
+
+   !> Index of the last nonzero entry (0 if none).
+   pure integer function last_nonzero(values)
+      real(dp), intent(in) :: values(:)
+      integer :: j
+      last_nonzero = 0
+      do j = size(values), 1, -1
+         if (values(j) /= 0) then
+            last_nonzero = j
+            return
+         end if
+      end do
+   end function last_nonzero
 
    !> Run a configuration; `traj` holds the samples when ierr == ok.
    recursive subroutine simulate(config, traj, ierr, errmsg, progress_unit)
@@ -118,6 +134,9 @@ contains
       call build_model(chosen, model, ierr, errmsg)
       if (ierr /= ok) return
       n = chosen%n_modes
+      ! Every run (the comparison runs of an automatic N included) obeys the size limits.
+      call check_run_size(chosen%solver, n, ierr, errmsg)
+      if (ierr /= ok) return
       call run_trajectory(model, chosen%solver, chosen%a0(1:n), chosen%adot0(1:n), traj, ierr, &
                           errmsg, progress_unit)
    end subroutine simulate

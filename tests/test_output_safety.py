@@ -178,7 +178,10 @@ def test_signal_while_writing_leaves_no_temporary(tmp_path, exe, signo):
     path = short_input(tmp_path, "big.nml", tau_end=100.0, solver={"method": "dopri5"},
                        output={"file": "big.dat", "sample_dtau": 5e-4})
     for _ in range(3):
-        proc = subprocess.Popen([exe, path, "-q"], cwd=tmp_path)
+        # A shell's background job inherits SIGINT ignored, and tmafm keeps an ignored signal
+        # ignored (as nohup asks): start the run with the default disposition.
+        proc = subprocess.Popen([exe, path, "-q"], cwd=tmp_path,
+                                preexec_fn=lambda: signal.signal(signo, signal.SIG_DFL))
         caught = False
         while proc.poll() is None:
             if leftovers(tmp_path):

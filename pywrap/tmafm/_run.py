@@ -171,9 +171,13 @@ class Config:
         if max_switches is not None and n_switches > max_switches:
             raise SolverError(f"the run changed phase {n_switches} times, more than "
                               f"max_switches = {max_switches}")
-        tau, vt, vtdot = (np.empty(n_samples) for _ in range(3))
-        contact = np.empty(n_samples, dtype=np.int32)
-        a, adot = (np.empty((n_samples, n_modes), order="F") for _ in range(2))
+        try:
+            tau, vt, vtdot = (np.empty(n_samples) for _ in range(3))
+            contact = np.empty(n_samples, dtype=np.int32)
+            a, adot = (np.empty((n_samples, n_modes), order="F") for _ in range(2))
+        except MemoryError as exc:
+            raise SolverError(f"not enough memory to return {n_samples} samples of N = {n_modes} "
+                              f"modes: raise &output sample_dtau") from exc
         _api.run_samples(handle, tau, vt, vtdot, contact, a, adot)
         switches = np.empty(n_switches)
         _api.run_switches(handle, switches)

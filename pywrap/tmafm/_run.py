@@ -332,11 +332,14 @@ class _NamelistFile:
         config = nml if isinstance(nml, Config) and not overrides else Config(
             copy.deepcopy(nml) if isinstance(nml, Mapping) else nml, **(overrides or {}))
         self.label = config.label
-        handle = tempfile.NamedTemporaryFile("w", suffix=".nml", delete=False)
-        self._temporary = handle.name
-        with handle:
-            handle.write(config.text)
-        self.path = handle.name
+        fd, self.path = tempfile.mkstemp(suffix=".nml")
+        try:
+            with os.fdopen(fd, "w") as handle:
+                handle.write(config.text)
+        except BaseException:
+            os.unlink(self.path)
+            raise
+        self._temporary = self.path
 
     def check(self, ierr, errmsg) -> None:
         """Raise for a core error, naming the user's input rather than a temporary file."""

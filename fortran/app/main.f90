@@ -8,7 +8,7 @@ program tmafm_main
    use, intrinsic :: iso_fortran_env, only: error_unit, output_unit
    use tmafm, only: config_t, trajectory_t, read_config, simulate, choose_mode_count, i8, &
       tmafm_version_string, ok, errmsg_len, path_len, output_sink_t, prepare_output, &
-      check_output_size, begin_output, write_output, discard_output, sample_count
+      check_output_size, begin_output, write_output, discard_output, sample_count, target_file
    implicit none
 
    interface
@@ -31,12 +31,15 @@ program tmafm_main
    type(trajectory_t) :: traj
    type(output_sink_t) :: sink
    integer :: i, n_args, ierr
-   logical :: quiet, have_input, have_output
+   logical :: quiet, have_input, have_output, timings
+   real :: cpu(3)
+   integer(i8) :: clock(3), clock_rate
 
    call tmafm_signals_install()
    have_input = .false.
    have_output = .false.
    quiet = .false.
+   timings = .false.
    n_args = command_argument_count()
    i = 1
    do while (i <= n_args)
@@ -50,6 +53,8 @@ program tmafm_main
          stop
       case ('-q', '--quiet')
          quiet = .true.
+      case ('--timings')
+         timings = .true.
       case ('-o', '--output')
          if (i == n_args) call fail(1, 'option '//argument//' needs a file name (or - for standard output)')
          i = i + 1
@@ -77,9 +82,14 @@ program tmafm_main
    if (have_output) config%output_file = output_override
    output_format = trim(config%output_format)
 
-   ! The target is checked (and a device opened) before anything is integrated.
+   ! The target is checked before anything is integrated.  The check creates and removes a
+   ! temporary: signals wait meanwhile, so none can leave it behind.
+   call tmafm_signals_hold()
    call prepare_output(trim(config%output_file), output_format, sink, ierr, errmsg)
+   call tmafm_signals_release()
    if (ierr /= ok) call fail(ierr, errmsg)
+
+   call mark(1)
    call choose_mode_count(config, ierr, errmsg)
    if (ierr == ok) call check_output_size(sink, int(sample_count(config%solver), i8), config%n_modes, &
                                           ierr, errmsg)
@@ -94,10 +104,13 @@ program tmafm_main
       call discard_output(sink)
       call fail(ierr, errmsg)
    end if
+   call mark(2)
 
-   call tmafm_signals_hold()
+   ! Signals wait from the temporary's creation until the handler knows its name (not while
+   ! a FIFO's open waits for a reader: that must stay interruptible).
+   if (sink%target == target_file) call tmafm_signals_hold()
    call begin_output(sink, ierr, errmsg)
-   if (ierr == ok .and. allocated(sink%temporary)) then
+   if (ierr == ok .and. len(sink%temporary) > 0) then
       call tmafm_signals_guard(sink%temporary, len(sink%temporary, kind=c_size_t))
    else
       call tmafm_signals_release()
@@ -105,11 +118,30 @@ program tmafm_main
    if (ierr == ok) call write_output(sink, input_path, config, traj, ierr, errmsg)
    call tmafm_signals_release()
    if (ierr /= ok) call fail(ierr, errmsg)
+   call mark(3)
+   if (timings) write (error_unit, '(a)') 'tmafm: timings: run '//seconds(cpu(2) - cpu(1))//' s CPU, write '// &
+      seconds(cpu(3) - cpu(2))//' s CPU ('//seconds(real(clock(3) - clock(2))/real(clock_rate))//' s wall)'
    ! The summary goes to stdout, unless stdout holds the data.
    if (.not. quiet .and. sink%path /= '-') write (output_unit, '(a,i0,a)') 'tmafm: wrote ', size(traj%tau), &
       ' samples to '//trim(config%output_file)
 
 contains
+
+   !> Note the CPU time and the wall clock at point k (for --timings).
+   subroutine mark(k)
+      integer, intent(in) :: k
+      call cpu_time(cpu(k))
+      call system_clock(clock(k), clock_rate)
+   end subroutine mark
+
+   !> Seconds as text, e.g. 0.0123.
+   function seconds(value) result(text)
+      real, intent(in) :: value
+      character(len=:), allocatable :: text
+      character(len=24) :: buffer
+      write (buffer, '(f12.4)') value
+      text = trim(adjustl(buffer))
+   end function seconds
 
    !> Command argument i, whatever its length.
    subroutine get_argument(i, value)
@@ -161,6 +193,7 @@ contains
          '', &
          '  -o, --output FILE   write to FILE instead of &output file; - is standard output', &
          '  -q, --quiet         no progress lines on stderr, no summary on stdout', &
+         '      --timings       one line on stderr: CPU seconds of the run and of the write', &
          '  -h, --help          show this help', &
          '  -V, --version       show the version', &
          '', &

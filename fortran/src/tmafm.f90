@@ -21,7 +21,7 @@ module tmafm
    use tmafm_text, only: real_text, lower
    use tmafm_simulation, only: build_model, simulate, choose_mode_count, load_model
    use tmafm_output, only: write_trajectory_file, output_sink_t, prepare_output, check_output_size, &
-      begin_output, write_output, discard_output
+      begin_output, write_output, discard_output, target_file, target_device, target_stdout
    implicit none
    private
 
@@ -35,6 +35,6 @@ module tmafm
    public :: is_known_method, method_names, max_samples, max_trajectory_bytes, check_run_size
    public :: load_model
    public :: write_trajectory_file, output_sink_t, prepare_output, check_output_size, begin_output, &
-             write_output, discard_output, sample_count
+             write_output, discard_output, sample_count, target_file, target_device, target_stdout
 
 end module tmafm

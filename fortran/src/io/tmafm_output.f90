@@ -60,8 +60,9 @@ module tmafm_output
 contains
 
    !> Check the target `path` for format `format` ('text' or 'npy') before the run: refuse what
-   !> cannot or must not be written, and for a file, create and remove a temporary next to it.
-   !> A device or FIFO is opened here (a FIFO waits for its reader) and stays open.
+   !> cannot or must not be written, and for a file, create and remove a temporary next to it
+   !> (a caller that removes temporaries on signals should block them around this call).
+   !> Nothing here blocks: a device or FIFO is only checked, and opened by begin_output.
    subroutine prepare_output(path, format, sink, ierr, errmsg)
       character(len=*), intent(in) :: path
       character(len=*), intent(in) :: format
@@ -143,10 +144,11 @@ contains
             return
          end if
       case (kind_char_device, kind_fifo)
+         ! Checked only: opening and closing a FIFO now would end its reader's input.
          sink%target = target_device
-         sink%fd = open_device(sink%path)
-         if (sink%fd < 0) then
-            call fail(err_file, 'cannot write output file '//shown(sink%path)//': '//error_text(sink%fd))
+         status = check_writable(sink%path)
+         if (status /= 0) then
+            call fail(err_file, 'cannot write output file '//shown(sink%path)//': '//error_text(status))
             return
          end if
       case (kind_directory)
@@ -192,8 +194,8 @@ contains
       end if
    end subroutine check_output_size
 
-   !> Create the temporary file (target_file); from here until write_output returns, the
-   !> temporary is sink%temporary.
+   !> Create the temporary file (target_file; from here until write_output returns, the
+   !> temporary is sink%temporary), or open the device (a FIFO waits here for its reader).
    subroutine begin_output(sink, ierr, errmsg)
       type(output_sink_t), intent(inout) :: sink
       integer, intent(out) :: ierr
@@ -201,8 +203,12 @@ contains
 
       ierr = ok
       errmsg = ''
-      if (sink%target /= target_file) return
-      sink%fd = create_temporary(sink%path, sink%temporary)
+      select case (sink%target)
+      case (target_file)
+         sink%fd = create_temporary(sink%path, sink%temporary)
+      case (target_device)
+         sink%fd = open_device(sink%path)
+      end select
       if (sink%fd < 0) then
          ierr = err_file
          errmsg = 'cannot write output file '//shown(sink%path)//': '//error_text(sink%fd)

@@ -81,7 +81,7 @@ def _source(nml, overrides: Mapping) -> tuple[str, str, str | None]:
         what = f"override {dict(overrides)!r}"
         overrides = check_groups(overrides, what)
         _check_known(overrides, what)
-        override_text = to_text(overrides)
+        override_text = to_text(overrides, what)
     if isinstance(nml, Config):
         return nml.text, nml.label, override_text
     if isinstance(nml, (str, os.PathLike)):

@@ -86,6 +86,7 @@ def test_run_writes_no_file_and_needs_no_writable_folder(tmp_path):
     """)
     cwd = tmp_path / "cwd"
     cwd.mkdir()
+    before = set(os.listdir("/tmp"))
     proc = subprocess.run([sys.executable, "-c", script], cwd=cwd, env=env, capture_output=True,
                           text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr

@@ -1,8 +1,8 @@
 !> `flight_exact`: out of contact the state is propagated by the exact modal solution
 !> (tmafm_flight), and the next contact is the first root of V_T on that closed form; only
 !> the contact phases are integrated numerically, by the adaptive pair `contact_pair`.
-!> A flight is scanned in chunks of at most `flight_chunk` scan steps, each charged to
-!> &solver max_steps, so a long flight cannot outrun the budget.
+!> Each flight and its scan points are charged to &solver max_steps (one scan is itself
+!> bounded by tmafm_flight).
 module tmafm_method_flight
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok
@@ -18,8 +18,6 @@ module tmafm_method_flight
 
    !> The embedded pair used in contact (measured fastest: docs/performance.md).
    integer, parameter :: contact_pair = pair_dop853
-   !> Longest stretch of a flight scanned in one call, in scan steps.
-   real(dp), parameter :: flight_chunk = 4096
 
 contains
 
@@ -36,7 +34,7 @@ contains
       type(free_flight_t) :: flight
       type(adaptive_state_t) :: contact
       real(dp), allocatable :: y_sample(:)
-      real(dp) :: s_contact, horizon, reach
+      real(dp) :: s_contact, horizon
       logical :: found
       integer :: evaluations
 
@@ -56,8 +54,8 @@ contains
          associate (tau => contact%tau, y => contact%y)
             call flight%start(model, tau, y)
             evaluations = 0
-            reach = min(horizon - tau, flight_chunk*flight%scan_step)
-            call flight%first_contact(model, reach, found, s_contact, evaluations)
+            call flight%first_contact(model, horizon - tau, found, s_contact, evaluations, ierr, errmsg)
+            if (ierr /= ok) return
             ! Closed-form evaluations of V_T cost O(N); count them as right-hand sides, and
             ! charge them (and the flight itself) to the step budget.
             traj%rhs_evaluations = traj%rhs_evaluations + evaluations

@@ -12,6 +12,7 @@ module tmafm_contact
    public :: law_hertz, law_dmt, dmt_adhesion
    public :: contact_angle, contact_radius, normal_force_group, friction_group
    public :: contact_brackets_t, contact_brackets
+   public :: contact_angle_sin_cos, contact_forces
 
    !> Non-adhesive Hertz contact.
    integer, parameter :: law_hertz = 1
@@ -80,6 +81,62 @@ contains
       friction = radius*(-min(vt, 0.0_dp)*cos(theta1))
    end function friction_group
 
+   !> sin and cos of the contact angle theta1 from those of the tilt and the scaled slope, with no
+   !> atan: theta1 = pi/2 - (theta + atan t), t = |slope| (Eq. 3) or -slope (E7), so
+   !> sin(theta1) = (cos(theta) - t sin(theta))/sqrt(1 + t^2), cos(theta1) = (sin(theta) + t cos(theta))/sqrt(1 + t^2).
+   elemental subroutine contact_angle_sin_cos(sin_theta, cos_theta, scaled_slope, signed_slope, &
+         sin1, cos1)
+      real(dp), intent(in) :: sin_theta
+      real(dp), intent(in) :: cos_theta
+      real(dp), intent(in) :: scaled_slope
+      logical, intent(in) :: signed_slope
+      real(dp), intent(out) :: sin1
+      real(dp), intent(out) :: cos1
+      real(dp) :: t, scale
+      if (signed_slope) then
+         t = -scaled_slope
+      else
+         t = abs(scaled_slope)
+      end if
+      if (abs(t) <= 1) then
+         scale = 1/sqrt(1 + t*t)
+         sin1 = (cos_theta - t*sin_theta)*scale
+         cos1 = (sin_theta + t*cos_theta)*scale
+      else
+         ! The same with 1/t, so that a huge slope does not overflow t*t.
+         t = 1/t
+         scale = 1/sqrt(1 + t*t)
+         sin1 = sign(scale, t)*(t*cos_theta - sin_theta)
+         cos1 = sign(scale, t)*(t*sin_theta + cos_theta)
+      end if
+   end subroutine contact_angle_sin_cos
+
+   !> The two brackets of Eq. (11) from the gap and sin, cos of the contact angle:
+   !> P1 = kappa5 f_c sin(theta1) + kappa6 h cos(theta1), P2 = -kappa5 f_c cos(theta1) + kappa6 h sin(theta1).
+   elemental subroutine contact_forces(vt, sin1, cos1, beta, law, kappa5, kappa6, transverse, axial, &
+         radius, normal, friction)
+      real(dp), intent(in) :: vt
+      real(dp), intent(in) :: sin1
+      real(dp), intent(in) :: cos1
+      real(dp), intent(in) :: beta
+      integer, intent(in) :: law
+      real(dp), intent(in) :: kappa5
+      real(dp), intent(in) :: kappa6
+      real(dp), intent(out) :: transverse
+      real(dp), intent(out) :: axial
+      real(dp), intent(out) :: radius
+      real(dp), intent(out) :: normal
+      real(dp), intent(out) :: friction
+      real(dp) :: depth
+      depth = max(-vt, 0.0_dp)
+      radius = sqrt(depth*sin1/beta)
+      normal = radius*radius*radius
+      if (law == law_dmt) normal = normal - dmt_adhesion
+      friction = radius*(depth*cos1)
+      transverse = kappa5*normal*sin1 + kappa6*friction*cos1
+      axial = -kappa5*normal*cos1 + kappa6*friction*sin1
+   end subroutine contact_forces
+
    !> Everything the equations of motion need from the contact at one instant.
    pure function contact_brackets(vt, scaled_slope, theta, beta, law, kappa5, kappa6, &
          signed_slope) result(state)
@@ -95,13 +152,9 @@ contains
       real(dp) :: sin1, cos1
 
       state%theta1 = contact_angle(theta, scaled_slope, signed_slope)
-      state%radius = contact_radius(vt, state%theta1, beta)
-      state%normal = normal_force_group(state%radius, law)
-      state%friction = friction_group(state%radius, vt, state%theta1)
-      sin1 = sin(state%theta1)
-      cos1 = cos(state%theta1)
-      state%transverse = kappa5*state%normal*sin1 + kappa6*state%friction*cos1
-      state%axial = -kappa5*state%normal*cos1 + kappa6*state%friction*sin1
+      call contact_angle_sin_cos(sin(theta), cos(theta), scaled_slope, signed_slope, sin1, cos1)
+      call contact_forces(vt, sin1, cos1, beta, law, kappa5, kappa6, state%transverse, state%axial, &
+                          state%radius, state%normal, state%friction)
    end function contact_brackets
 
 end module tmafm_contact

@@ -6,14 +6,20 @@
 !> In contact:      C += alpha4 p p^T, K -= P2 G,
 !>                  F += F_damp + (L/d) P1 p + (g0/d) P2 r.
 !> M is constant: it is factored once (LAPACK dpotrf) and M^-1 is applied to every
-!> constant matrix and vector at set-up, so an evaluation costs a few N x N products.
+!> constant matrix and vector at set-up.  The right-hand side is one kernel with no
+!> allocation and no temporaries: a'' = B (a, a') + w_s sin(Omega tau) + w_c cos(Omega tau),
+!> with B = -M^-1 [Lambda | alpha3 I] folded at set-up; in contact the axial term
+!> P2 M^-1 G is added to B's first half in the same pass, and the rank-one tip and moment
+!> terms come from three dot products (p.a, s.a, p.a') and one call of the contact forces.
+!> One sin/cos of Omega tau per evaluation, none of theta1 (see contact_angle_sin_cos).
 module tmafm_model
    use tmafm_kinds, only: dp
-   use tmafm_errors, only: ok, err_runtime
-   use tmafm_modes, only: beam_roots, mode_shape
+   use tmafm_errors, only: ok, err_input, err_runtime
+   use tmafm_modes, only: beam_roots, mode_shape, max_modes
    use tmafm_galerkin, only: mode_integrals_closed_form, axial_matrix_closed_form, &
       axial_matrix_quadrature, quadrature_panels
-   use tmafm_contact, only: contact_brackets_t, contact_brackets, law_hertz
+   use tmafm_contact, only: contact_brackets_t, contact_brackets, law_hertz, contact_angle_sin_cos, &
+      contact_forces
    use tmafm_scene, only: scene_t
    use tmafm_errata, only: errata_t
    implicit none
@@ -69,9 +75,27 @@ module tmafm_model
       real(dp), allocatable :: inv_mass_inertial(:)
       !> M^-1 q: the damping drive direction.
       real(dp), allocatable :: inv_mass_integral(:)
+      !> B = -[M^-1 Lambda | alpha3 M^-1] (N x 2N): the free a'' is B (a, a') plus the drive.
+      real(dp), allocatable :: free_pass(:, :)
+      !> w_s = alpha2 Omega^2 M^-1 (alpha1 m + q): the drive term of a'' that goes with sin(Omega tau).
+      real(dp), allocatable :: drive_sin(:)
+      !> w_c = -alpha2 alpha3 Omega M^-1 q: the drive term of a'' that goes with cos(Omega tau).
+      real(dp), allocatable :: drive_cos(:)
+      !> (g0/d) M^-1 r: the moment term of a'', times P2 (zero if the moment is off).
+      real(dp), allocatable :: moment_force(:)
+      !> sin(theta) and cos(theta) of the tilt.
+      real(dp) :: sin_theta = 0, cos_theta = 1
+      !> The base contact-damping term is base_sin sin(Omega tau) + base_cos cos(Omega tau).
+      real(dp) :: base_sin = 0, base_cos = 0
    contains
       !> Time derivative (a', a'') of the state y = (a, a') in a given phase.
       procedure :: derivative => model_derivative
+      !> The same, for callers that already hold sin(Omega tau) and cos(Omega tau) (see phase).
+      procedure :: derivative_at_phase => model_derivative_at_phase
+      !> The same, and also V_T and dV_T/dtau at that state (no extra sin or cos).
+      procedure :: derivative_and_gap => model_derivative_and_gap
+      !> sin(Omega tau) and cos(Omega tau), the drive phase the fast forms take.
+      procedure :: phase => model_phase
       !> The tip gap V_T = p.a + alpha2 sin(Omega tau) + delta_hat.
       procedure :: tip_gap => model_tip_gap
       !> The tip gap rate dV_T/dtau = p.a' + alpha2 Omega cos(Omega tau).
@@ -104,6 +128,11 @@ contains
 
       ierr = ok
       errmsg = ''
+      if (n_modes < 1 .or. n_modes > max_modes) then
+         ierr = err_input
+         write (errmsg, '(a,i0,a,i0)') '&model n_modes = ', n_modes, ': must be 1 to ', max_modes
+         return
+      end if
       n = n_modes
       model%n_modes = n
       model%law = law
@@ -187,7 +216,44 @@ contains
       model%inv_mass_moment = rhs(:, 3*n + 2)
       model%inv_mass_inertial = rhs(:, 3*n + 3)
       model%inv_mass_integral = rhs(:, 3*n + 4)
+
+      ! The folded forms the right-hand side uses.
+      associate (s => scene)
+         allocate (model%free_pass(n, 2*n))
+         model%free_pass(:, 1:n) = -model%inv_mass_eigen
+         model%free_pass(:, n + 1:2*n) = -s%alpha3*model%inv_mass
+         model%drive_sin = s%alpha2*s%omega**2*model%inv_mass_inertial
+         model%drive_cos = -s%alpha2*s%alpha3*s%omega*model%inv_mass_integral
+         if (model%has_moment) then
+            model%moment_force = s%g0_over_d*model%inv_mass_moment
+         else
+            allocate (model%moment_force(n), source=0.0_dp)
+         end if
+         model%sin_theta = sin(s%theta)
+         model%cos_theta = cos(s%theta)
+         if (.not. model%has_contact_damping) then
+            model%base_sin = 0
+            model%base_cos = 0
+         else if (errata%e1_base_damping_velocity) then
+            model%base_sin = 0
+            model%base_cos = -s%alpha2*s%alpha4*s%omega
+         else
+            model%base_sin = -s%alpha2*s%alpha4
+            model%base_cos = 0
+         end if
+      end associate
    end subroutine init_model
+
+   pure subroutine model_phase(self, tau, sin_phase, cos_phase)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(out) :: sin_phase
+      real(dp), intent(out) :: cos_phase
+      real(dp) :: phase
+      phase = self%scene%omega*tau
+      sin_phase = sin(phase)
+      cos_phase = cos(phase)
+   end subroutine model_phase
 
    pure function model_tip_gap(self, tau, y) result(vt)
       class(model_t), intent(in) :: self
@@ -242,30 +308,143 @@ contains
       real(dp), intent(in) :: y(:)
       logical, intent(in) :: in_contact
       real(dp), intent(out) :: dydt(:)
-      type(contact_brackets_t) :: state
+      real(dp) :: sin_phase, cos_phase, vt, vtdot
+      call self%phase(tau, sin_phase, cos_phase)
+      call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+   end subroutine model_derivative
+
+   pure subroutine model_derivative_at_phase(self, y, in_contact, sin_phase, cos_phase, dydt)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: y(:)
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      real(dp), intent(out) :: dydt(:)
+      real(dp) :: vt, vtdot
+      call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+   end subroutine model_derivative_at_phase
+
+   pure subroutine model_derivative_and_gap(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: y(:)
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      real(dp), intent(out) :: dydt(:)
+      real(dp), intent(out) :: vt
+      real(dp), intent(out) :: vtdot
+      call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
+   end subroutine model_derivative_and_gap
+
+   !> The one right-hand side: (a', a'') from y = (a, a') and the drive phase, and V_T and
+   !> dV_T/dtau when want_gap (always in contact, where they are needed anyway).  The state
+   !> is copied into a local array first, so that every loop runs on unit strides.
+   pure subroutine rhs_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in) :: y(:)
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      logical, intent(in) :: want_gap
+      real(dp), intent(out) :: dydt(:)
+      real(dp), intent(out) :: vt
+      real(dp), intent(out) :: vtdot
+      real(dp) :: x(2*max_modes), acc(max_modes)
+      real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, radius, normal, friction
       real(dp) :: tip_push
-      integer :: n
+      integer :: n, i, j
 
       n = self%n_modes
-      associate (a => y(1:n), adot => y(n + 1:2*n), s => self%scene)
-         dydt(1:n) = adot
-         dydt(n + 1:2*n) = -s%alpha3*matmul(self%inv_mass, adot) - matmul(self%inv_mass_eigen, a) &
-            + s%alpha2*s%omega**2*sin(s%omega*tau)*self%inv_mass_inertial &
-            - s%alpha2*s%alpha3*s%omega*cos(s%omega*tau)*self%inv_mass_integral
-         if (in_contact) then
-            state = self%contact(tau, a)
-            ! Everything that acts along p: contact damping, its base term, and P1.
-            tip_push = s%l_over_d*state%transverse
-            if (self%has_contact_damping) tip_push = tip_push &
-               - s%alpha4*dot_product(self%tip, adot) + base_damping(self, tau)
-            dydt(n + 1:2*n) = dydt(n + 1:2*n) + tip_push*self%inv_mass_tip
-            if (self%has_axial_stiffness) dydt(n + 1:2*n) = dydt(n + 1:2*n) &
-               + state%axial*matmul(self%inv_mass_axial, a)
-            if (self%has_moment) dydt(n + 1:2*n) = dydt(n + 1:2*n) &
-               + s%g0_over_d*state%axial*self%inv_mass_moment
+      associate (s => self%scene)
+         do i = 1, 2*n
+            x(i) = y(i)
+         end do
+         do i = 1, n
+            acc(i) = self%drive_sin(i)*sin_phase + self%drive_cos(i)*cos_phase
+         end do
+         vt = 0
+         vtdot = 0
+         if (in_contact .or. want_gap) then
+            tip_a = 0
+            slope_a = 0
+            tip_adot = 0
+            do j = 1, n
+               tip_a = tip_a + self%tip(j)*x(j)
+               slope_a = slope_a + self%slope(j)*x(j)
+               tip_adot = tip_adot + self%tip(j)*x(n + j)
+            end do
+            vt = tip_a + s%alpha2*sin_phase + s%delta_hat
+            vtdot = tip_adot + s%alpha2*s%omega*cos_phase
          end if
+         if (in_contact) then
+            call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a/s%l_over_d, &
+                                       self%errata%e7_signed_slope, sin1, cos1)
+            call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
+                                transverse, axial, radius, normal, friction)
+            ! Everything that acts along p: P1, the contact damping and its base term.
+            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*sin_phase &
+                       + self%base_cos*cos_phase
+            do i = 1, n
+               acc(i) = acc(i) + tip_push*self%inv_mass_tip(i) + axial*self%moment_force(i)
+            end do
+            ! B's displacement half and the axial stiffness P2 M^-1 G in one pass, then B's
+            ! velocity half.
+            call add_product_pair(n, n, self%free_pass, self%inv_mass_axial, axial, x, acc)
+            call add_product(n, n, self%free_pass(:, n + 1:), x(n + 1:), acc)
+         else
+            call add_product(n, 2*n, self%free_pass, x, acc)
+         end if
+         do i = 1, n
+            dydt(i) = x(n + i)
+            dydt(n + i) = acc(i)
+         end do
       end associate
-   end subroutine model_derivative
+   end subroutine rhs_kernel
+
+   !> acc += b x for an n x m matrix b, four columns per sweep of acc.
+   pure subroutine add_product(n, m, b, x, acc)
+      integer, intent(in) :: n
+      integer, intent(in) :: m
+      real(dp), intent(in) :: b(n, m)
+      real(dp), intent(in) :: x(m)
+      real(dp), intent(inout) :: acc(n)
+      integer :: i, j
+      do j = 1, m - 3, 4
+         do i = 1, n
+            acc(i) = acc(i) + (b(i, j)*x(j) + b(i, j + 1)*x(j + 1) + b(i, j + 2)*x(j + 2) &
+                               + b(i, j + 3)*x(j + 3))
+         end do
+      end do
+      do j = m - mod(m, 4) + 1, m
+         do i = 1, n
+            acc(i) = acc(i) + b(i, j)*x(j)
+         end do
+      end do
+   end subroutine add_product
+
+   !> acc += (b + c g) x for n x m matrices b and g, four columns per sweep of acc.
+   pure subroutine add_product_pair(n, m, b, g, c, x, acc)
+      integer, intent(in) :: n
+      integer, intent(in) :: m
+      real(dp), intent(in) :: b(n, m)
+      real(dp), intent(in) :: g(n, m)
+      real(dp), intent(in) :: c
+      real(dp), intent(in) :: x(m)
+      real(dp), intent(inout) :: acc(n)
+      integer :: i, j
+      do j = 1, m - 3, 4
+         do i = 1, n
+            acc(i) = acc(i) + ((b(i, j) + c*g(i, j))*x(j) + (b(i, j + 1) + c*g(i, j + 1))*x(j + 1) &
+                               + (b(i, j + 2) + c*g(i, j + 2))*x(j + 2) &
+                               + (b(i, j + 3) + c*g(i, j + 3))*x(j + 3))
+         end do
+      end do
+      do j = m - mod(m, 4) + 1, m
+         do i = 1, n
+            acc(i) = acc(i) + (b(i, j) + c*g(i, j))*x(j)
+         end do
+      end do
+   end subroutine add_product_pair
 
    pure subroutine model_matrices(self, tau, a, in_contact, mass, damping, stiffness, force)
       class(model_t), intent(in) :: self
@@ -328,8 +507,9 @@ contains
          tip_rate = dot_product(self%tip, adot)
          power(power_contact_damping) = tip_rate*(-s%alpha4*tip_rate + base_damping(self, tau))
          state = self%contact(tau, a)
-         sin1 = sin(state%theta1)
-         cos1 = cos(state%theta1)
+         call contact_angle_sin_cos(self%sin_theta, self%cos_theta, &
+                                    dot_product(self%slope, a)/s%l_over_d, &
+                                    self%errata%e7_signed_slope, sin1, cos1)
          moment_rate = dot_product(self%moment_shape, adot)
          axial_work = dot_product(adot, matmul(self%axial, a))
          do k = 1, 2

@@ -1,29 +1,50 @@
 !> The tmafm command: run a namelist file and write the sampled trajectory.
 !>
 !> Exit status: 0 success, 1 bad command line, 2 bad input, 3 file error,
-!> 4 blow-up, 5 other run failure.  Errors go to stderr as one line.
+!> 4 blow-up, 5 other run failure.  Errors go to stderr as one line.  SIGINT, SIGTERM and
+!> SIGHUP remove the output's temporary file (tmafm_signals.c) before the process dies.
 program tmafm_main
+   use, intrinsic :: iso_c_binding, only: c_char, c_size_t
    use, intrinsic :: iso_fortran_env, only: error_unit, output_unit
-   use tmafm, only: config_t, trajectory_t, read_config, simulate, write_trajectory_file, &
-      choose_mode_count, &
-      tmafm_version_string, ok, errmsg_len, path_len
+   use tmafm, only: config_t, trajectory_t, read_config, simulate, choose_mode_count, i8, &
+      tmafm_version_string, ok, errmsg_len, path_len, output_sink_t, prepare_output, &
+      check_output_size, begin_output, write_output, discard_output, sample_count, target_file
    implicit none
 
-   character(len=path_len) :: input_path, output_override, argument
+   interface
+      subroutine tmafm_signals_install() bind(c, name='tmafm_signals_install')
+      end subroutine tmafm_signals_install
+      subroutine tmafm_signals_hold() bind(c, name='tmafm_signals_hold')
+      end subroutine tmafm_signals_hold
+      subroutine tmafm_signals_guard(name, n) bind(c, name='tmafm_signals_guard')
+         import :: c_char, c_size_t
+         character(kind=c_char), intent(in) :: name(*)
+         integer(c_size_t), value :: n
+      end subroutine tmafm_signals_guard
+      subroutine tmafm_signals_release() bind(c, name='tmafm_signals_release')
+      end subroutine tmafm_signals_release
+   end interface
+
+   character(len=:), allocatable :: input_path, output_override, argument, output_format
    character(len=errmsg_len) :: errmsg
    type(config_t) :: config
    type(trajectory_t) :: traj
+   type(output_sink_t) :: sink
    integer :: i, n_args, ierr
-   logical :: quiet
+   logical :: quiet, have_input, have_output, timings
+   real :: cpu(3)
+   integer(i8) :: clock(3), clock_rate
 
-   input_path = ''
-   output_override = ''
+   call tmafm_signals_install()
+   have_input = .false.
+   have_output = .false.
    quiet = .false.
+   timings = .false.
    n_args = command_argument_count()
    i = 1
    do while (i <= n_args)
-      call get_command_argument(i, argument)
-      select case (trim(argument))
+      call get_argument(i, argument)
+      select case (argument)
       case ('-h', '--help')
          call print_help()
          stop
@@ -32,40 +53,128 @@ program tmafm_main
          stop
       case ('-q', '--quiet')
          quiet = .true.
+      case ('--timings')
+         timings = .true.
       case ('-o', '--output')
-         if (i == n_args) call fail(1, 'option '//trim(argument)//' needs a file name')
+         if (i == n_args) call fail(1, 'option '//argument//' needs a file name (or - for standard output)')
          i = i + 1
-         call get_command_argument(i, output_override)
+         call get_argument(i, output_override)
+         call check_path_length(output_override, 'output file name')
+         if (len(output_override) == 0) call fail(1, 'option '//argument//' needs a file name, not ''''')
+         have_output = .true.
       case default
-         if (argument(1:1) == '-') call fail(1, 'unknown option '''//trim(argument)// &
-                                              ''' (see tmafm --help)')
-         if (len_trim(input_path) > 0) call fail(1, 'more than one input file given: '''// &
-                                                   trim(input_path)//''' and '''//trim(argument)//'''')
+         if (len(argument) > 0) then
+            if (argument(1:1) == '-') call fail(1, 'unknown option '''//shortened(argument)// &
+                                                ''' (see tmafm --help)')
+         end if
+         if (have_input) call fail(1, 'more than one input file given: '''//shortened(input_path)// &
+                                   ''' and '''//shortened(argument)//'''')
+         call check_path_length(argument, 'input file name')
          input_path = argument
+         have_input = .true.
       end select
       i = i + 1
    end do
-   if (len_trim(input_path) == 0) call fail(1, 'no input file given (usage: tmafm INPUT.nml [-o FILE])')
+   if (.not. have_input) call fail(1, 'no input file given (usage: tmafm INPUT.nml [-o FILE])')
 
    call read_config(input_path, config, ierr, errmsg)
    if (ierr /= ok) call fail(ierr, errmsg)
-   if (len_trim(output_override) > 0) config%output_file = output_override
+   if (have_output) config%output_file = output_override
+   output_format = trim(config%output_format)
+
+   ! The target is checked before anything is integrated.  The check creates and removes a
+   ! temporary: signals wait meanwhile, so none can leave it behind.
+   call tmafm_signals_hold()
+   call prepare_output(trim(config%output_file), output_format, sink, ierr, errmsg)
+   call tmafm_signals_release()
+   if (ierr /= ok) call fail(ierr, errmsg)
+
+   call mark(1)
    call choose_mode_count(config, ierr, errmsg)
-   if (ierr /= ok) call fail(ierr, errmsg)
-
-   if (quiet) then
-      call simulate(config, traj, ierr, errmsg)
-   else
-      call simulate(config, traj, ierr, errmsg, progress_unit=error_unit)
+   if (ierr == ok) call check_output_size(sink, int(sample_count(config%solver), i8), config%n_modes, &
+                                          ierr, errmsg)
+   if (ierr == ok) then
+      if (quiet) then
+         call simulate(config, traj, ierr, errmsg)
+      else
+         call simulate(config, traj, ierr, errmsg, progress_unit=error_unit)
+      end if
    end if
-   if (ierr /= ok) call fail(ierr, errmsg)
+   if (ierr /= ok) then
+      call discard_output(sink)
+      call fail(ierr, errmsg)
+   end if
+   call mark(2)
 
-   call write_trajectory_file(config%output_file, input_path, config, traj, ierr, errmsg)
+   ! Signals wait from the temporary's creation until the handler knows its name (not while
+   ! a FIFO's open waits for a reader: that must stay interruptible).
+   if (sink%target == target_file) call tmafm_signals_hold()
+   call begin_output(sink, ierr, errmsg)
+   if (ierr == ok .and. len(sink%temporary) > 0) then
+      call tmafm_signals_guard(sink%temporary, len(sink%temporary, kind=c_size_t))
+   else
+      call tmafm_signals_release()
+   end if
+   if (ierr == ok) call write_output(sink, input_path, config, traj, ierr, errmsg)
+   call tmafm_signals_release()
    if (ierr /= ok) call fail(ierr, errmsg)
-   if (.not. quiet) write (output_unit, '(a,i0,a)') 'tmafm: wrote ', size(traj%tau), &
+   call mark(3)
+   if (timings) write (error_unit, '(a)') 'tmafm: timings: run '//seconds(cpu(2) - cpu(1))//' s CPU, write '// &
+      seconds(cpu(3) - cpu(2))//' s CPU ('//seconds(real(clock(3) - clock(2))/real(clock_rate))//' s wall)'
+   ! The summary goes to stdout, unless stdout holds the data.
+   if (.not. quiet .and. sink%path /= '-') write (output_unit, '(a,i0,a)') 'tmafm: wrote ', size(traj%tau), &
       ' samples to '//trim(config%output_file)
 
 contains
+
+   !> Note the CPU time and the wall clock at point k (for --timings).
+   subroutine mark(k)
+      integer, intent(in) :: k
+      call cpu_time(cpu(k))
+      call system_clock(clock(k), clock_rate)
+   end subroutine mark
+
+   !> Seconds as text, e.g. 0.0123.
+   function seconds(value) result(text)
+      real, intent(in) :: value
+      character(len=:), allocatable :: text
+      character(len=24) :: buffer
+      write (buffer, '(f12.4)') value
+      text = trim(adjustl(buffer))
+   end function seconds
+
+   !> Command argument i, whatever its length.
+   subroutine get_argument(i, value)
+      integer, intent(in) :: i
+      character(len=:), allocatable, intent(out) :: value
+      integer :: length, status
+      call get_command_argument(i, length=length, status=status)
+      if (status > 0) call fail(1, 'cannot read the command line')
+      allocate (character(len=length) :: value)
+      if (length > 0) call get_command_argument(i, value, status=status)
+      if (status /= 0) call fail(1, 'cannot read the command line')
+   end subroutine get_argument
+
+   !> Refuse a path longer than the configuration can hold (never cut it).
+   subroutine check_path_length(path, what)
+      character(len=*), intent(in) :: path
+      character(len=*), intent(in) :: what
+      character(len=80) :: numbers
+      if (len(path) <= path_len) return
+      write (numbers, '(a,i0,a,i0)') ' is ', len(path), ' characters long; tmafm accepts at most ', path_len
+      call fail(1, 'the '//what//' '''//shortened(path)//''''//trim(numbers))
+   end subroutine check_path_length
+
+   !> Text for a message: cut in the middle past 100 characters.
+   function shortened(text) result(short)
+      character(len=*), intent(in) :: text
+      character(len=:), allocatable :: short
+      if (len(text) <= 100) then
+         short = text
+      else
+         short = text(1:40)//'...'//text(len(text) - 56:)
+      end if
+   end function shortened
 
    subroutine fail(code, message)
       integer, intent(in) :: code
@@ -82,10 +191,15 @@ contains
          'write the sampled trajectory (columns tau vt vtdot contact a_1..a_N adot_1..adot_N,', &
          'after # header lines that echo the fully resolved input).', &
          '', &
-         '  -o, --output FILE   write to FILE instead of &output file', &
+         '  -o, --output FILE   write to FILE instead of &output file; - is standard output', &
          '  -q, --quiet         no progress lines on stderr, no summary on stdout', &
+         '      --timings       one line on stderr: CPU seconds of the run and of the write', &
          '  -h, --help          show this help', &
          '  -V, --version       show the version', &
+         '', &
+         'A file is replaced only when complete (written to a temporary, then renamed); a', &
+         'device or FIFO is written directly.  &output format = ''npy'' writes a .npz archive', &
+         '(the name must end in .npz) for numpy.load.', &
          '', &
          'Groups: &model &scene (or &physical, SI units) &initial &solver &output.', &
          'Exit status: 0 ok, 1 usage, 2 bad input, 3 file error, 4 blow-up, 5 run failure.'

@@ -1,7 +1,8 @@
 !> Public API of the tmafm library: a facade that re-exports what users call.
 !>
 !> Read a namelist with read_config, run it with simulate, write it with
-!> write_trajectory_file; or build a model_t directly and call run_trajectory.
+!> write_trajectory_file (or prepare_output before the run, then begin_output and
+!> write_output); or build a model_t directly and call run_trajectory.
 module tmafm
    use tmafm_kinds, only: dp, i8
    use tmafm_errors, only: ok, err_input, err_file, err_blowup, err_runtime, errmsg_len
@@ -12,14 +13,15 @@ module tmafm
    use tmafm_contact, only: law_hertz, law_dmt, contact_brackets_t, contact_brackets
    use tmafm_model, only: model_t, init_model
    use tmafm_settings, only: run_settings_t, is_known_method, method_names, max_samples, &
-      max_trajectory_bytes, check_run_size
+      max_trajectory_bytes, check_run_size, sample_count
    use tmafm_trajectory, only: trajectory_t
    use tmafm_driver, only: run_trajectory
    use tmafm_config, only: config_t, path_len
    use tmafm_namelist, only: read_config, read_config_text, write_config, config_text
    use tmafm_text, only: real_text, lower
    use tmafm_simulation, only: build_model, simulate, choose_mode_count, load_model
-   use tmafm_output, only: write_trajectory_file
+   use tmafm_output, only: write_trajectory_file, output_sink_t, prepare_output, check_output_size, &
+      begin_output, write_output, discard_output, target_file, target_device, target_stdout
    implicit none
    private
 
@@ -32,6 +34,7 @@ module tmafm
    public :: read_config_text, config_text, real_text, lower
    public :: is_known_method, method_names, max_samples, max_trajectory_bytes, check_run_size
    public :: load_model
-   public :: write_trajectory_file
+   public :: write_trajectory_file, output_sink_t, prepare_output, check_output_size, begin_output, &
+             write_output, discard_output, sample_count, target_file, target_device, target_stdout
 
 end module tmafm

@@ -1,85 +1,491 @@
-!> The trajectory file: '#' header lines echoing the resolved input and the version,
-!> then columns tau vt vtdot contact a_1..a_N adot_1..adot_N, readable by numpy.loadtxt.
+!> The output of a run, in one of two formats, written so that no data are lost or clobbered.
 !>
-!> The file is written under a temporary name and renamed at the end, so a failed
-!> write never leaves a partial file under the requested name.
+!> Formats: 'text' ('#' header lines echoing the resolved input and the version, then the
+!> columns tau vt vtdot contact a_1..a_N adot_1..adot_N, for numpy.loadtxt), and 'npy' (a
+!> .npz archive for numpy.load; layout in docs/output-format.md).
+!>
+!> Targets: a regular file (or a missing one) is written under a unique temporary name in its
+!> folder, synced, and renamed over the target only when complete; a character device or a
+!> FIFO (/dev/null, /dev/stdout on a terminal or pipe) is written directly; '-' is standard
+!> output.  Anything else (a folder, a symbolic link to a file, a socket) is refused.  Every
+!> write, the sync and the close are checked; on failure the temporary is removed and nothing
+!> is left under the target's name.
+!>
+!> The steps are separate so that the executable can check the target before the run
+!> (prepare_output), and know the temporary's name while it exists (begin_output ..
+!> write_output) to remove it on a signal.
 module tmafm_output
-   use, intrinsic :: iso_c_binding, only: c_char, c_int, c_null_char
-   use tmafm_errors, only: ok, err_file
+   use, intrinsic :: iso_c_binding, only: c_int32_t
+   use tmafm_kinds, only: dp, i8
+   use tmafm_errors, only: ok, err_input, err_file
    use tmafm_trajectory, only: trajectory_t
    use tmafm_config, only: config_t
-   use tmafm_namelist, only: write_config
+   use tmafm_namelist, only: config_text
    use tmafm_version, only: tmafm_version_string
+   use tmafm_float_format, only: put_es25, es25_width
+   use tmafm_posix, only: kind_missing, kind_regular, kind_directory, kind_char_device, kind_fifo, &
+                          kind_symlink, path_kind, create_temporary, open_device, check_descriptor, &
+                          write_text, sync_descriptor, close_descriptor, rename_path, remove_path, &
+                          check_writable, error_text
+   use tmafm_npz, only: npz_archive_t, npy_header, npz_begin, npz_add, npz_add_text, npz_finish, &
+                        npz_bytes, max_npz_bytes, native_descr
    implicit none
    private
 
-   public :: write_trajectory_file
+   public :: output_sink_t, prepare_output, check_output_size, begin_output, write_output, &
+             discard_output, write_trajectory_file, format_names
+   public :: target_file, target_device, target_stdout
 
-   interface
-      !> POSIX rename(2): atomic replacement within one file system.
-      function c_rename(old_path, new_path) result(status) bind(c, name='rename')
-         import :: c_char, c_int
-         character(kind=c_char), intent(in) :: old_path(*)
-         character(kind=c_char), intent(in) :: new_path(*)
-         integer(c_int) :: status
-      end function c_rename
-   end interface
+   !> How the target is written: through a temporary and a rename, directly, or to stdout.
+   integer, parameter :: target_none = 0, target_file = 1, target_device = 2, target_stdout = 3
+   !> Accepted values of &output format.
+   character(len=*), parameter :: format_names = "'text' or 'npy'"
+   !> Bytes of text gathered before each write(2).
+   integer, parameter :: chunk_bytes = 1048576
+
+   !> Where and how one run's output goes.
+   type :: output_sink_t
+      !> The target as given ('-' for standard output).
+      character(len=:), allocatable :: path
+      !> The temporary's name while it exists (target_file), else ''.
+      character(len=:), allocatable :: temporary
+      !> target_file, target_device or target_stdout (target_none before prepare_output).
+      integer :: target = target_none
+      !> .true. for the .npz format, .false. for text.
+      logical :: binary = .false.
+      !> Open descriptor (-1 when none).
+      integer :: fd = -1
+   end type output_sink_t
 
 contains
 
-   !> Write `traj` of `config` to `path` atomically.
-   subroutine write_trajectory_file(path, input_path, config, traj, ierr, errmsg)
+   !> Check the target `path` for format `format` ('text' or 'npy') before the run: refuse what
+   !> cannot or must not be written, and for a file, create and remove a temporary next to it
+   !> (a caller that removes temporaries on signals should block them around this call).
+   !> Nothing here blocks: a device or FIFO is only checked, and opened by begin_output.
+   subroutine prepare_output(path, format, sink, ierr, errmsg)
+      character(len=*), intent(in) :: path
+      character(len=*), intent(in) :: format
+      type(output_sink_t), intent(out) :: sink
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      character(len=:), allocatable :: name
+      integer :: kind, target, status, j
+
+      ierr = ok
+      errmsg = ''
+      sink%path = trim(path)
+      sink%temporary = ''
+      select case (trim(format))
+      case ('text')
+         sink%binary = .false.
+      case ('npy')
+         sink%binary = .true.
+      case default
+         call fail(err_input, '&output format = '''//trim(format)//''': must be '//format_names)
+         return
+      end select
+      if (len(sink%path) == 0) then
+         call fail(err_file, 'the output file name is empty (&output file or -o)')
+         return
+      end if
+      do j = 1, len(sink%path)
+         if (iachar(sink%path(j:j)) < 32 .or. iachar(sink%path(j:j)) == 127) then
+            call fail(err_file, 'output file '//shown(sink%path)//': the name holds a control character')
+            return
+         end if
+      end do
+      if (sink%path == '-') then
+         status = check_descriptor(1)
+         if (status /= 0) then
+            call fail(err_file, 'cannot write to standard output: '//error_text(status))
+            return
+         end if
+         sink%target = target_stdout
+         sink%fd = 1
+         return
+      end if
+      kind = path_kind(sink%path, target)
+      if (kind < 0) then
+         call fail(err_file, 'cannot write output file '//shown(sink%path)//': '//error_text(kind))
+         return
+      end if
+      if (kind == kind_symlink .and. (target == kind_char_device .or. target == kind_fifo)) kind = target
+      select case (kind)
+      case (kind_missing, kind_regular)
+         ! The name says what the file is: .npz for the npy format, anything else for text.
+         if (ends_with_npz(sink%path) .neqv. sink%binary) then
+            if (sink%binary) then
+               call fail(err_input, 'output file '//shown(sink%path)//': &output format = ''npy'' '// &
+                         'writes a .npz archive; give a name ending in .npz')
+            else
+               call fail(err_input, 'output file '//shown(sink%path)//' ends in .npz but &output format = '// &
+                         '''text''; set &output format = ''npy'' or choose another name')
+            end if
+            return
+         end if
+
+         if (kind == kind_regular) then
+            status = check_writable(sink%path)
+            if (status /= 0) then
+               call fail(err_file, 'output file '//shown(sink%path)//' exists and is not writable: '// &
+                         error_text(status))
+               return
+            end if
+         end if
+         sink%target = target_file
+         status = create_temporary(sink%path, name)
+         if (status >= 0) then
+            status = close_descriptor(status)
+            if (status == 0) status = remove_path(name)
+         end if
+         if (status < 0) then
+            call fail(err_file, 'cannot write output file '//shown(sink%path)//': '//error_text(status))
+            return
+         end if
+      case (kind_char_device, kind_fifo)
+         ! Checked only: opening and closing a FIFO now would end its reader's input.
+         sink%target = target_device
+         status = check_writable(sink%path)
+         if (status /= 0) then
+            call fail(err_file, 'cannot write output file '//shown(sink%path)//': '//error_text(status))
+            return
+         end if
+      case (kind_directory)
+         call fail(err_file, 'output file '//shown(sink%path)//' is a directory')
+      case (kind_symlink)
+         call fail(err_file, 'output file '//shown(sink%path)//' is a symbolic link; tmafm replaces only '// &
+                   'regular files: give the path it points to')
+      case default
+         call fail(err_file, 'output file '//shown(sink%path)//' is not a regular file, a character '// &
+                   'device or a FIFO')
+      end select
+
+   contains
+
+      subroutine fail(code, message)
+         integer, intent(in) :: code
+         character(len=*), intent(in) :: message
+         ierr = code
+         errmsg = message
+         sink%target = target_none
+      end subroutine fail
+
+   end subroutine prepare_output
+
+   !> Refuse before the run an output the format cannot hold: a .npz beyond 4 GiB (no zip64).
+   subroutine check_output_size(sink, n_samples, n_modes, ierr, errmsg)
+      type(output_sink_t), intent(in) :: sink
+      integer(i8), intent(in) :: n_samples
+      integer, intent(in) :: n_modes
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      real(dp) :: gib
+
+      ierr = ok
+      errmsg = ''
+      if (.not. sink%binary) return
+      ! The samples plus 1 MiB for headers, the resolved input and the switch times.
+      gib = real(n_samples*(25_i8 + 16_i8*n_modes) + 1048576_i8, dp)/1073741824.0_dp
+      if (gib*1073741824.0_dp > real(max_npz_bytes, dp)) then
+         ierr = err_file
+         write (errmsg, '(a,f0.1,a)') 'output file '//shown(sink%path)//' would hold ', gib, &
+            ' GiB; a .npz is limited to 4 GiB (no zip64): raise &output sample_dtau or use format ''text'''
+      end if
+   end subroutine check_output_size
+
+   !> Create the temporary file (target_file; from here until write_output returns, the
+   !> temporary is sink%temporary), or open the device (a FIFO waits here for its reader).
+   subroutine begin_output(sink, ierr, errmsg)
+      type(output_sink_t), intent(inout) :: sink
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+
+      ierr = ok
+      errmsg = ''
+      select case (sink%target)
+      case (target_file)
+         sink%fd = create_temporary(sink%path, sink%temporary)
+      case (target_device)
+         sink%fd = open_device(sink%path)
+      end select
+      if (sink%fd < 0) then
+         ierr = err_file
+         errmsg = 'cannot write output file '//shown(sink%path)//': '//error_text(sink%fd)
+         sink%temporary = ''
+      end if
+   end subroutine begin_output
+
+   !> Write the run in the sink's format, then complete it: for a file, sync, close and rename
+   !> the temporary over the target.  On any failure nothing is left but the target as it was.
+   subroutine write_output(sink, input_path, config, traj, ierr, errmsg)
+      type(output_sink_t), intent(inout) :: sink
+      character(len=*), intent(in) :: input_path
+      type(config_t), intent(in) :: config
+      type(trajectory_t), intent(in) :: traj
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      character(len=:), allocatable :: resolved
+      integer :: status
+
+      ierr = ok
+      errmsg = ''
+      if (sink%fd < 0) then
+         ierr = err_file
+         errmsg = 'output file '//shown(sink%path)//' was not opened'
+         return
+      end if
+      resolved = config_text(config)
+      if (sink%binary) then
+         call write_npz(sink, config, traj, resolved, ierr, errmsg, status)
+      else
+         call write_text_format(sink%fd, input_path, config, traj, resolved, status)
+      end if
+      if (ierr == ok .and. status == 0 .and. sink%target == target_file) then
+         status = sync_descriptor(sink%fd)
+         if (status == 0) then
+            status = close_descriptor(sink%fd)
+            sink%fd = -1
+         end if
+         if (status == 0) status = rename_path(sink%temporary, sink%path)
+         if (status == 0) sink%temporary = ''
+      else if (ierr == ok .and. status == 0 .and. sink%target == target_device) then
+         status = close_descriptor(sink%fd)
+         sink%fd = -1
+      end if
+      if (ierr == ok .and. status /= 0) then
+         ierr = err_file
+         errmsg = 'writing output file '//shown(sink%path)//' failed: '//error_text(status)
+      end if
+      if (ierr /= ok) call discard_output(sink)
+   end subroutine write_output
+
+   !> Give up the output: close the descriptor (never standard output) and remove the temporary.
+   subroutine discard_output(sink)
+      type(output_sink_t), intent(inout) :: sink
+      integer :: status
+      if (sink%fd >= 0 .and. sink%target /= target_stdout) status = close_descriptor(sink%fd)
+      sink%fd = -1
+      if (allocated(sink%temporary)) then
+         if (len(sink%temporary) > 0) status = remove_path(sink%temporary)
+         sink%temporary = ''
+      end if
+   end subroutine discard_output
+
+   !> Write `traj` of `config` to `path` in one call (prepare, begin, write), in `format`
+   !> ('text' unless given).  For library users; the executable calls the steps itself.
+   subroutine write_trajectory_file(path, input_path, config, traj, ierr, errmsg, format)
       character(len=*), intent(in) :: path
       character(len=*), intent(in) :: input_path
       type(config_t), intent(in) :: config
       type(trajectory_t), intent(in) :: traj
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
-      character(len=:), allocatable :: temporary
-      character(len=32) :: row_format
-      character(len=256) :: iomsg
-      integer :: unit, iostat, k, j, n, status
+      !> 'text' (the default) or 'npy'.
+      character(len=*), intent(in), optional :: format
+      type(output_sink_t) :: sink
+
+      if (present(format)) then
+         call prepare_output(path, format, sink, ierr, errmsg)
+      else
+         call prepare_output(path, 'text', sink, ierr, errmsg)
+      end if
+      if (ierr /= ok) return
+      call check_output_size(sink, int(size(traj%tau), i8), config%n_modes, ierr, errmsg)
+      if (ierr == ok) call begin_output(sink, ierr, errmsg)
+      if (ierr == ok) call write_output(sink, input_path, config, traj, ierr, errmsg)
+      if (ierr /= ok) call discard_output(sink)
+   end subroutine write_trajectory_file
+
+   !> The text format: header lines, then one row per sample, gathered in 1 MiB chunks.
+   subroutine write_text_format(fd, input_path, config, traj, resolved, status)
+      integer, intent(in) :: fd
+      character(len=*), intent(in) :: input_path
+      type(config_t), intent(in) :: config
+      type(trajectory_t), intent(in) :: traj
+      character(len=*), intent(in) :: resolved
+      integer, intent(out) :: status
+      character(len=:), allocatable :: header, buffer
+      character(len=24) :: number
+      integer :: n, k, j, row_bytes, used, rows
+      integer(i8) :: chunk
+
+      n = config%n_modes
+      header = '# tmafm '//tmafm_version_string//new_line('a')//'# input: '//printable(trim(input_path))// &
+               new_line('a')//prefixed(resolved, '# ')
+      header = header//'# counters: steps = '//int_text(traj%steps)//', contact_steps = '// &
+               int_text(traj%contact_steps)//', rejected_steps = '//int_text(traj%rejected_steps)// &
+               ', rhs_evaluations = '//int_text(traj%rhs_evaluations)//', phase_switches = '// &
+               int_text(int(traj%n_switches, i8))//new_line('a')//'# columns: tau vt vtdot contact'
+      do j = 1, n
+         write (number, '(i0)') j
+         header = header//' a_'//trim(number)
+      end do
+      do j = 1, n
+         write (number, '(i0)') j
+         header = header//' adot_'//trim(number)
+      end do
+      status = write_text(fd, header//new_line('a'))
+      if (status /= 0) return
+
+      row_bytes = (3 + 2*n)*es25_width + 3 + 1
+      rows = size(traj%tau)
+      chunk = max(int(row_bytes, i8), min(int(chunk_bytes, i8), int(row_bytes, i8)*rows))
+      allocate (character(len=chunk) :: buffer)
+      used = 0
+      do k = 1, rows
+         if (used + row_bytes > len(buffer)) then
+            status = write_text(fd, buffer(1:used))
+            if (status /= 0) return
+            used = 0
+         end if
+         call put_es25(buffer, used + 1, traj%tau(k))
+         call put_es25(buffer, used + 1 + es25_width, traj%vt(k))
+         call put_es25(buffer, used + 1 + 2*es25_width, traj%vtdot(k))
+         used = used + 3*es25_width
+         if (traj%contact(k) >= 0 .and. traj%contact(k) <= 9) then
+            buffer(used + 1:used + 3) = '  '//achar(48 + traj%contact(k))
+         else
+            write (buffer(used + 1:used + 3), '(i3)') traj%contact(k)
+         end if
+         used = used + 3
+         do j = 1, n
+            call put_es25(buffer, used + 1, traj%a(k, j))
+            used = used + es25_width
+         end do
+         do j = 1, n
+            call put_es25(buffer, used + 1, traj%adot(k, j))
+            used = used + es25_width
+         end do
+         buffer(used + 1:used + 1) = new_line('a')
+         used = used + 1
+      end do
+      status = write_text(fd, buffer(1:used))
+   end subroutine write_text_format
+
+   !> The npy format: a .npz archive (layout in docs/output-format.md).
+   subroutine write_npz(sink, config, traj, resolved, ierr, errmsg, status)
+      type(output_sink_t), intent(in) :: sink
+      type(config_t), intent(in) :: config
+      type(trajectory_t), intent(in) :: traj
+      character(len=*), intent(in) :: resolved
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      integer, intent(out) :: status
+      character(len=*), parameter :: names(10) = [character(len=12) :: 'tau.npy', 'vt.npy', 'vtdot.npy', &
+                                                  'contact.npy', 'a.npy', 'adot.npy', 'switches.npy', &
+                                                  'counters.npy', 'resolved.npy', 'version.npy']
+      character(len=:), allocatable :: version, h_vector, h_contact, h_matrix, h_switches, h_counters, &
+                                       h_resolved, h_version
+      integer(i8) :: n, n_modes, n_switches, bytes(10)
+      integer(i8) :: counters(5)
+      integer(kind=selected_int_kind(2)), allocatable :: contact(:)
+      type(npz_archive_t) :: archive
+      real(dp) :: gib
 
       ierr = ok
       errmsg = ''
-      n = config%n_modes
-      temporary = trim(path)//'.partial'
-      open (newunit=unit, file=temporary, status='replace', action='write', iostat=iostat, &
-            iomsg=iomsg)
-      if (iostat /= 0) then
+      n = size(traj%tau, kind=i8)
+      n_modes = config%n_modes
+      n_switches = traj%n_switches
+      version = 'tmafm '//tmafm_version_string
+      h_vector = npy_header(native_descr('f8'), .false., [n])
+      h_contact = npy_header(native_descr('i1'), .false., [n])
+      h_matrix = npy_header(native_descr('f8'), .true., [n, n_modes])
+      h_switches = npy_header(native_descr('f8'), .false., [n_switches])
+      h_counters = npy_header(native_descr('i8'), .false., [5_i8])
+      h_resolved = npy_header('|S'//int_text(int(len(resolved), i8)), .false., [integer(i8) ::])
+      h_version = npy_header('|S'//int_text(int(len(version), i8)), .false., [integer(i8) ::])
+      bytes = [len(h_vector) + 8*n, len(h_vector) + 8*n, len(h_vector) + 8*n, len(h_contact) + n, &
+               len(h_matrix) + 8*n*n_modes, len(h_matrix) + 8*n*n_modes, len(h_switches) + 8*n_switches, &
+               len(h_counters) + 40_i8, int(len(h_resolved) + len(resolved), i8), &
+               int(len(h_version) + len(version), i8)]
+      if (npz_bytes(len_trim(names), bytes) > max_npz_bytes) then
          ierr = err_file
-         errmsg = 'cannot write output file '''//trim(path)//''': '//trim(iomsg)
+         gib = real(npz_bytes(len_trim(names), bytes), dp)/1073741824.0_dp
+         write (errmsg, '(a,f0.1,a)') 'output file '//shown(sink%path)//' would hold ', gib, &
+            ' GiB; a .npz is limited to 4 GiB (no zip64): raise &output sample_dtau or use format ''text'''
+         status = 0
          return
       end if
-      write (unit, '(a)', iostat=iostat) '# tmafm '//tmafm_version_string
-      write (unit, '(a)', iostat=iostat) '# input: '//trim(input_path)
-      call write_config(unit, config, '# ')
-      write (unit, '(a,5(i0,a))', iostat=iostat) '# counters: steps = ', traj%steps, &
-         ', contact_steps = ', traj%contact_steps, ', rejected_steps = ', traj%rejected_steps, &
-         ', rhs_evaluations = ', traj%rhs_evaluations, ', phase_switches = ', traj%n_switches, ''
-      write (unit, '(a)', advance='no', iostat=iostat) '# columns: tau vt vtdot contact'
-      write (unit, '(*(a,i0))', advance='no', iostat=iostat) (' a_', j, j=1, n)
-      write (unit, '(*(a,i0))', iostat=iostat) (' adot_', j, j=1, n)
-      write (row_format, '(a,i0,a)') '(3es25.16e3,i3,', 2*n, 'es25.16e3)'
-      do k = 1, size(traj%tau)
-         if (iostat /= 0) exit
-         write (unit, row_format, iostat=iostat) traj%tau(k), traj%vt(k), traj%vtdot(k), &
-            traj%contact(k), traj%a(k, :), traj%adot(k, :)
+      contact = int(traj%contact, kind(contact))
+      counters = [traj%steps, traj%contact_steps, traj%rejected_steps, traj%rhs_evaluations, n_switches]
+
+      call npz_begin(archive, sink%fd)
+      call npz_add(archive, 'tau.npy', h_vector, traj%tau, 8*n, status)
+      if (status == 0) call npz_add(archive, 'vt.npy', h_vector, traj%vt, 8*n, status)
+      if (status == 0) call npz_add(archive, 'vtdot.npy', h_vector, traj%vtdot, 8*n, status)
+      if (status == 0) call npz_add(archive, 'contact.npy', h_contact, contact, n, status)
+      if (status == 0) call npz_add(archive, 'a.npy', h_matrix, traj%a, 8*n*n_modes, status)
+      if (status == 0) call npz_add(archive, 'adot.npy', h_matrix, traj%adot, 8*n*n_modes, status)
+      if (status == 0) call npz_add(archive, 'switches.npy', h_switches, traj%switch_tau, 8*n_switches, status)
+      if (status == 0) call npz_add(archive, 'counters.npy', h_counters, counters, 40_i8, status)
+      if (status == 0) call npz_add_text(archive, 'resolved.npy', h_resolved, resolved, status)
+      if (status == 0) call npz_add_text(archive, 'version.npy', h_version, version, status)
+      if (status == 0) call npz_finish(archive, status)
+   end subroutine write_npz
+
+   !> Every line of `text` with `prefix` in front.
+   function prefixed(text, prefix) result(out)
+      character(len=*), intent(in) :: text, prefix
+      character(len=:), allocatable :: out
+      integer :: start, stop
+      out = ''
+      start = 1
+      do while (start <= len(text))
+         stop = index(text(start:), new_line('a'))
+         if (stop == 0) then
+            out = out//prefix//text(start:)//new_line('a')
+            exit
+         end if
+         out = out//prefix//text(start:start + stop - 1)
+         start = start + stop
       end do
-      if (iostat /= 0) then
-         close (unit, status='delete')
-         ierr = err_file
-         errmsg = 'writing output file '''//trim(path)//''' failed'
-         return
+   end function prefixed
+
+   !> `text` with control characters shown as '?', so a header line stays one line.
+   pure function printable(text) result(out)
+      character(len=*), intent(in) :: text
+      character(len=len(text)) :: out
+      integer :: j
+      out = text
+      do j = 1, len(text)
+         if (iachar(text(j:j)) < 32 .or. iachar(text(j:j)) == 127) out(j:j) = '?'
+      end do
+   end function printable
+
+   !> A path for a message: quoted, and shortened in the middle past 200 characters.
+   function shown(path) result(text)
+      character(len=*), intent(in) :: path
+      character(len=:), allocatable :: text
+      if (len(path) <= 200) then
+         text = ''''//printable(path)//''''
+      else
+         text = ''''//printable(path(1:60))//'...'//printable(path(len(path) - 119:))//''''
       end if
-      close (unit, iostat=iostat)
-      status = c_rename(temporary//c_null_char, trim(path)//c_null_char)
-      if (status /= 0 .or. iostat /= 0) then
-         ierr = err_file
-         errmsg = 'cannot move the finished output to '''//trim(path)//''''
-         open (newunit=unit, file=temporary, status='old', iostat=iostat)
-         if (iostat == 0) close (unit, status='delete')
-      end if
-   end subroutine write_trajectory_file
+   end function shown
+
+   pure function ends_with_npz(path) result(yes)
+      character(len=*), intent(in) :: path
+      logical :: yes
+      character(len=4) :: tail
+      integer :: j, code
+      yes = .false.
+      if (len(path) < 4) return
+      tail = path(len(path) - 3:)
+      do j = 2, 4
+         code = iachar(tail(j:j))
+         if (code >= iachar('A') .and. code <= iachar('Z')) tail(j:j) = achar(code + 32)
+      end do
+      yes = tail == '.npz'
+   end function ends_with_npz
+
+   pure function int_text(value) result(text)
+      integer(i8), intent(in) :: value
+      character(len=:), allocatable :: text
+      character(len=24) :: buffer
+      write (buffer, '(i0)') value
+      text = trim(buffer)
+   end function int_text
 
 end module tmafm_output

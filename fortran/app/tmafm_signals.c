@@ -1,0 +1,75 @@
+/* Signal handling of the tmafm executable: SIGINT, SIGTERM or SIGHUP while an output
+ * temporary exists removes it, then the process dies of the same signal (the shell sees
+ * 128 + signo).  The one piece of global state, the temporary's name, lives here in the
+ * executable, never in the library.
+ *
+ * Use: tmafm_signals_install() once; tmafm_signals_hold() before the temporary is created;
+ * tmafm_signals_guard(name) right after (this also releases the hold); tmafm_signals_release()
+ * once the temporary is gone (renamed or removed).
+ */
+#include <signal.h>
+#include <stddef.h>
+#include <string.h>
+#include <unistd.h>
+
+static const int handled[] = {SIGINT, SIGTERM, SIGHUP};
+enum { n_handled = sizeof handled / sizeof handled[0] };
+
+static char guarded_name[16384];
+static volatile sig_atomic_t guarded = 0;
+
+static void on_signal(int signo)
+{
+    if (guarded) unlink(guarded_name); /* async-signal-safe */
+    signal(signo, SIG_DFL);
+    raise(signo); /* delivered on return: the process dies of signo */
+}
+
+static void mask_of_handled(sigset_t *set)
+{
+    sigemptyset(set);
+    for (int i = 0; i < n_handled; ++i) sigaddset(set, handled[i]);
+}
+
+/* Install the handler for each handled signal that is not ignored (nohup keeps its SIG_IGN). */
+void tmafm_signals_install(void)
+{
+    struct sigaction action, previous;
+    memset(&action, 0, sizeof action);
+    action.sa_handler = on_signal;
+    mask_of_handled(&action.sa_mask);
+    for (int i = 0; i < n_handled; ++i) {
+        if (sigaction(handled[i], NULL, &previous) == 0 && previous.sa_handler == SIG_IGN) continue;
+        sigaction(handled[i], &action, NULL);
+    }
+}
+
+/* Block the handled signals (so none arrives between creating a file and guarding it). */
+void tmafm_signals_hold(void)
+{
+    sigset_t set;
+    mask_of_handled(&set);
+    sigprocmask(SIG_BLOCK, &set, NULL);
+}
+
+/* Remember `name` (length n) for the handler, then unblock: a pending signal removes it. */
+void tmafm_signals_guard(const char *name, size_t n)
+{
+    sigset_t set;
+    if (n < sizeof guarded_name) {
+        memcpy(guarded_name, name, n);
+        guarded_name[n] = '\0';
+        guarded = 1;
+    }
+    mask_of_handled(&set);
+    sigprocmask(SIG_UNBLOCK, &set, NULL);
+}
+
+/* Forget the name (the temporary has been renamed or removed) and unblock. */
+void tmafm_signals_release(void)
+{
+    sigset_t set;
+    guarded = 0;
+    mask_of_handled(&set);
+    sigprocmask(SIG_UNBLOCK, &set, NULL);
+}

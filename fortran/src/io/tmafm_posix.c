@@ -1,0 +1,182 @@
+/* POSIX file operations for the output writer (module tmafm_posix binds to these).
+ *
+ * Fortran I/O cannot create a file exclusively without following symbolic links, cannot
+ * fsync, and reports device and directory targets poorly, so the writer works on plain
+ * file descriptors through these few functions.  Every function returns 0 (or a
+ * non-negative result) on success and -errno on failure; none keeps any state.
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <fcntl.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/random.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* Kinds of path reported by tmafm_path_kind (mirrored in tmafm_posix.f90). */
+enum { KIND_MISSING = 0, KIND_REGULAR = 1, KIND_DIRECTORY = 2, KIND_CHAR_DEVICE = 3,
+       KIND_FIFO = 4, KIND_SYMLINK = 5, KIND_OTHER = 6 };
+
+static int kind_of_mode(mode_t mode)
+{
+    if (S_ISREG(mode)) return KIND_REGULAR;
+    if (S_ISDIR(mode)) return KIND_DIRECTORY;
+    if (S_ISCHR(mode)) return KIND_CHAR_DEVICE;
+    if (S_ISFIFO(mode)) return KIND_FIFO;
+    if (S_ISLNK(mode)) return KIND_SYMLINK;
+    return KIND_OTHER;
+}
+
+/* What `path` is, without following a final symbolic link; in *target the kind of what a
+ * symbolic link points to (KIND_MISSING when dangling).  -errno if it cannot be told. */
+int tmafm_path_kind(const char *path, int *target)
+{
+    struct stat st;
+    *target = KIND_MISSING;
+    if (lstat(path, &st) != 0) return errno == ENOENT ? KIND_MISSING : -errno;
+    int kind = kind_of_mode(st.st_mode);
+    if (kind == KIND_SYMLINK) {
+        if (stat(path, &st) == 0) *target = kind_of_mode(st.st_mode);
+        else if (errno != ENOENT) return -errno;
+    } else {
+        *target = kind;
+    }
+    return kind;
+}
+
+/* Create a new, empty file next to `final_path` under a unique name, exclusively
+ * (O_CREAT|O_EXCL never follows a symbolic link and never reuses an existing name).
+ * The name (NUL-terminated) goes to name_out[capacity].  Returns the descriptor. */
+int tmafm_create_temporary(const char *final_path, char *name_out, int capacity)
+{
+    static const char alphabet[] = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789";
+    const char *slash = strrchr(final_path, '/');
+    size_t dir_len = slash ? (size_t)(slash - final_path) + 1 : 0;
+    size_t base_len = strlen(final_path) - dir_len;
+    /* Keep the name within NAME_MAX (255): the base is cut to 200 bytes. */
+    if (base_len > 200) base_len = 200;
+    for (int attempt = 0; attempt < 100; ++attempt) {
+        unsigned char noise[10];
+        char suffix[sizeof noise + 1];
+        if (getrandom(noise, sizeof noise, 0) != (ssize_t)sizeof noise) return -EIO;
+        for (size_t i = 0; i < sizeof noise; ++i) suffix[i] = alphabet[noise[i] % 62];
+        suffix[sizeof noise] = '\0';
+        /* "dir/.base.partial-XXXXXXXXXX": hidden, in the target's folder (so rename is atomic). */
+        int n = snprintf(name_out, (size_t)capacity, "%.*s.%.*s.partial-%s", (int)dir_len,
+                         final_path, (int)base_len, final_path + dir_len, suffix);
+        if (n < 0 || n >= capacity) return -ENAMETOOLONG;
+        int fd = open(name_out, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
+        if (fd >= 0) return fd;
+        if (errno != EEXIST) return -errno;
+    }
+    return -EEXIST;
+}
+
+/* Open an existing character device or FIFO for writing, as it is (no truncation). */
+int tmafm_open_device(const char *path)
+{
+    int fd = open(path, O_WRONLY | O_NOCTTY | O_CLOEXEC);
+    return fd >= 0 ? fd : -errno;
+}
+
+/* 0 if fd is open for writing. */
+int tmafm_check_descriptor(int fd)
+{
+    int flags = fcntl(fd, F_GETFL);
+    if (flags < 0) return -errno;
+    return (flags & O_ACCMODE) == O_RDONLY ? -EBADF : 0;
+}
+
+/* Write all n bytes of buf, resuming after partial writes and interruptions. */
+int tmafm_write_all(int fd, const void *buf, int64_t n)
+{
+    const char *p = buf;
+    while (n > 0) {
+        ssize_t chunk = n > (1 << 30) ? (1 << 30) : (ssize_t)n;
+        ssize_t done = write(fd, p, (size_t)chunk);
+        if (done < 0) {
+            if (errno == EINTR) continue;
+            return -errno;
+        }
+        p += done;
+        n -= done;
+    }
+    return 0;
+}
+
+/* Flush fd to the storage device.  Devices and pipes that cannot sync are not an error. */
+int tmafm_sync(int fd)
+{
+    if (fsync(fd) == 0 || errno == EINVAL || errno == EROFS) return 0;
+    return -errno;
+}
+
+/* close(2); an error here can mean the data never reached the disk (NFS, quotas). */
+int tmafm_close(int fd)
+{
+    if (close(fd) == 0 || errno == EINTR) return 0;
+    return -errno;
+}
+
+int tmafm_rename(const char *old_path, const char *new_path)
+{
+    return rename(old_path, new_path) == 0 ? 0 : -errno;
+}
+
+int tmafm_unlink(const char *path)
+{
+    return unlink(path) == 0 ? 0 : -errno;
+}
+
+/* 0 if the existing file `path` may be written by this user. */
+int tmafm_check_writable(const char *path)
+{
+    return access(path, W_OK) == 0 ? 0 : -errno;
+}
+
+/* The text of an error number (positive errno) into buf[capacity], NUL-terminated. */
+void tmafm_error_text(int code, char *buf, int capacity)
+{
+    if (capacity <= 0) return;
+    snprintf(buf, (size_t)capacity, "%s", strerror(code));
+}
+
+/* The ZIP CRC-32 (polynomial 0xEDB88320) tables for slicing by 8, into table[8][256]. */
+void tmafm_crc32_table(uint32_t *table)
+{
+    for (uint32_t i = 0; i < 256; ++i) {
+        uint32_t c = i;
+        for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+        table[i] = c;
+    }
+    for (int s = 1; s < 8; ++s)
+        for (int i = 0; i < 256; ++i)
+            table[256 * s + i] = (table[256 * (s - 1) + i] >> 8) ^ table[table[256 * (s - 1) + i] & 0xFFu];
+}
+
+/* Continue a CRC-32 over n bytes: crc = 0 to start; the result is the CRC so far. */
+uint32_t tmafm_crc32_update(const uint32_t *table, uint32_t crc, const void *buf, int64_t n)
+{
+    const unsigned char *p = buf;
+    crc = ~crc;
+    while (n >= 8) {
+        uint32_t lo, hi;
+        memcpy(&lo, p, 4);
+        memcpy(&hi, p + 4, 4);
+#if __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+        lo = __builtin_bswap32(lo);
+        hi = __builtin_bswap32(hi);
+#endif
+        lo ^= crc;
+        crc = table[7 * 256 + (lo & 0xFFu)] ^ table[6 * 256 + ((lo >> 8) & 0xFFu)] ^
+              table[5 * 256 + ((lo >> 16) & 0xFFu)] ^ table[4 * 256 + (lo >> 24)] ^
+              table[3 * 256 + (hi & 0xFFu)] ^ table[2 * 256 + ((hi >> 8) & 0xFFu)] ^
+              table[1 * 256 + ((hi >> 16) & 0xFFu)] ^ table[hi >> 24];
+        p += 8;
+        n -= 8;
+    }
+    while (n-- > 0) crc = table[(crc ^ *p++) & 0xFFu] ^ (crc >> 8);
+    return ~crc;
+}

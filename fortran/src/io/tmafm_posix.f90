@@ -1,0 +1,199 @@
+!> POSIX file operations on descriptors for the output writer (C side: tmafm_posix.c).
+!>
+!> Each function returns 0 (or a non-negative result) on success and -errno on failure;
+!> error_text turns the errno into words.  Nothing here keeps state.
+module tmafm_posix
+   use, intrinsic :: iso_c_binding, only: c_char, c_int, c_int32_t, c_int64_t, c_null_char
+   implicit none
+   private
+
+   public :: kind_missing, kind_regular, kind_directory, kind_char_device, kind_fifo, &
+             kind_symlink, kind_other
+   public :: path_kind, create_temporary, open_device, check_descriptor, write_bytes, &
+             write_text, sync_descriptor, close_descriptor, rename_path, remove_path, &
+             check_writable, error_text, crc32_table_size, crc32_table, crc32_update, crc32_text
+
+   !> Kinds of path (as tmafm_posix.c numbers them): nothing there, a regular file, ...
+   integer, parameter :: kind_missing = 0, kind_regular = 1, kind_directory = 2, &
+                         kind_char_device = 3, kind_fifo = 4, kind_symlink = 5, kind_other = 6
+   !> Entries of the CRC-32 table (slicing by 8).
+   integer, parameter :: crc32_table_size = 8*256
+
+   interface
+      function c_path_kind(path, target) result(kind) bind(c, name='tmafm_path_kind')
+         import :: c_char, c_int
+         character(kind=c_char), intent(in) :: path(*)
+         integer(c_int), intent(out) :: target
+         integer(c_int) :: kind
+      end function c_path_kind
+      function c_create_temporary(final_path, name_out, capacity) result(fd) &
+         bind(c, name='tmafm_create_temporary')
+         import :: c_char, c_int
+         character(kind=c_char), intent(in) :: final_path(*)
+         character(kind=c_char), intent(out) :: name_out(*)
+         integer(c_int), value :: capacity
+         integer(c_int) :: fd
+      end function c_create_temporary
+      function c_open_device(path) result(fd) bind(c, name='tmafm_open_device')
+         import :: c_char, c_int
+         character(kind=c_char), intent(in) :: path(*)
+         integer(c_int) :: fd
+      end function c_open_device
+      !> 0 if the descriptor is open for writing.
+      function check_descriptor(fd) result(status) bind(c, name='tmafm_check_descriptor')
+         import :: c_int
+         integer(c_int), value :: fd
+         integer(c_int) :: status
+      end function check_descriptor
+      !> Write n bytes of any contiguous array, all of them (partial writes resumed).
+      function write_bytes(fd, buf, n) result(status) bind(c, name='tmafm_write_all')
+         import :: c_int, c_int64_t
+         integer(c_int), value :: fd
+         type(*), intent(in) :: buf(*)
+         integer(c_int64_t), value :: n
+         integer(c_int) :: status
+      end function write_bytes
+      function c_write_text(fd, buf, n) result(status) bind(c, name='tmafm_write_all')
+         import :: c_char, c_int, c_int64_t
+         integer(c_int), value :: fd
+         character(kind=c_char), intent(in) :: buf(*)
+         integer(c_int64_t), value :: n
+         integer(c_int) :: status
+      end function c_write_text
+      !> fsync(2); devices that cannot sync are not an error.
+      function sync_descriptor(fd) result(status) bind(c, name='tmafm_sync')
+         import :: c_int
+         integer(c_int), value :: fd
+         integer(c_int) :: status
+      end function sync_descriptor
+      !> close(2), checked.
+      function close_descriptor(fd) result(status) bind(c, name='tmafm_close')
+         import :: c_int
+         integer(c_int), value :: fd
+         integer(c_int) :: status
+      end function close_descriptor
+      function c_rename(old_path, new_path) result(status) bind(c, name='tmafm_rename')
+         import :: c_char, c_int
+         character(kind=c_char), intent(in) :: old_path(*), new_path(*)
+         integer(c_int) :: status
+      end function c_rename
+      function c_unlink(path) result(status) bind(c, name='tmafm_unlink')
+         import :: c_char, c_int
+         character(kind=c_char), intent(in) :: path(*)
+         integer(c_int) :: status
+      end function c_unlink
+      function c_check_writable(path) result(status) bind(c, name='tmafm_check_writable')
+         import :: c_char, c_int
+         character(kind=c_char), intent(in) :: path(*)
+         integer(c_int) :: status
+      end function c_check_writable
+      subroutine c_error_text(code, buf, capacity) bind(c, name='tmafm_error_text')
+         import :: c_char, c_int
+         integer(c_int), value :: code
+         character(kind=c_char), intent(out) :: buf(*)
+         integer(c_int), value :: capacity
+      end subroutine c_error_text
+      !> Fill the CRC-32 tables (crc32_table_size entries).
+      subroutine crc32_table(table) bind(c, name='tmafm_crc32_table')
+         import :: c_int32_t
+         integer(c_int32_t), intent(out) :: table(*)
+      end subroutine crc32_table
+      !> Continue the ZIP CRC-32 `crc` (0 to start) over n bytes of buf.
+      function crc32_update(table, crc, buf, n) result(updated) bind(c, name='tmafm_crc32_update')
+         import :: c_int32_t, c_int64_t
+         integer(c_int32_t), intent(in) :: table(*)
+         integer(c_int32_t), value :: crc
+         type(*), intent(in) :: buf(*)
+         integer(c_int64_t), value :: n
+         integer(c_int32_t) :: updated
+      end function crc32_update
+      function c_crc32_text(table, crc, buf, n) result(updated) bind(c, name='tmafm_crc32_update')
+         import :: c_char, c_int32_t, c_int64_t
+         integer(c_int32_t), intent(in) :: table(*)
+         integer(c_int32_t), value :: crc
+         character(kind=c_char), intent(in) :: buf(*)
+         integer(c_int64_t), value :: n
+         integer(c_int32_t) :: updated
+      end function c_crc32_text
+   end interface
+
+contains
+
+   !> What `path` is (kind_*), without following a final symbolic link; `target` is the kind
+   !> of what a symbolic link points to.  Negative: -errno.
+   function path_kind(path, target) result(kind)
+      character(len=*), intent(in) :: path
+      integer, intent(out) :: target
+      integer :: kind
+      integer(c_int) :: c_target
+      kind = c_path_kind(path//c_null_char, c_target)
+      target = c_target
+   end function path_kind
+
+   !> Create a new empty file under a unique name in the folder of `final_path`, exclusively
+   !> (never following a symbolic link); its name goes to `name`.  Returns the descriptor.
+   function create_temporary(final_path, name) result(fd)
+      character(len=*), intent(in) :: final_path
+      character(len=:), allocatable, intent(out) :: name
+      integer :: fd
+      character(kind=c_char, len=len(final_path) + 64) :: buffer
+      fd = c_create_temporary(final_path//c_null_char, buffer, len(buffer, kind=c_int))
+      name = ''
+      if (fd >= 0) name = buffer(1:index(buffer, c_null_char) - 1)
+   end function create_temporary
+
+   !> Open an existing character device or FIFO for writing (no truncation).
+   function open_device(path) result(fd)
+      character(len=*), intent(in) :: path
+      integer :: fd
+      fd = c_open_device(path//c_null_char)
+   end function open_device
+
+   !> Write all of `text`.
+   function write_text(fd, text) result(status)
+      integer, intent(in) :: fd
+      character(len=*), intent(in) :: text
+      integer :: status
+      status = c_write_text(fd, text, int(len(text), c_int64_t))
+   end function write_text
+
+   !> Continue a CRC-32 over the characters of `text`.
+   function crc32_text(table, crc, text) result(updated)
+      integer(c_int32_t), intent(in) :: table(:)
+      integer(c_int32_t), intent(in) :: crc
+      character(len=*), intent(in) :: text
+      integer(c_int32_t) :: updated
+      updated = c_crc32_text(table, crc, text, int(len(text), c_int64_t))
+   end function crc32_text
+
+   !> rename(2): atomic within one file system.
+   function rename_path(old_path, new_path) result(status)
+      character(len=*), intent(in) :: old_path, new_path
+      integer :: status
+      status = c_rename(old_path//c_null_char, new_path//c_null_char)
+   end function rename_path
+
+   !> unlink(2).
+   function remove_path(path) result(status)
+      character(len=*), intent(in) :: path
+      integer :: status
+      status = c_unlink(path//c_null_char)
+   end function remove_path
+
+   !> 0 if this user may write the existing file `path`.
+   function check_writable(path) result(status)
+      character(len=*), intent(in) :: path
+      integer :: status
+      status = c_check_writable(path//c_null_char)
+   end function check_writable
+
+   !> The words for a failure status -errno (strerror).
+   function error_text(status) result(text)
+      integer, intent(in) :: status
+      character(len=:), allocatable :: text
+      character(kind=c_char, len=200) :: buffer
+      call c_error_text(int(abs(status), c_int), buffer, len(buffer, kind=c_int))
+      text = buffer(1:index(buffer, c_null_char) - 1)
+   end function error_text
+
+end module tmafm_posix

@@ -3,6 +3,7 @@ against scipy's solve_ivp (DOP853 with events) at equal error.
 
     /opt/tmafm-venv/bin/python benchmarks/period_cost.py [--periods 1000] [--skip-scipy]
     /opt/tmafm-venv/bin/python benchmarks/period_cost.py --out /tmp/pc --periods 50   # quick look
+    /opt/tmafm-venv/bin/python benchmarks/period_cost.py --table benchmarks/period_cost.json
 
 Cost: CPU time (user + sys) of the whole `tmafm` process over `periods` drive periods, one
 output row per period, divided by the periods; every number comes from the same run of this
@@ -169,12 +170,37 @@ def plot(report, path):
     plt.close(fig)
 
 
+def table(report):
+    """The markdown tables of docs/performance.md, from a report."""
+    lines = []
+    for name, entry in report["scenes"].items():
+        lines += [f"**{name}** (`inputs/{entry['input']}` with {json.dumps(entry['overrides'])})", "",
+                  "| method | setting | µs per period | V_T error |", "|---|---|---|---|"]
+        for r in entry["rows"]:
+            setting = f"dtau {r['dtau']:g}" if "dtau" in r else f"rtol {r['rtol']:g}, atol {r['atol']:g}"
+            lines.append(f"| `{r['method']}` | {setting} | {r['us_per_period']:.0f} | {r['vt_error']:.1e} |")
+        lines.append("")
+    if "scipy" in report:
+        s = report["scipy"]
+        peer, best = s["scipy_DOP853_rtol_1e-10"], s["tmafm_at_equal_error"]
+        lines.append(f"scipy DOP853 (rtol 1e-10), {s['periods']} periods of {s['scene']}: "
+                     f"{peer['cpu_s']:.2f} s CPU, V_T error {peer['vt_error']:.1e}; tmafm "
+                     f"`{best['method']}` at rtol {best['rtol']:g}, atol {best['atol']:g}: "
+                     f"{best['cpu_s']:.3f} s CPU (whole process), error {best['vt_error']:.1e}; "
+                     f"ratio {s['ratio']:.0f}x")
+    return "\n".join(lines)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--table", type=Path, help="print the markdown tables of a JSON and stop")
     parser.add_argument("--periods", type=int, default=1000)
     parser.add_argument("--out", type=Path, default=REPO / "benchmarks")
     parser.add_argument("--skip-scipy", action="store_true")
     args = parser.parse_args()
+    if args.table:
+        print(table(json.loads(args.table.read_text())))
+        return
     if args.out.resolve() == (REPO / "benchmarks").resolve() and args.periods != 1000:
         parser.error("a shortened run must not overwrite the committed results: pass --out")
     report = study(args.periods, not args.skip_scipy)

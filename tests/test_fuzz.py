@@ -422,9 +422,36 @@ def executable() -> str:
     return tmafm.executable()
 
 
-#: Inputs that broke the contract once (found by this generator or the campaign):
-#: (text, must_fail, expected values on success).
+_OUT = "&output file = 'out.dat', sample_dtau = 0.05 /\n"
+#: Inputs that broke the contract once (found by this generator or the campaign, on the code of
+#: d9e0afe or the build in /opt/tmafm-venv): (text, must_fail, expected values on success).
 REGRESSIONS = [
+    # accepted: an unknown group, a repeated group (d9e0afe)
+    ("&model n_modes = 2 /\n&modle n_modes = 3 /\n&solver tau_end = 0.5 /\n" + _OUT, True, {}),
+    ("&solver tau_end = 0.5 /\n&solver tau_end = 0.7 /\n" + _OUT, True, {}),
+    # accepted: junk inside a key name (read as the key before it)
+    ("&scene AL//PHA5 = 6.7665e-05 /\n&solver tau_end = 0.5 /\n" + _OUT, True, {}),
+    # silent misread: '/' inside a value ends the group, the rest was ignored (tau_end = 0.5)
+    ("&solver tau_end = 0.5/7, dtau = 1e-3 /\n" + _OUT, True, {}),
+    # a comment inside a group is fine: tau_end = 0.5
+    ("&solver tau_end = 0.5 ! 7\n dtau = 1e-3 /\n" + _OUT, None, {("solver", "tau_end"): 0.5}),
+    # accepted: an empty input, a comment only, an unterminated group, a file cut in a group
+    ("", True, {}),
+    ("! nothing but a comment\n", True, {}),
+    ("&model n_modes = 3\n", True, {}),
+    ("&solver tau_end = 0.5 /\n&output file = 'out.dat', sample_dt", True, {}),
+    # wrong types, lists, overflow, unquoted strings, wrong lengths, trailing junk, repeats
+    ("&model n_modes = 2.5 /\n&solver tau_end = 0.5 /\n" + _OUT, True, {}),
+    ("&scene alpha1 = .true. /\n&solver tau_end = 0.5 /\n" + _OUT, True, {}),
+    ("&solver dtau = 1e-3, 2e-3, tau_end = 0.5 /\n" + _OUT, True, {}),
+    ("&scene alpha3 = 1e309 /\n&solver tau_end = 0.5 /\n" + _OUT, True, {}),
+    ("&model contact_law = 42 /\n&solver tau_end = 0.5 /\n" + _OUT, True, {}),
+    ("&solver method = dopri5, tau_end = 0.5 /\n" + _OUT, None, {("solver", "method"): "dopri5"}),
+    ("&model n_modes = 2 /\n&initial a0 = 1e-5, 1e-5, 1e-5 /\n&solver tau_end = 0.5 /\n" + _OUT, True, {}),
+    ("&scene alpha2 = 0.0005x /\n&solver tau_end = 0.5 /\n" + _OUT, True, {}),
+    ("&solver tau_end = 0.5, tau_end = 0.7 /\n" + _OUT, None, {("solver", "tau_end"): 0.7}),
+    # a file name too long for the file system: exit 3, no file, the earlier output kept
+    ("&solver tau_end = 0.5 /\n&output file = '" + "f" * 300 + ".dat', sample_dtau = 0.05 /\n", True, {}),
 ]
 
 FAST_SEEDS = range(10_000, 10_000 + 12 * len(KINDS))
@@ -446,7 +473,7 @@ def test_fuzz_namelist_text(kind):
 def test_fuzz_regressions(index):
     text, must_fail, expect = REGRESSIONS[index]
     case = Case("regression", text.encode("utf-8", "surrogatepass") if isinstance(text, str) else text,
-                expect, must_fail)
+                expect, must_fail, preexisting=True)
     outcome, detail = check(executable(), case)
     assert outcome in GOOD, f"{outcome}: {detail}"
 

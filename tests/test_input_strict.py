@@ -1,0 +1,163 @@
+"""The strict reader: inputs that Fortran's own namelist read silently misread (or crashed on)
+are refused with exit 2 (3 for file problems), exactly one `tmafm: error:` line that names the
+group, the key and the value as written, and no output file.  Each case here ran silently (or
+crashed) with `read(nml=)`."""
+
+import re
+
+import pytest
+
+from conftest import INPUTS
+
+INPUT_ERROR, FILE_ERROR = 2, 3
+
+# name: (bytes or text of the whole input file, words the one error line must contain, exit code)
+CASES = {
+    # A wrong-typed or unquoted value in the last key of the last group.
+    "real_key_string": ("&solver tau_end = '5' /\n", ["&solver tau_end = '5':", "number"], INPUT_ERROR),
+    "real_key_logical": ("&solver tau_end = .true. /\n", ["&solver tau_end = .true.:", "logical"],
+                         INPUT_ERROR),
+    "integer_key_string": ("&model n_modes = '3' /\n", ["&model n_modes = '3':", "integer"], INPUT_ERROR),
+    "integer_key_real": ("&model n_modes = 3.0 /\n", ["&model n_modes = 3.0:", "integer"], INPUT_ERROR),
+    "integer_key_logical": ("&model n_modes = .true. /\n", ["n_modes = .true.:", "integer"], INPUT_ERROR),
+    "unquoted_method": ("&solver method = dopri5 /\n", ["&solver method = dopri5:", "quoted",
+                                                          "'dopri5'"], INPUT_ERROR),
+    "unquoted_convention": ("&model convention = consistent /\n",
+                            ["&model convention = consistent:", "quoted"], INPUT_ERROR),
+    "unquoted_law_only_entry": ("&model contact_law = dmt /\n", ["&model contact_law = dmt:", "quoted"],
+                                INPUT_ERROR),
+    # Two values for a scalar, kind suffixes.
+    "scalar_two_values": ("&solver tau_end = 5 6 /\n", ["&solver tau_end = 5 6:", "one value"],
+                          INPUT_ERROR),
+    "kind_suffix": ("&solver tau_end = 5.0_8 /\n", ["&solver tau_end = 5.0_8:", "kind suffix"],
+                    INPUT_ERROR),
+    # A NaN among the initial values is a value, not "no values given".
+    "nan_in_a0": ("&initial a0 = nan, 0, 0, 0 /\n", ["&initial a0 = nan, 0, 0, 0:", "finite"],
+                  INPUT_ERROR),
+    "nan_in_adot0": ("&initial adot0 = 0, NaN, 0, 0 /\n", ["&initial adot0 =", "value 2", "finite"],
+                     INPUT_ERROR),
+    # A string longer than its buffer is refused, not cut.
+    "long_string": ("&model contact_law = 'hertz" + " " * 70 + "junk' /\n",
+                    ["&model contact_law = 'hertz", "more than the 64 allowed"], INPUT_ERROR),
+    "long_path": ("&output file = '" + "d/" * 520 + "x.dat' /\n",
+                  ["&output file = '", "more than the 1024 allowed"], INPUT_ERROR),
+    # Groups after a '/' on the same line are seen.
+    "unknown_group_same_line": ("&model n_modes = 2 / &bogus x = 1 /\n", ["&bogus", "unknown namelist group"],
+                                INPUT_ERROR),
+    "repeated_group_same_line": ("&model n_modes = 2 / &model n_modes = 3 /\n", ["&model", "twice"],
+                                 INPUT_ERROR),
+    "repeated_key": ("&model n_modes = 2, n_modes = 3 /\n", ["&model n_modes = 3:", "twice"], INPUT_ERROR),
+    "text_after_group": ("&model n_modes = 2 / tau_end = 5\n", ["text outside a group", "tau_end = 5"],
+                         INPUT_ERROR),
+    "group_not_closed": ("&model n_modes = 2\n", ["&model", "not closed"], INPUT_ERROR),
+    "glued_to_quote": ("&model contact_law = 'dmt'x /\n", ["contact_law = 'dmt'", "closing quote"],
+                       INPUT_ERROR),
+    "empty_list_value": ("&initial a0 = 1e-4,, 0, 0, 0 /\n", ["&initial a0", "empty value"], INPUT_ERROR),
+    "indexed_key": ("&initial a0(2) = 1e-4 /\n", ["a0(", "whole list"], INPUT_ERROR),
+    # Not text, or no group at all.
+    "utf16": ("&model n_modes = 2 /\n".encode("utf-16"), ["UTF-16"], INPUT_ERROR),
+    "random_bytes": (bytes((k * 151 + 7) % 256 for k in range(2000)), ["not a text file"], INPUT_ERROR),
+    "high_bytes_outside_strings": ("&model n_modes = 2 / \u00e9\n".encode(), ["non-text byte"], INPUT_ERROR),
+    "no_groups": ("just some words\n", ["text outside a group"], INPUT_ERROR),
+    "empty_file": ("", ["no namelist group"], INPUT_ERROR),
+    "only_comments": ("! nothing here\n\n", ["no namelist group"], INPUT_ERROR),
+    # Wrong type named by its key, not by the next group.
+    "wrong_type_names_key": ("&model n_modes = 'four' /\n&output file = 'x.dat' /\n",
+                             ["&model n_modes = 'four':"], INPUT_ERROR),
+    # Sample counts: no integer overflow, a bounded count and memory, automatic-N runs included.
+    "sample_count_overflow": ("&solver tau_end = 1 /\n&output sample_dtau = 1e-10 /\n",
+                              ["sample_dtau", "samples, more than 50000000"], INPUT_ERROR),
+    "sample_memory": ("&model n_modes = 30 /\n&solver tau_end = 1e5, method = 'dopri5' /\n"
+                      "&output sample_dtau = 1e-2 /\n", ["sample_dtau", "2 GiB"], INPUT_ERROR),
+    "auto_n_comparison_samples": ("&model n_modes = 0, mode_horizon = 1e4 /\n&solver tau_end = 1e-2 /\n"
+                                  "&output sample_dtau = 1e-5 /\n",
+                                  ["automatic-N comparison runs", "mode_horizon", "samples"], INPUT_ERROR),
+    # Derived groups of Eq. (12) checked before the run, naming the input to change.
+    "physical_gives_infinite_group": ("&physical youngs_modulus_tip = 1e-300 /\n",
+                                      ["&physical youngs_modulus_tip = 1e-300 gives", "Eq. (12)"],
+                                      INPUT_ERROR),
+    "physical_gives_huge_alpha1": ("&physical tip_mass = 1.0 /\n",
+                                   ["&physical tip_mass = 1.0 gives alpha1", "<= 1.0E+003"], INPUT_ERROR),
+    # Fixed-step methods: the worst-case step count against max_steps, up front.
+    "fixed_step_hang": ("&solver method = 'rk4_paper', dtau = 1.5e-79 /\n",
+                        ["&solver dtau = 1.5E-079", "1.07E+082 steps", "max_steps = 100000000"],
+                        INPUT_ERROR),
+    "max_steps_budget": ("&solver method = 'rk4_event', dtau = 1e-3, tau_end = 10, max_steps = 1000 /\n",
+                         ["&solver dtau = 1.0E-003", "may need 1.60E+005 steps", "max_steps = 1000"],
+                         INPUT_ERROR),
+    "max_steps_range": ("&solver max_steps = 0 /\n", ["&solver max_steps = 0:", "1..1000000000000"],
+                        INPUT_ERROR),
+    "max_steps_real": ("&solver max_steps = 1e8 /\n", ["&solver max_steps = 1e8:", "integer"], INPUT_ERROR),
+    "bad_format": ("&output format = 'xml' /\n", ["&output format = 'xml':", "'text' or 'npy'"], INPUT_ERROR),
+    "unquoted_format": ("&output format = npy /\n", ["&output format = npy:", "quoted"], INPUT_ERROR),
+}
+
+
+def write_input(tmp_path, content):
+    path = tmp_path / "in.nml"
+    if isinstance(content, str):
+        path.write_text(content)
+    else:
+        path.write_bytes(content)
+    return path
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_refused_with_one_line_naming_the_key(tmp_path, run_exe, name):
+    content, words, code = CASES[name]
+    proc = run_exe(write_input(tmp_path, content), "-o", "out.dat")
+    assert proc.returncode == code, proc.stderr
+    assert proc.stderr.startswith("tmafm: error: ") and proc.stderr.count("\n") == 1, proc.stderr
+    for word in words:
+        assert word in proc.stderr, (word, proc.stderr)
+    # Exponents always keep their E (1.0E-300, never 1.00-300).
+    assert not re.search(r"\d[+-]\d{3}\b", proc.stderr.replace("E+", "").replace("E-", "")), proc.stderr
+    assert "Backtrace" not in proc.stderr and proc.stdout == ""
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.nml"]
+
+
+def test_directory_as_input_is_a_file_error(tmp_path, run_exe):
+    (tmp_path / "adir").mkdir()
+    proc = run_exe("adir")
+    assert proc.returncode == FILE_ERROR, proc.stderr
+    assert proc.stderr == "tmafm: error: input file 'adir' is a directory\n"
+
+
+def test_endless_input_is_refused(run_exe):
+    proc = run_exe("/dev/zero")
+    assert proc.returncode == INPUT_ERROR
+    assert "larger than 1048576 bytes" in proc.stderr and proc.stderr.count("\n") == 1
+
+
+def test_several_groups_per_line_and_dollar_groups_are_read(tmp_path, run_exe):
+    path = tmp_path / "in.nml"
+    path.write_text("&model n_modes = 2, contact_law = 'DMT' / &solver tau_end = 0.5, max_steps = 2000000 /"
+                    " ! comment\n$output file = 'o.dat', sample_dtau = 0.25, format = 'TEXT' $end\n")
+    proc = run_exe(path, "-q")
+    assert proc.returncode == 0, proc.stderr
+    header = (tmp_path / "o.dat").read_text()
+    for line in ("#     n_modes = 2", "#     contact_law = 'dmt'", "#     tau_end = 5.0E-001",
+                 "#     max_steps = 2000000", "#     sample_dtau = 2.5E-001", "#     format = 'text'"):
+        assert line in header.splitlines(), line
+
+
+def test_values_spanning_lines_repeats_and_exponents(tmp_path, run_exe):
+    path = tmp_path / "in.nml"
+    path.write_text("&model\n  n_modes = 4 /\n&initial\n  a0 = 1.5d-4,\n       2*0.0 ! two zeros\n"
+                    "       -2E-5\n  adot0 = 4*0 /\n&solver tau_end = 1 /\n&output file = 'o.dat' /\n")
+    proc = run_exe(path, "-q")
+    assert proc.returncode == 0, proc.stderr
+    assert "#     a0 = 1.5E-004, 0.0E+000, 0.0E+000, -2.0E-005" in (tmp_path / "o.dat").read_text()
+
+
+@pytest.mark.parametrize("text, words", [
+    ("&initial a0 = " + "0 " * 400000 + "/\n", ["&initial a0 = 0 0 0", "...: takes at most 30 values"]),
+    ("&output file = '" + "x" * 900000 + "' /\n", ["&output file = 'xxx", "is 900000 characters long"]),
+])
+def test_large_inputs_end_in_one_short_line(tmp_path, run_exe, text, words):
+    """Inputs near the 1 MiB limit are parsed in linear time; the message quotes their start."""
+    proc = run_exe(write_input(tmp_path, text))
+    assert proc.returncode == INPUT_ERROR
+    assert proc.stderr.count("\n") == 1 and len(proc.stderr) < 400, proc.stderr[:400]
+    for word in words:
+        assert word in proc.stderr

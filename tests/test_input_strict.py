@@ -54,6 +54,12 @@ CASES = {
                        INPUT_ERROR),
     "empty_list_value": ("&initial a0 = 1e-4,, 0, 0, 0 /\n", ["&initial a0", "empty value"], INPUT_ERROR),
     "indexed_key": ("&initial a0(2) = 1e-4 /\n", ["a0(", "whole list"], INPUT_ERROR),
+    # A correction named twice is refused (it used to be folded silently into one).
+    "errata_repeated": ("&model errata = 'E1,e1' /\n", ["&model errata = 'E1,e1':", "repeated",
+                                                         "distinct"], INPUT_ERROR),
+    # Control bytes quoted back in a message are escaped, so the error stays one printable line.
+    "control_byte_in_string": ("&model contact_law = '\x07hertz' /\n",
+                               ["&model contact_law = '\\x07hertz':"], INPUT_ERROR),
     # Not text, or no group at all.
     "utf16": ("&model n_modes = 2 /\n".encode("utf-16"), ["UTF-16"], INPUT_ERROR),
     "random_bytes": (bytes((k * 151 + 7) % 256 for k in range(2000)), ["not a text file"], INPUT_ERROR),

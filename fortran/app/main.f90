@@ -8,7 +8,8 @@ program tmafm_main
    use, intrinsic :: iso_fortran_env, only: error_unit, output_unit
    use tmafm, only: config_t, trajectory_t, read_config, simulate, choose_mode_count, i8, &
       tmafm_version_string, ok, errmsg_len, path_len, output_sink_t, prepare_output, &
-      check_output_size, begin_output, write_output, discard_output, sample_count, target_file
+      check_output_size, begin_output, write_output, discard_output, sample_count, target_file, &
+      printable_text
    implicit none
 
    interface
@@ -179,7 +180,7 @@ contains
    subroutine fail(code, message)
       integer, intent(in) :: code
       character(len=*), intent(in) :: message
-      write (error_unit, '(a)') 'tmafm: error: '//trim(message)
+      write (error_unit, '(a)') 'tmafm: error: '//printable_text(trim(message))
       stop code, quiet=.true.
    end subroutine fail
 

@@ -18,7 +18,7 @@ module tmafm
    use tmafm_driver, only: run_trajectory
    use tmafm_config, only: config_t, path_len
    use tmafm_namelist, only: read_config, read_config_text, write_config, config_text
-   use tmafm_text, only: real_text, lower
+   use tmafm_text, only: real_text, lower, printable_text
    use tmafm_simulation, only: build_model, simulate, choose_mode_count, load_model
    use tmafm_output, only: write_trajectory_file, output_sink_t, prepare_output, check_output_size, &
       begin_output, write_output, discard_output, target_file, target_device, target_stdout
@@ -31,7 +31,7 @@ module tmafm
    public :: law_hertz, law_dmt, contact_brackets_t, contact_brackets
    public :: model_t, init_model, run_settings_t, trajectory_t, run_trajectory
    public :: config_t, path_len, read_config, write_config, build_model, simulate, choose_mode_count
-   public :: read_config_text, config_text, real_text, lower
+   public :: read_config_text, config_text, real_text, lower, printable_text
    public :: is_known_method, method_names, max_samples, max_trajectory_bytes, check_run_size
    public :: load_model
    public :: write_trajectory_file, output_sink_t, prepare_output, check_output_size, begin_output, &

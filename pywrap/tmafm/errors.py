@@ -42,6 +42,7 @@ def raise_for(ierr: int, errmsg) -> None:
     if ierr == 0:
         return
     if isinstance(errmsg, (bytes, bytearray)):
-        errmsg = errmsg.decode("utf-8", "replace")
-    message = str(errmsg).strip()
+        errmsg = errmsg.decode("latin-1")
+    # As the executable prints it: bytes outside printable ASCII as \xNN, one printable line.
+    message = "".join(c if " " <= c < "\x7f" else f"\\x{ord(c):02x}" for c in str(errmsg).strip())
     raise _BY_CODE.get(int(ierr), SolverError)(message)

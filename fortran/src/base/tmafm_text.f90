@@ -6,7 +6,7 @@ module tmafm_text
    implicit none
    private
 
-   public :: real_text, int_text, lower, short_real_text
+   public :: real_text, int_text, lower, short_real_text, printable_text
 
    !> An integer (default or i8) as text without blanks.
    interface int_text
@@ -57,6 +57,24 @@ contains
       character(len=:), allocatable :: text
       text = int_text_i8(int(value, i8))
    end function int_text_default
+
+   !> `text` with every byte outside printable ASCII written as \xNN, so that a message
+   !> quoting the user's bytes stays one printable line.
+   pure function printable_text(text) result(shown)
+      character(len=*), intent(in) :: text
+      character(len=:), allocatable :: shown
+      character(len=*), parameter :: hex = '0123456789abcdef'
+      integer :: i, code
+      shown = ''
+      do i = 1, len(text)
+         code = iachar(text(i:i))
+         if (code >= 32 .and. code < 127) then
+            shown = shown//text(i:i)
+         else
+            shown = shown//'\x'//hex(code/16 + 1:code/16 + 1)//hex(mod(code, 16) + 1:mod(code, 16) + 1)
+         end if
+      end do
+   end function printable_text
 
    !> `text` with ASCII upper-case letters turned to lower case.
    pure function lower(text) result(low)

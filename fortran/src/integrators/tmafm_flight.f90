@@ -296,7 +296,7 @@ contains
       call switch_function(self, model, left, g_left, r_left, b_left, evaluations)
       if (.not. (ieee_is_finite(g_left) .and. ieee_is_finite(r_left) .and. ieee_is_finite(sum(b_left)))) then
          ierr = err_runtime
-         write (errmsg, '(a,es12.5)') 'flight_exact: the free flight is not finite at tau = ', self%tau0
+         write (errmsg, '(a,es13.5e3)') 'flight_exact: the free flight is not finite at tau = ', self%tau0
          return
       end if
       h = max(self%min_step, scan_step(g_left, r_left, sum(b_left)))
@@ -305,7 +305,7 @@ contains
          right = min(s_max, left + h)
          if (.not. (right > left) .or. evaluations - first_evaluation > max_scan_evaluations) then
             ierr = err_runtime
-            write (errmsg, '(a,es12.5,a,i0,a,es9.2,a)') 'flight_exact: the contact scan stalls at tau = ', &
+            write (errmsg, '(a,es13.5e3,a,i0,a,es10.2e3,a)') 'flight_exact: the contact scan stalls at tau = ', &
                self%tau0 + left, ' (', evaluations - first_evaluation, ' evaluations, step ', h, &
                '); &scene omega or the tolerances are out of reach, use method = ''dopri5'''
             return

@@ -196,8 +196,9 @@ contains
                call get_string(p, e, len(config%errata), errata, ierr, errmsg)
                if (ierr == ok .and. lower(trim(adjustl(errata))) /= 'convention') then
                   call parse_errata(errata, parsed, ierr, bad)
-                  if (ierr /= ok) call key_error(p, e, "must be 'convention', 'all', 'none' "// &
-                                                 'or a list of E1,E2,E3,E4,E6,E7', ierr, errmsg)
+                  if (ierr /= ok) call key_error(p, e, "'"//trim(bad)//"': must be 'convention', "// &
+                                                 "'all', 'none' or a list of distinct E1,E2,E3,E4,E6,E7", &
+                                                 ierr, errmsg)
                end if
             case default
                call unknown_key(p, e, model_keys, ierr, errmsg)

@@ -42,12 +42,15 @@ contains
       type(errata_t), intent(out) :: errata
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: bad_item
-      integer :: first, last, length
+      integer :: first, last, length, k
       character(len=len(text)) :: item
+      character(len=4) :: seen(16)
+      integer :: n_seen
 
       ierr = ok
       bad_item = ''
       errata = errata_t()
+      n_seen = 0
       length = len_trim(text)
       first = 1
       do while (first <= length)
@@ -58,6 +61,20 @@ contains
             last = first + last - 2
          end if
          item = adjustl(text(first:last))
+         ! A name given twice is a typo more often than not: refuse it rather than fold it.
+         if (len_trim(item) > 0) then
+            do k = 1, n_seen
+               if (seen(k) == upper(item(1:min(4, len(item))))) then
+                  ierr = err_input
+                  bad_item = trim(item)//' (repeated)'
+                  return
+               end if
+            end do
+            if (n_seen < size(seen)) then
+               n_seen = n_seen + 1
+               seen(n_seen) = upper(item(1:min(4, len(item))))
+            end if
+         end if
          select case (trim(upper(item)))
          case ('E1')
             errata%e1_base_damping_velocity = .true.

@@ -6,7 +6,7 @@ module tmafm_text
    implicit none
    private
 
-   public :: real_text, int_text, lower, short_real_text, printable_text
+   public :: real_text, int_text, lower, upper, short_real_text, printable_text
 
    !> An integer (default or i8) as text without blanks.
    interface int_text
@@ -87,5 +87,17 @@ contains
          if (code >= iachar('A') .and. code <= iachar('Z')) low(i:i) = achar(code + 32)
       end do
    end function lower
+
+   !> `text` with ASCII lower-case letters turned to upper case.
+   pure function upper(text) result(up)
+      character(len=*), intent(in) :: text
+      character(len=len(text)) :: up
+      integer :: i, code
+      up = text
+      do i = 1, len(text)
+         code = iachar(text(i:i))
+         if (code >= iachar('a') .and. code <= iachar('z')) up(i:i) = achar(code - 32)
+      end do
+   end function upper
 
 end module tmafm_text

@@ -22,6 +22,7 @@ module tmafm_output
    use tmafm_config, only: config_t
    use tmafm_namelist, only: config_text
    use tmafm_version, only: tmafm_version_string
+   use tmafm_text, only: int_text, lower
    use tmafm_float_format, only: put_es25, es25_width
    use tmafm_posix, only: kind_missing, kind_regular, kind_directory, kind_char_device, kind_fifo, &
                           kind_symlink, path_kind, create_temporary, open_device, check_descriptor, &
@@ -468,24 +469,9 @@ contains
    pure function ends_with_npz(path) result(yes)
       character(len=*), intent(in) :: path
       logical :: yes
-      character(len=4) :: tail
-      integer :: j, code
       yes = .false.
       if (len(path) < 4) return
-      tail = path(len(path) - 3:)
-      do j = 2, 4
-         code = iachar(tail(j:j))
-         if (code >= iachar('A') .and. code <= iachar('Z')) tail(j:j) = achar(code + 32)
-      end do
-      yes = tail == '.npz'
+      yes = lower(path(len(path) - 3:)) == '.npz'
    end function ends_with_npz
-
-   pure function int_text(value) result(text)
-      integer(i8), intent(in) :: value
-      character(len=:), allocatable :: text
-      character(len=24) :: buffer
-      write (buffer, '(i0)') value
-      text = trim(buffer)
-   end function int_text
 
 end module tmafm_output

@@ -4,6 +4,7 @@
 !> corrects all of them.  The model reads these switches in exactly one place each.
 module tmafm_errata
    use tmafm_errors, only: ok, err_input
+   use tmafm_text, only: upper
    implicit none
    private
 
@@ -117,16 +118,5 @@ contains
          label = label(2:)
       end if
    end function errata_label
-
-   pure function upper(text) result(up)
-      character(len=*), intent(in) :: text
-      character(len=len(text)) :: up
-      integer :: i, code
-      up = text
-      do i = 1, len(text)
-         code = iachar(text(i:i))
-         if (code >= iachar('a') .and. code <= iachar('z')) up(i:i) = achar(code - 32)
-      end do
-   end function upper
 
 end module tmafm_errata

@@ -1,58 +1,77 @@
-"""Wall time of the tmafm executable (whole process) on a long fig2_n4 run.
+"""CPU time of the tmafm executable (whole process) on a 100-period Fig. 2 run.
 
     /opt/tmafm-venv/bin/python benchmarks/run_time.py [--periods 100] [--repeat 5]
+        [--out benchmarks/run_time.json]
 
-Prints JSON: the median, min and max wall time over the repeats, with the step counters,
-for the output written at the input's sample_dtau (0.01) and with output thinned to 1 sample
-per tau unit (which isolates the integration from the text output).
+Runs inputs/fig2_n4.nml (N = 4) for `periods` drive periods at the input's sampling
+(sample_dtau = 0.01), with the paper's scheme (rk4_paper, as the input asks) and with
+flight_exact at its default tolerance, each writing the text format and the binary `.npz`
+format. The time is the CPU time (user + sys) of the child process, from getrusage, so it
+counts start-up, reading, integration and writing, and not the other load of a shared machine.
+Each configuration is repeated and the cases are interleaved; the JSON holds the median, the
+minimum and the maximum, and the counters of each run.
 """
 
 import argparse
 import json
 import math
+import os
+import resource
 import statistics
 import subprocess
 import tempfile
-import time
 from pathlib import Path
-
-import f90nml
 
 import tmafm
 
-REPO = Path(__file__).resolve().parent.parent
+CASES = [(method, fmt) for method in ("rk4_paper", "flight_exact") for fmt in ("text", "npy")]
 
 
-def time_run(exe, nml, repeat):
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        subprocess.run([exe, "-q", str(nml)], check=True)
-        times.append(time.perf_counter() - start)
-    return {"median_s": statistics.median(times), "min_s": min(times), "max_s": max(times)}
+def child_cpu(command) -> float:
+    """CPU seconds (user + sys) of one child process."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--periods", type=int, default=100)
     parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--out", default=None, help="also write the JSON here")
     args = parser.parse_args()
     exe = tmafm.executable()
-    tau_end = args.periods * 2 * math.pi / 2.0  # the drive period is 2 pi / Omega, Omega = 2
-    report = {"input": "inputs/fig2_n4.nml", "periods": args.periods, "tau_end": tau_end,
-              "tmafm": tmafm.__version__}
+    base = tmafm.Config("fig2_n4")
+    omega = base.scene["omega"]
+    tau_end = args.periods * 2 * math.pi / omega
+    report = {"input": "fig2_n4", "periods": args.periods, "tau_end": tau_end,
+              "tmafm": tmafm.__version__, "clock": "CPU time (user + sys) of the whole process",
+              "cases": {}}
+    times = {case: [] for case in CASES}
     with tempfile.TemporaryDirectory() as scratch:
-        for label, sample_dtau in (("sample_dtau_0.01", 0.01), ("sample_dtau_1", 1.0)):
-            groups = f90nml.read(str(tmafm.inputs.path("fig2_n4")))
-            groups["solver"]["tau_end"] = tau_end
-            groups["output"]["sample_dtau"] = sample_dtau
-            groups["output"]["file"] = str(Path(scratch) / f"{label}.dat")
-            path = Path(scratch) / f"{label}.nml"
-            groups.write(str(path), force=True)
-            report[label] = time_run(exe, path, args.repeat)
-        counters = tmafm.run(path).counters
-    report["counters"] = counters
-    print(json.dumps(report, indent=2))
+        inputs = {}
+        for method, fmt in CASES:
+            name = f"{method}_{fmt}"
+            target = Path(scratch) / (name + (".npz" if fmt == "npy" else ".dat"))
+            config = tmafm.Config("fig2_n4", solver={"method": method, "tau_end": tau_end},
+                                  output={"format": fmt, "file": str(target)})
+            path = Path(scratch) / f"{name}.nml"
+            config.write(path)
+            inputs[(method, fmt)] = path
+            result = config.run()
+            report["cases"][name] = {"method": method, "format": fmt,
+                                     "counters": result.counters, "rows": len(result.tau)}
+        for _ in range(args.repeat):
+            for case in CASES:
+                times[case].append(child_cpu([exe, "-q", str(inputs[case])]))
+    for (method, fmt), values in times.items():
+        entry = report["cases"][f"{method}_{fmt}"]
+        entry.update(median_s=statistics.median(values), min_s=min(values), max_s=max(values))
+    text = json.dumps(report, indent=2)
+    print(text)
+    if args.out:
+        Path(args.out).write_text(text + "\n")
 
 
 if __name__ == "__main__":

@@ -17,6 +17,7 @@ module tmafm_observers
    use tmafm_steady_state, only: steady_period
    use tmafm_quadrature, only: gauss_legendre
    use tmafm_units, only: scales_t
+   use tmafm_interpolation, only: hermite_cubic
    implicit none
    private
 
@@ -42,6 +43,12 @@ module tmafm_observers
    !> Golden-section iterations of an extremum search (bracket shrinks by 0.618^k).
    integer, parameter :: golden_iterations = 64
    real(dp), parameter :: pi = acos(-1.0_dp)
+
+   !> A fixed step's end points and derivatives: its cubic Hermite dense output.
+   type :: hermite_t
+      !> State and derivative at the step start (0) and end (1).
+      real(dp), allocatable :: y0(:), f0(:), y1(:), f1(:)
+   end type hermite_t
 
    !> The observer of one run: settings, the current period's accumulators, and the results.
    type :: observer_t
@@ -72,6 +79,8 @@ module tmafm_observers
       !> Gauss-Legendre nodes and weights on [-1, 1]; state registers.
       real(dp) :: gl_x(gl_points) = 0, gl_w(gl_points) = 0
       real(dp), allocatable :: y(:)
+      !> The fixed step being fed (rk4_paper).
+      type(hermite_t) :: cubic
       !> Results: values(period, column), the harmonics (period, k), Poincare points (2N, 0:periods).
       real(dp), allocatable :: values(:, :), harmonic_amplitude(:, :), harmonic_phase(:, :)
       real(dp), allocatable :: poincare(:, :)
@@ -82,6 +91,8 @@ module tmafm_observers
       procedure :: pair_step => observer_pair_step
       !> Feed a free flight [tau, tau + length] of the exact flight solution started at tau.
       procedure :: flight_segment => observer_flight_segment
+      !> Feed a fixed step [tau, tau + h] through its cubic Hermite interpolant (rk4_paper).
+      procedure :: hermite_step => observer_hermite_step
       !> Count a contact that starts at tau.
       procedure :: contact_start => observer_contact_start
    end type observer_t
@@ -119,7 +130,10 @@ contains
       self%n_periods = 0
       self%found_period = 0
       call gauss_legendre(gl_points, self%gl_x, self%gl_w)
-      if (allocated(self%y)) deallocate (self%y)
+      if (allocated(self%y)) deallocate (self%y, self%cubic%y0, self%cubic%f0, self%cubic%y1, &
+                                         self%cubic%f1)
+      allocate (self%cubic%y0(size(y0)), self%cubic%f0(size(y0)), self%cubic%y1(size(y0)), &
+                self%cubic%f1(size(y0)))
       if (allocated(self%acc_sin)) deallocate (self%acc_sin, self%acc_cos)
       if (allocated(self%values)) deallocate (self%values, self%harmonic_amplitude, &
                                                self%harmonic_phase, self%poincare)
@@ -167,6 +181,33 @@ contains
       call process(self, model, tau, tau + length, .false., tau, 1.0_dp, flight=flight)
    end subroutine observer_flight_segment
 
+   subroutine observer_hermite_step(self, model, tau, h, y0, f0, y1, f1, in_contact)
+      class(observer_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: h
+      real(dp), intent(in) :: y0(:)
+      real(dp), intent(in) :: f0(:)
+      real(dp), intent(in) :: y1(:)
+      real(dp), intent(in) :: f1(:)
+      logical, intent(in) :: in_contact
+      type(hermite_t) :: cubic
+      self%cubic%y0 = y0
+      self%cubic%f0 = f0
+      self%cubic%y1 = y1
+      self%cubic%f1 = f1
+      ! A copy keeps the argument apart from self (which process updates).
+      call move_alloc(self%cubic%y0, cubic%y0)
+      call move_alloc(self%cubic%f0, cubic%f0)
+      call move_alloc(self%cubic%y1, cubic%y1)
+      call move_alloc(self%cubic%f1, cubic%f1)
+      call process(self, model, tau, tau + h, in_contact, tau, h, cubic=cubic)
+      call move_alloc(cubic%y0, self%cubic%y0)
+      call move_alloc(cubic%f0, self%cubic%f0)
+      call move_alloc(cubic%y1, self%cubic%y1)
+      call move_alloc(cubic%f1, self%cubic%f1)
+   end subroutine observer_hermite_step
+
    subroutine observer_contact_start(self, tau)
       class(observer_t), intent(inout) :: self
       real(dp), intent(in) :: tau
@@ -176,7 +217,7 @@ contains
 
    !> The state at time t of the current source: the pair's dense output over the step
    !> [origin, origin + h], or the flight started at origin.
-   subroutine state_at(model, origin, h, t, y, pair, flight)
+   subroutine state_at(model, origin, h, t, y, pair, flight, cubic)
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: origin
       real(dp), intent(in) :: h
@@ -184,15 +225,18 @@ contains
       real(dp), intent(out) :: y(:)
       class(embedded_pair_t), intent(in), optional :: pair
       type(free_flight_t), intent(in), optional :: flight
+      type(hermite_t), intent(in), optional :: cubic
       if (present(pair)) then
          call pair%dense((t - origin)/h, y)
-      else
+      else if (present(flight)) then
          call flight%state(model, t - origin, y)
+      else
+         call hermite_cubic(cubic%y0, cubic%f0, cubic%y1, cubic%f1, h, (t - origin)/h, y)
       end if
    end subroutine state_at
 
    !> The function an extremum search minimises: V_T (kind 1) or minus the normal force (2).
-   subroutine target(model, kind, origin, h, t, y, value, pair, flight)
+   subroutine target(model, kind, origin, h, t, y, value, pair, flight, cubic)
       type(model_t), intent(in) :: model
       integer, intent(in) :: kind
       real(dp), intent(in) :: origin
@@ -202,8 +246,9 @@ contains
       real(dp), intent(out) :: value
       class(embedded_pair_t), intent(in), optional :: pair
       type(free_flight_t), intent(in), optional :: flight
+      type(hermite_t), intent(in), optional :: cubic
       type(contact_brackets_t) :: state
-      call state_at(model, origin, h, t, y, pair, flight)
+      call state_at(model, origin, h, t, y, pair, flight, cubic)
       if (kind == 1) then
          value = model%tip_gap(t, y)
       else
@@ -213,7 +258,7 @@ contains
    end subroutine target
 
    !> Golden-section minimum of target(kind) on [lo, hi]; value at the best point found.
-   subroutine golden_minimum(model, kind, origin, h, lo_in, hi_in, best, y, pair, flight)
+   subroutine golden_minimum(model, kind, origin, h, lo_in, hi_in, best, y, pair, flight, cubic)
       type(model_t), intent(in) :: model
       integer, intent(in) :: kind
       real(dp), intent(in) :: origin
@@ -224,6 +269,7 @@ contains
       real(dp), intent(inout) :: y(:)
       class(embedded_pair_t), intent(in), optional :: pair
       type(free_flight_t), intent(in), optional :: flight
+      type(hermite_t), intent(in), optional :: cubic
       real(dp), parameter :: g = (sqrt(5.0_dp) - 1)/2
       real(dp) :: lo, hi, x1, x2, f1, f2
       integer :: k
@@ -231,21 +277,21 @@ contains
       hi = hi_in
       x1 = hi - g*(hi - lo)
       x2 = lo + g*(hi - lo)
-      call target(model, kind, origin, h, x1, y, f1, pair, flight)
-      call target(model, kind, origin, h, x2, y, f2, pair, flight)
+      call target(model, kind, origin, h, x1, y, f1, pair, flight, cubic)
+      call target(model, kind, origin, h, x2, y, f2, pair, flight, cubic)
       do k = 1, golden_iterations
          if (f1 <= f2) then
             hi = x2
             x2 = x1
             f2 = f1
             x1 = hi - g*(hi - lo)
-            call target(model, kind, origin, h, x1, y, f1, pair, flight)
+            call target(model, kind, origin, h, x1, y, f1, pair, flight, cubic)
          else
             lo = x1
             x1 = x2
             f1 = f2
             x2 = lo + g*(hi - lo)
-            call target(model, kind, origin, h, x2, y, f2, pair, flight)
+            call target(model, kind, origin, h, x2, y, f2, pair, flight, cubic)
          end if
          if (hi - lo <= 4*epsilon(1.0_dp)*max(abs(lo), abs(hi))) exit
       end do
@@ -253,7 +299,7 @@ contains
    end subroutine golden_minimum
 
    !> Accumulate [t_start, t_end] (one phase), finishing every period whose end it reaches.
-   subroutine process(self, model, t_start, t_end, in_contact, origin, h, pair, flight)
+   subroutine process(self, model, t_start, t_end, in_contact, origin, h, pair, flight, cubic)
       class(observer_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: t_start
@@ -263,14 +309,15 @@ contains
       real(dp), intent(in) :: h
       class(embedded_pair_t), intent(in), optional :: pair
       type(free_flight_t), intent(in), optional :: flight
+      type(hermite_t), intent(in), optional :: cubic
       real(dp) :: a, b, boundary
       a = t_start
       do while (a < t_end .and. .not. self%done)
          boundary = (self%n_periods + 1)*self%period_length
          b = min(t_end, boundary, a + self%period_length/pieces_per_period)
-         if (b > a) call piece(self, model, a, b, in_contact, origin, h, pair, flight)
+         if (b > a) call piece(self, model, a, b, in_contact, origin, h, pair, flight, cubic)
          if (b >= boundary) then
-            call state_at(model, origin, h, boundary, self%y, pair, flight)
+            call state_at(model, origin, h, boundary, self%y, pair, flight, cubic)
             call finish_period(self)
          end if
          a = b
@@ -278,7 +325,7 @@ contains
    end subroutine process
 
    !> Gauss-Legendre sums over [a, b] in one phase, and the extrema located in it.
-   subroutine piece(self, model, a, b, in_contact, origin, h, pair, flight)
+   subroutine piece(self, model, a, b, in_contact, origin, h, pair, flight, cubic)
       class(observer_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: a
@@ -288,6 +335,7 @@ contains
       real(dp), intent(in) :: h
       class(embedded_pair_t), intent(in), optional :: pair
       type(free_flight_t), intent(in), optional :: flight
+      type(hermite_t), intent(in), optional :: cubic
       real(dp) :: t(0:gl_points + 1), gap(0:gl_points + 1), force(0:gl_points + 1)
       real(dp) :: power(n_powers), energy, weight, half, mid, tip_u, best
       type(contact_brackets_t) :: state
@@ -301,7 +349,7 @@ contains
       t(1:gl_points) = mid + half*self%gl_x
       force = 0
       do i = 0, gl_points + 1
-         call state_at(model, origin, h, t(i), self%y, pair, flight)
+         call state_at(model, origin, h, t(i), self%y, pair, flight, cubic)
          gap(i) = model%tip_gap(t(i), self%y)
          if (in_contact) then
             state = model%contact(t(i), self%y(1:n))
@@ -326,7 +374,7 @@ contains
       if (best < self%min_gap) then
          if (i_best > 0 .and. i_best < gl_points + 1) &
             call golden_minimum(model, 1, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
-                                pair, flight)
+                                pair, flight, cubic)
          self%min_gap = min(self%min_gap, best)
       end if
       if (in_contact) then
@@ -335,7 +383,7 @@ contains
          if (-best > self%peak_force) then
             if (i_best > 0 .and. i_best < gl_points + 1) &
                call golden_minimum(model, 2, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
-                                   pair, flight)
+                                   pair, flight, cubic)
             self%peak_force = max(self%peak_force, -best)
          end if
       end if

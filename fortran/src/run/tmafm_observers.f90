@@ -4,7 +4,7 @@
 !>
 !> Integrals (Fourier coefficients of V_T, mean deflection, the powers of model_t%energy_flow,
 !> the virial) use 8-point Gauss-Legendre on each piece (a step, or a flight cut into pieces of
-!> at most T/16); contact times come from the located switches; min V_T and the peak normal
+!> at most T/16; 3 points on a fixed rk4_paper step's cubic); contact times come from the located switches; min V_T and the peak normal
 !> force are located on the dense output by a golden-section search around the best node.
 !> Every array is allocated in init; feeding steps allocates nothing.
 module tmafm_observers
@@ -40,6 +40,9 @@ module tmafm_observers
 
    !> Gauss-Legendre points per piece, and pieces per period at least (for long flights).
    integer, parameter :: gl_points = 8, pieces_per_period = 16
+   !> Gauss-Legendre points per fixed step (its dense output is a cubic: 3 points integrate
+   !> the quadratic powers of it exactly to degree 5, beyond RK4's own O(h^4)).
+   integer, parameter :: hermite_points = 3
    !> Golden-section iterations of an extremum search (bracket shrinks by 0.618^k).
    integer, parameter :: golden_iterations = 64
    real(dp), parameter :: pi = acos(-1.0_dp)
@@ -78,6 +81,7 @@ module tmafm_observers
       integer :: contacts = 0
       !> Gauss-Legendre nodes and weights on [-1, 1]; state registers.
       real(dp) :: gl_x(gl_points) = 0, gl_w(gl_points) = 0
+      real(dp) :: gl3_x(hermite_points) = 0, gl3_w(hermite_points) = 0
       real(dp), allocatable :: y(:)
       !> The fixed step being fed (rk4_paper).
       type(hermite_t) :: cubic
@@ -130,6 +134,7 @@ contains
       self%n_periods = 0
       self%found_period = 0
       call gauss_legendre(gl_points, self%gl_x, self%gl_w)
+      call gauss_legendre(hermite_points, self%gl3_x, self%gl3_w)
       if (allocated(self%y)) deallocate (self%y, self%cubic%y0, self%cubic%f0, self%cubic%y1, &
                                          self%cubic%f1)
       allocate (self%cubic%y0(size(y0)), self%cubic%f0(size(y0)), self%cubic%y1(size(y0)), &
@@ -337,51 +342,70 @@ contains
       type(free_flight_t), intent(in), optional :: flight
       type(hermite_t), intent(in), optional :: cubic
       real(dp) :: t(0:gl_points + 1), gap(0:gl_points + 1), force(0:gl_points + 1)
-      real(dp) :: power(n_powers), energy, weight, half, mid, tip_u, best
+      real(dp) :: power(n_powers), energy, weight, half, mid, tip_u, best, s1, c1, sk, ck, next
+      real(dp) :: nodes(gl_points), weights(gl_points)
       type(contact_brackets_t) :: state
-      integer :: i, k, n, i_best
+      integer :: i, k, n, i_best, m
 
       n = self%n_state/2
       half = (b - a)/2
       mid = (a + b)/2
+      ! A fixed step's cubic needs fewer points than the pairs' higher-degree dense output.
+      if (present(cubic)) then
+         m = hermite_points
+         nodes(1:m) = self%gl3_x
+         weights(1:m) = self%gl3_w
+      else
+         m = gl_points
+         nodes(1:m) = self%gl_x
+         weights(1:m) = self%gl_w
+      end if
       t(0) = a
-      t(gl_points + 1) = b
-      t(1:gl_points) = mid + half*self%gl_x
+      t(m + 1) = b
+      t(1:m) = mid + half*nodes(1:m)
       force = 0
-      do i = 0, gl_points + 1
+      do i = 0, m + 1
          call state_at(model, origin, h, t(i), self%y, pair, flight, cubic)
          gap(i) = model%tip_gap(t(i), self%y)
          if (in_contact) then
             state = model%contact(t(i), self%y(1:n))
             force(i) = model%kappa5*state%normal
          end if
-         if (i == 0 .or. i == gl_points + 1) cycle
-         weight = half*self%gl_w(min(max(i, 1), gl_points))
+         if (i == 0 .or. i == m + 1) cycle
+         weight = half*weights(i)
          tip_u = gap(i) - model%scene%delta_hat
+         ! sin(k Omega t), cos(k Omega t) by the angle-addition recurrence.
+         s1 = sin(self%omega*t(i))
+         c1 = cos(self%omega*t(i))
+         sk = s1
+         ck = c1
          do k = 1, self%harmonics
-            self%acc_sin(k) = self%acc_sin(k) + weight*gap(i)*sin(k*self%omega*t(i))
-            self%acc_cos(k) = self%acc_cos(k) + weight*gap(i)*cos(k*self%omega*t(i))
+            self%acc_sin(k) = self%acc_sin(k) + weight*gap(i)*sk
+            self%acc_cos(k) = self%acc_cos(k) + weight*gap(i)*ck
+            next = sk*c1 + ck*s1
+            ck = ck*c1 - sk*s1
+            sk = next
          end do
-         self%acc_deflection = self%acc_deflection + weight*(tip_u - model%scene%alpha2*sin(self%omega*t(i)))
+         self%acc_deflection = self%acc_deflection + weight*(tip_u - model%scene%alpha2*s1)
          call model%energy_flow(t(i), self%y(1:n), self%y(n + 1:2*n), in_contact, power, energy)
          self%acc_powers = self%acc_powers + weight*power
          self%acc_virial = self%acc_virial + weight*force(i)*tip_u
       end do
       if (in_contact) self%acc_contact_time = self%acc_contact_time + (b - a)
 
-      i_best = minloc(gap, 1) - 1
+      i_best = minloc(gap(0:m + 1), 1) - 1
       best = gap(i_best)
       if (best < self%min_gap) then
-         if (i_best > 0 .and. i_best < gl_points + 1) &
+         if (i_best > 0 .and. i_best < m + 1) &
             call golden_minimum(model, 1, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
                                 pair, flight, cubic)
          self%min_gap = min(self%min_gap, best)
       end if
       if (in_contact) then
-         i_best = maxloc(force, 1) - 1
+         i_best = maxloc(force(0:m + 1), 1) - 1
          best = -force(i_best)
          if (-best > self%peak_force) then
-            if (i_best > 0 .and. i_best < gl_points + 1) &
+            if (i_best > 0 .and. i_best < m + 1) &
                call golden_minimum(model, 2, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
                                    pair, flight, cubic)
             self%peak_force = max(self%peak_force, -best)

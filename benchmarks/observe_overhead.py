@@ -1,6 +1,7 @@
 """CPU time of plain runs (no observer) and of observed runs, in one process.
 
-    python benchmarks/observe_overhead.py [--out benchmarks/observe_overhead.json]
+    python benchmarks/observe_overhead.py --out benchmarks/observe_overhead.json \
+        --png benchmarks/observe_overhead.png
 
 Plain runs keep their samples as before; an observed run keeps none and computes the per-period
 observables of docs/observables.md.  Prints and writes the CPU seconds (process_time) of each,
@@ -30,6 +31,7 @@ def best(fn, repeat=3):
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--out", default=None)
+    parser.add_argument("--png", default=None)
     args = parser.parse_args()
     T = math.pi
     rows = {}
@@ -44,6 +46,23 @@ def main():
     if args.out:
         with open(args.out, "w") as handle:
             json.dump({"periods": PERIODS, "input": "fig3", "rows": rows}, handle, indent=1)
+    if args.png:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        x = range(len(METHODS))
+        fig, ax = plt.subplots(figsize=(6, 3.5))
+        ax.bar([i - 0.2 for i in x], [rows[m]["plain_run_cpu_s"] for m in METHODS], 0.4,
+               label="plain run (samples T/100)")
+        ax.bar([i + 0.2 for i in x], [rows[m]["observed_run_cpu_s"] for m in METHODS], 0.4,
+               label="observed run (no samples)")
+        ax.set_xticks(list(x), METHODS)
+        ax.set_yscale("log")
+        ax.set_ylabel("CPU s (best of 3)")
+        ax.set_title(f"fig3, {PERIODS} drive periods")
+        ax.legend()
+        fig.tight_layout()
+        fig.savefig(args.png, dpi=100)
 
 
 if __name__ == "__main__":

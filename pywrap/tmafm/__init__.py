@@ -15,6 +15,7 @@ from ._resultio import load
 from .errors import (BlowUpError, InputError, InputFileError, InputTypeError, SolverError,
                      TmafmError)
 from ._exe import executable
+from .observe import Observation, observe, observe_batch
 
 try:
     __version__ = _version("tmafm")
@@ -22,5 +23,5 @@ except PackageNotFoundError:  # running from a source tree
     __version__ = "unknown"
 
 __all__ = ["run", "resolve", "load", "Config", "Model", "Result", "ContactState", "inputs",
-           "SCENE_KEYS", "COUNTER_KEYS", "POWER_NAMES", "executable", "TmafmError", "InputError",
+           "SCENE_KEYS", "COUNTER_KEYS", "observe", "observe_batch", "Observation", "POWER_NAMES", "executable", "TmafmError", "InputError",
            "InputTypeError", "InputFileError", "SolverError", "BlowUpError", "__version__"]

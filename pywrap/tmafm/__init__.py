@@ -15,6 +15,7 @@ from ._resultio import load
 from .errors import (BlowUpError, InputError, InputFileError, InputTypeError, SolverError,
                      TmafmError)
 from ._exe import executable
+from .sweeps import approach, basin, bifurcation, frequency_sweep, sweep
 
 try:
     __version__ = _version("tmafm")
@@ -23,4 +24,5 @@ except PackageNotFoundError:  # running from a source tree
 
 __all__ = ["run", "resolve", "load", "Config", "Model", "Result", "ContactState", "inputs",
            "SCENE_KEYS", "COUNTER_KEYS", "POWER_NAMES", "executable", "TmafmError", "InputError",
-           "InputTypeError", "InputFileError", "SolverError", "BlowUpError", "__version__"]
+           "InputTypeError", "InputFileError", "SolverError", "BlowUpError", "__version__",
+           "sweep", "approach", "frequency_sweep", "bifurcation", "basin"]

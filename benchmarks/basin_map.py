@@ -1,0 +1,89 @@
+"""A basin map of the Fig. 4 scene (inputs/fig4a.nml, N = 3) and an approach/retract curve,
+timed: how long a 200 x 200 grid of initial states a1(0) x a1'(0) takes, each run stopped at
+steady state or after 100 periods, and which share of the time is spent outside the core's
+integration (validating the 40 000 inputs, building the Dataset, labelling the attractors).
+
+    /opt/tmafm-venv/bin/python benchmarks/basin_map.py [--n 200] [--workers 2]
+
+Times are wall clock (the target is wall time on 2 cores); 'in_core_s' is the wall time spent
+inside tmafm.observe_batch (parsing the texts and integrating, GIL released).  Writes
+benchmarks/basin_map.json and .png (the map) and docs/figures/sweep_basin.png.
+"""
+
+import argparse
+import json
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+import tmafm
+from tmafm import observe as observe_module, sweepplots
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--n", type=int, default=200)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--approach-points", type=int, default=200)
+    args = parser.parse_args()
+
+    inside = {"wall_s": 0.0, "periods": 0, "runs": 0}
+    original = observe_module.observe_batch
+
+    def counted(configs, **kw):
+        start = time.perf_counter()
+        out = original(configs, **kw)
+        inside["wall_s"] += time.perf_counter() - start
+        inside["periods"] += sum(o.periods for o in out)
+        inside["runs"] += len(out)
+        return out
+
+    observe_module.observe_batch = counted
+    a1 = np.linspace(-1e-3, 1e-3, args.n)
+    adot1 = np.linspace(-2e-3, 2e-3, args.n)
+    wall, cpu = time.perf_counter(), time.process_time()
+    ds = tmafm.basin("fig4a", a1=a1, adot1=adot1, workers=args.workers, max_periods=100)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    counts = {int(k): int((ds["attractor"].values == k).sum()) for k in
+              np.unique(ds["attractor"].values)}
+    periods = {int(k): int((ds["period"].values == k).sum()) for k in
+               np.unique(ds["period"].values)}
+    basin = {"input": "inputs/fig4a.nml", "grid": [args.n, args.n],
+             "a1_range": [float(a1[0]), float(a1[-1])],
+             "adot1_range": [float(adot1[0]), float(adot1[-1])], "workers": args.workers,
+             "max_periods": 100, "wall_s": wall, "process_cpu_s": cpu,
+             "in_core_wall_s": inside["wall_s"],
+             "outside_core_fraction": 1 - inside["wall_s"] / wall,
+             "periods_run": inside["periods"], "runs_per_s": args.n ** 2 / wall,
+             "attractors": int(ds.attrs["attractors"]), "points_per_label": counts,
+             "points_per_period": periods}
+    print(json.dumps(basin, indent=1), flush=True)
+    sweepplots.plot_basin(ds, REPO / "benchmarks" / "basin_map.png")
+    sweepplots.plot_basin(ds, REPO / "docs" / "figures" / "sweep_basin.png")
+
+    inside.update(wall_s=0.0, periods=0, runs=0)
+    deltas = np.linspace(8e-3, 0.0, args.approach_points // 2)
+    observe_module.observe_batch = original
+    wall, cpu = time.perf_counter(), time.process_time()
+    curve = tmafm.approach(REPO / "inputs" / "sweeps" / "bistable_n2.nml", delta_hat=deltas,
+                           workers=1, max_periods=200)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    approach = {"input": "inputs/sweeps/bistable_n2.nml", "points": 2 * deltas.size,
+                "delta_hat_range": [float(deltas[0]), float(deltas[-1])], "max_periods": 200,
+                "wall_s": wall, "process_cpu_s": cpu,
+                "periods_run": int(curve["periods"].sum()),
+                "jumps": {d: [float(x) for x in deltas[curve["jump"].sel(direction=d).values
+                                                       .astype(bool)]]
+                          for d in ("approach", "retract")}}
+    print(json.dumps(approach, indent=1))
+    report = {"basin": basin, "approach_retract": approach, "cpu_count": os.cpu_count(),
+              "time": "wall clock; process_cpu_s is this process's user+sys"}
+    (REPO / "benchmarks" / "basin_map.json").write_text(json.dumps(report, indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,266 @@
+"""tmafm.sweep and friends: grids, validation before any run, Dask = local, NetCDF, hysteresis,
+attractor labels, the sweep-file command line."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import tmafm
+from tmafm import sweeps
+
+xr = pytest.importorskip("xarray")
+
+# A small, quick grid on the Fig. 2 scene (N = 2 to keep it cheap).
+BASE = {"model": {"n_modes": 2, "contact_law": "hertz", "convention": "paper"},
+        "initial": {"a0": [0.0, 0.0]},
+        "solver": {"method": "rk4_paper", "dtau": 4e-3, "contact_refine": 16, "tau_end": 10.0}}
+QUICK = dict(max_periods=12, steady_tol=1e-5)
+
+
+# --- Bad input: one clear error, and nothing runs ------------------------------------------
+
+@pytest.fixture
+def no_runs(monkeypatch):
+    """Count every call into the core's observers; a sweep that validates first makes none."""
+    from tmafm import observe as observe_module
+    calls = []
+
+    def refuse(*args, **kwargs):
+        calls.append(args)
+        raise AssertionError("a run started before the sweep input was validated")
+
+    monkeypatch.setattr(observe_module, "observe_batch", refuse)
+    monkeypatch.setattr(observe_module, "observe", refuse)
+    return calls
+
+
+@pytest.mark.parametrize("axes, words", [
+    ({"scene.delta_hatt": [0.1]}, ["scene.delta_hatt", "unknown key"]),
+    ({"scenery.delta_hat": [0.1]}, ["scenery.delta_hat", "unknown group"]),
+    ({"scene.delta_hat": []}, ["scene.delta_hat", "empty axis"]),
+    ({"scene.omega": [2.0, 2.1], "scene.delta_hat": [0.1, 0.2, 5000.0]},
+     ["delta_hat", "5000"]),
+    ({"scene.alpha2": [1e-4, -1e-4]}, ["alpha2", "-0.0001"]),
+    ({"model.n_modes": [2, 0.5]}, ["n_modes", "0.5"]),
+])
+def test_bad_sweep_input_fails_before_any_run(no_runs, axes, words):
+    with pytest.raises(tmafm.InputError) as info:
+        tmafm.sweep(BASE, axes, workers=1, **QUICK)
+    message = str(info.value)
+    assert "\n" not in message
+    for word in words:
+        assert word in message, message
+    assert no_runs == []
+
+
+def test_bad_continuation_and_basin_input_fail_before_any_run(no_runs):
+    with pytest.raises(tmafm.InputError, match="delta_hat.*2000"):
+        tmafm.approach(BASE, delta_hat=[0.5, 2000.0], **QUICK)
+    with pytest.raises(tmafm.InputError, match="scene.omega.*empty axis"):
+        tmafm.frequency_sweep(BASE, omega=[], **QUICK)
+    with pytest.raises(tmafm.InputError, match="alpha2.*-1"):
+        tmafm.approach(BASE, delta_hat=[0.5], curves={"scene.alpha2": [1e-3, -1.0]}, **QUICK)
+    with pytest.raises(tmafm.InputError, match="a1.*empty axis"):
+        tmafm.basin(BASE, a1=[], adot1=[0.0], **QUICK)
+    with pytest.raises(tmafm.InputError, match="unknown key"):
+        tmafm.bifurcation(BASE, "scene.omegaa", [1.0], **QUICK)
+    assert no_runs == []
+
+
+# --- Grids ---------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def grid():
+    axes = {"scene.delta_hat": [0.0, 5e-4, 2e-3], "scene.alpha2": [5e-4, 1e-3]}
+    return axes, tmafm.sweep(BASE, axes, workers=1, **QUICK)
+
+
+def test_grid_dataset_matches_single_observations(grid):
+    axes, ds = grid
+    assert ds["amplitude"].dims == ("scene.delta_hat", "scene.alpha2")
+    np.testing.assert_array_equal(ds["scene.delta_hat"].values, axes["scene.delta_hat"])
+    for name in ("amplitude", "phase", "mean_deflection", "min_gap", "peak_force", "contact_time",
+                 "contacts_per_period", "dissipated_energy", "period"):
+        assert name in ds and "units" in ds[name].attrs or name == "period"
+    # Every point is the observation of the base with that point's values.
+    for i, delta in enumerate(axes["scene.delta_hat"]):
+        for j, alpha2 in enumerate(axes["scene.alpha2"]):
+            obs = tmafm.observe(tmafm.Config(BASE, scene={"delta_hat": delta, "alpha2": alpha2}),
+                                **QUICK)
+            steady = obs.steady_values()
+            assert ds["amplitude"].values[i, j] == pytest.approx(steady["amplitude"], rel=1e-12)
+            assert ds["period"].values[i, j] == obs.period
+    # More drive, more amplitude, at every offset (a physical check that fails on a mixed grid).
+    assert np.all(ds["amplitude"].isel({"scene.alpha2": 1}).values
+                  > ds["amplitude"].isel({"scene.alpha2": 0}).values)
+
+
+def test_local_threads_processes_and_dask_give_identical_datasets(grid):
+    axes, local = grid
+    two = tmafm.sweep(BASE, axes, workers=2, chunk=2, **QUICK)
+    xr.testing.assert_identical(local, two)
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        on_dask = tmafm.sweep(BASE, axes, client=client, chunk=2, **QUICK)
+    xr.testing.assert_identical(local, on_dask)
+
+
+def test_process_pool_gives_the_same_dataset(grid):
+    axes, local = grid
+    pooled = tmafm.sweep(BASE, axes, workers=2, backend="processes", chunk=3, **QUICK)
+    xr.testing.assert_identical(local, pooled)
+
+
+def test_netcdf_round_trip(grid, tmp_path):
+    _, ds = grid
+    path = sweeps.write_dataset(ds, tmp_path / "grid.nc")
+    with xr.open_dataset(path) as back:
+        xr.testing.assert_identical(ds, back.load())
+    assert not list(tmp_path.glob(".*partial"))
+
+
+def test_physical_base_gives_physical_variables():
+    ds = tmafm.sweep("physical_polystyrene", {"physical.static_offset": [0.0, 1e-9]}, workers=1,
+                     max_periods=4)
+    assert ds["amplitude_nm"].attrs["units"] == "nm"
+    ratio = ds["amplitude_nm"].values / ds["amplitude"].values
+    assert ratio[0] == pytest.approx(ratio[1], rel=1e-9) and ratio[0] > 1
+
+
+# --- Continuation: hysteresis --------------------------------------------------------------
+
+def test_mark_jumps():
+    flags = sweeps.mark_jumps(np.array([1.0, 1.01, 1.02, 0.3, 0.31]), 0.2)
+    assert flags.tolist() == [False, False, False, True, False]
+
+
+# The bistable scene of docs/sweeps.md (inputs/sweeps/bistable_n2.nml): N = 2, Omega = 3.8,
+# above the first resonance; found by benchmarks/sweep_bistability_search.py.
+BISTABLE = dict(BASE, scene={"omega": 3.8, "alpha2": 5e-4})
+
+
+@pytest.fixture(scope="module")
+def hysteresis():
+    deltas = np.linspace(8e-3, 0.0, 17)
+    return deltas, tmafm.approach(BISTABLE, delta_hat=deltas, workers=1, max_periods=200)
+
+
+def test_approach_and_retract_show_two_branches_with_jumps_at_different_offsets(hysteresis):
+    deltas, ds = hysteresis
+    assert ds["direction"].values.tolist() == ["approach", "retract"]
+    assert ds["amplitude"].dims == ("direction", "scene.delta_hat")
+    amp = ds["amplitude"].values
+    jump = ds["jump"].values.astype(bool)
+    # Far from the sample both directions sit on the free oscillation, close to it on one branch.
+    assert amp[0, 0] == pytest.approx(amp[1, 0], rel=1e-3)
+    assert amp[0, -1] == pytest.approx(amp[1, -1], rel=1e-3)
+    # Each direction jumps exactly once, the retract jump at a larger offset than the approach's.
+    assert jump[0].sum() == 1 and jump[1].sum() == 1
+    on_approach, on_retract = deltas[jump[0]][0], deltas[jump[1]][0]
+    assert on_retract > on_approach
+    # Between the jumps the two branches differ: retract stays in contact at a larger amplitude.
+    between = (deltas > on_approach) & (deltas < on_retract)
+    assert between.any()
+    assert np.all(amp[1, between] > 1.5 * amp[0, between])
+    assert np.all(ds["min_gap"].values[1, between] < 0) and np.all(
+        ds["min_gap"].values[0, between] > 0)
+
+
+def test_warm_start_carries_the_state(hysteresis):
+    deltas, ds = hysteresis
+    # The approach's first point starts from the base's rest state; every later point from the
+    # previous final state, so a cold run at a point between the jumps lands on the free branch
+    # while the retract (warm) run there is in contact.
+    states = ds["final_state"].values
+    assert states.shape == (2, deltas.size, 4)
+    cold = tmafm.observe(tmafm.Config(BISTABLE, scene={"delta_hat": float(deltas[10])}),
+                         max_periods=200)
+    assert cold.steady_values()["amplitude"] == pytest.approx(
+        ds["amplitude"].values[0, 10], rel=1e-3)
+    assert ds["amplitude"].values[1, 10] > 1.5 * ds["amplitude"].values[0, 10]
+
+
+# --- Bifurcation and basins ----------------------------------------------------------------
+
+def test_label_attractors_up_to_cyclic_shift():
+    p1 = np.array([[1.0, 0.0]])
+    p2 = np.array([[1.0, 0.5], [2.0, -0.5]])
+    labels, known = sweeps.label_attractors(
+        [p1, p2, p2[::-1].copy(), p1 + 1e-9, p1 + 0.1, np.zeros((1, 2)), p2 + 1e-9],
+        [1, 2, 2, 1, 1, 0, 2], tol=1e-6)
+    assert labels.tolist() == [0, 1, 1, 0, 2, -1, 1]
+    assert len(known) == 3
+    assert not sweeps.same_orbit(p2, np.array([[1.0, 0.5], [2.0, -0.4]]), 1e-6)
+
+
+def test_basin_tells_the_papers_attractors_apart():
+    # Figs. 4-5 of the paper: a1(0) = 0 and 3e-4 reach two period-1 motions, 7e-4 a period-2 one.
+    ds = tmafm.basin("fig4a", a1=[0.0, 3e-4, 7e-4], adot1=[0.0], workers=2, max_periods=100)
+    labels = ds["attractor"].values[:, 0]
+    periods = ds["period"].values[:, 0]
+    assert periods.tolist() == [1, 1, 2]
+    assert len(set(labels.tolist())) == 3 and min(labels) >= 0
+    assert ds.attrs["attractors"] == 3
+    # The basin is what each single observation says.
+    for k, a1 in enumerate([0.0, 3e-4, 7e-4]):
+        obs = tmafm.observe("fig4a", initial={"a0": [a1, 0.0, 0.0]}, max_periods=100)
+        assert obs.period == periods[k]
+
+
+def test_bifurcation_points_sample_the_orbit():
+    ds = tmafm.bifurcation("fig5a", "scene.alpha2", [5e-4], periods_kept=8, workers=1,
+                           max_periods=100, stop_at_steady=False)
+    assert ds["vt"].dims == ("scene.alpha2", "kept")
+    vt = ds["vt"].values[0]
+    distinct = np.unique(np.round(vt / np.abs(vt).max(), 4))
+    assert distinct.size == 2  # the paper's period-2 motion
+    # V_T at the section is p^T a + delta_hat (the drive term vanishes at the period boundary).
+    config = tmafm.Config("fig5a")
+    obs = tmafm.observe(config, max_periods=100, stop_at_steady=False)
+    a_last = obs.poincare[-1, :config.n_modes]
+    expected = config.model().contact(0.0, a_last).vt
+    assert vt[-1] == pytest.approx(expected, rel=1e-12, abs=1e-15)
+
+
+# --- Sweep files and the command line ------------------------------------------------------
+
+def test_sweep_file_command_line(tmp_path):
+    spec = tmp_path / "grid.nml"
+    spec.write_text("&sweep\n  kind = 'grid', base = 'fig2_n1', key = 'scene.delta_hat'\n"
+                    "  start = 0.0, stop = 2e-3, count = 3, max_periods = 8\n/\n")
+    out = tmp_path / "grid.nc"
+    done = subprocess.run([sys.executable, "-m", "tmafm.sweeps", str(spec), "-o", str(out),
+                           "--workers", "1"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    with xr.open_dataset(out) as ds:
+        assert ds["amplitude"].dims == ("scene.delta_hat",)
+        np.testing.assert_allclose(ds["scene.delta_hat"].values, [0.0, 1e-3, 2e-3])
+        direct = tmafm.sweep("fig2_n1", {"scene.delta_hat": [0.0, 1e-3, 2e-3]}, workers=1,
+                             max_periods=8)
+        np.testing.assert_array_equal(ds["amplitude"].values, direct["amplitude"].values)
+    assert out.with_suffix(".png").stat().st_size > 1000
+
+
+@pytest.mark.parametrize("text, words", [
+    ("&sweep kind = 'grid', base = 'fig2_n1', colour = 3 /\n", ["colour", "unknown key"]),
+    ("&sweep kind = 'spiral', base = 'fig2_n1' /\n", ["kind", "spiral"]),
+    ("&sweep kind = 'grid', base = 'fig2_n1', key = 'scene.delta_hat', start = 0, stop = 1, "
+     "count = 0 /\n", ["count", "0"]),
+    ("&sweep kind = 'grid', base = 'fig2_n1', key = 'scene.xi0', start = 0.5, stop = 2, "
+     "count = 2 /\n", ["xi0", "2"]),
+])
+def test_bad_sweep_file_is_one_line_and_writes_nothing(tmp_path, text, words):
+    spec = tmp_path / "bad.nml"
+    spec.write_text(text)
+    done = subprocess.run([sys.executable, "-m", "tmafm.sweeps", str(spec)], capture_output=True,
+                          text=True, timeout=300, cwd=tmp_path)
+    assert done.returncode == 2
+    message = done.stderr.strip()
+    assert message.count("\n") == 0 and message.startswith("tmafm.sweeps: error:")
+    for word in words:
+        assert word in message, message
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.nml"]

@@ -136,10 +136,26 @@ def _merged(base: dict, overrides: Mapping) -> dict:
     return groups
 
 
+def _resized_initial(groups: dict, point: Mapping) -> dict:
+    """When n_modes is swept, the base's &initial vectors cut or padded with zeros to N."""
+    n = point.get("model.n_modes")
+    initial = groups.get("initial")
+    if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or not initial:
+        return groups
+    for name in ("a0", "adot0"):
+        if name in initial and f"initial.{name}" not in point:
+            values = np.atleast_1d(np.asarray(initial[name], dtype=float))
+            if n > 0:
+                initial[name] = np.concatenate([values, np.zeros(n)])[:n].tolist()
+            elif not values.any():
+                del initial[name]  # automatic N: zero initial values need no length
+    return groups
+
+
 def _config(base: dict, point: Mapping) -> Config:
     """The Config of one point; InputError naming the point when the core refuses it."""
     try:
-        return Config(_merged(base, _overrides(point)))
+        return Config(_resized_initial(_merged(base, _overrides(point)), point))
     except InputError as exc:
         where = ", ".join(f"{k} = {_short(v)}" for k, v in point.items())
         raise type(exc)(f"sweep point {where}: {exc}") from None

@@ -11,6 +11,7 @@ benchmarks/basin_map.json and .png (the map) and docs/figures/sweep_basin.png.
 """
 
 import argparse
+import importlib
 import json
 import os
 import time
@@ -19,7 +20,9 @@ from pathlib import Path
 import numpy as np
 
 import tmafm
-from tmafm import observe as observe_module, sweepplots
+from tmafm import sweepplots
+
+observe_module = importlib.import_module("tmafm.observe")
 
 REPO = Path(__file__).resolve().parent.parent
 

@@ -262,3 +262,110 @@ subroutine energy_flow(path, n_samples, n_modes, tau, a, adot, contact, power, e
       end if
    end do
 end subroutine energy_flow
+
+!> Observed runs of n_configs namelist texts (text(offsets(k)+1:offsets(k+1)) is input k, with
+!> n_modes(k) modes), run by the OpenMP batch on `threads` threads (0: OpenMP default) with the
+!> GIL released.  Per input k: values(k, period, column) (tmafm_observers columns), the
+!> harmonics (k, period, harmonic), Poincare points (k, 0:period, 1:2N), periods integrated,
+!> the steady period found, the factors to SI-derived units and has_scales (1 for &physical).
+!> ierr(k) per input; errmsg is the message of the first input that failed.
+subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmonics, p_max, tol, &
+                         repeats, stop_at_steady, threads, n_state_max, n_columns, values, &
+                         harmonic_amplitude, harmonic_phase, poincare, n_periods, period, factors, &
+                         has_scales, ierr, errmsg)
+   use tmafm_kinds, only: dp
+   use tmafm_errors, only: ok, err_runtime
+   use tmafm_config, only: config_t
+   use tmafm_namelist, only: read_config_text
+   use tmafm_observers, only: observer_t, n_observables, observable_factors
+   use tmafm_batch, only: observe_options_t, observe_batch, config_scales
+   use tmafm_units, only: scales_t
+   implicit none
+   !f2py threadsafe
+   character(len=*), intent(in) :: text
+   integer, intent(in) :: n_configs
+   integer, intent(in) :: offsets(n_configs + 1)
+   integer, intent(in) :: n_modes(n_configs)
+   integer, intent(in) :: max_periods
+   integer, intent(in) :: harmonics
+   integer, intent(in) :: p_max
+   real(dp), intent(in) :: tol
+   integer, intent(in) :: repeats
+   logical, intent(in) :: stop_at_steady
+   integer, intent(in) :: threads
+   integer, intent(in) :: n_state_max
+   integer, intent(in) :: n_columns
+   real(dp), intent(out) :: values(n_configs, max_periods, n_columns)
+   real(dp), intent(out) :: harmonic_amplitude(n_configs, max_periods, harmonics)
+   real(dp), intent(out) :: harmonic_phase(n_configs, max_periods, harmonics)
+   real(dp), intent(out) :: poincare(n_configs, max_periods + 1, n_state_max)
+   integer, intent(out) :: n_periods(n_configs)
+   integer, intent(out) :: period(n_configs)
+   real(dp), intent(out) :: factors(n_configs, n_columns)
+   integer, intent(out) :: has_scales(n_configs)
+   integer, intent(out) :: ierr(n_configs)
+   character(len=512), intent(out) :: errmsg
+   type(config_t), allocatable :: configs(:)
+   type(observer_t), allocatable :: observers(:)
+   type(observe_options_t) :: options
+   type(scales_t) :: scales
+   character(len=512), allocatable :: messages(:)
+   integer :: k, m, s
+
+   values = 0; harmonic_amplitude = 0; harmonic_phase = 0; poincare = 0; n_periods = 0
+   period = 0; factors = 0; has_scales = 0; ierr = 0; errmsg = ''
+   if (n_columns /= n_observables) then
+      ierr = err_runtime
+      write (errmsg, '(a,i0)') 'internal: observe_texts n_columns must be ', n_observables
+      return
+   end if
+   allocate (configs(n_configs), observers(n_configs), messages(n_configs))
+   messages = ''
+   do k = 1, n_configs
+      call read_config_text(text(offsets(k) + 1:offsets(k + 1)), 'observe input', configs(k), &
+                            ierr(k), messages(k))
+      if (ierr(k) /= ok) cycle
+      ! The caller already chose N for an automatic n_modes: reuse its choice.
+      configs(k)%auto_modes = .false.
+      configs(k)%n_modes = n_modes(k)
+      if (2*n_modes(k) > n_state_max) then
+         ierr(k) = err_runtime
+         messages(k) = 'internal: n_state_max is smaller than 2 n_modes'
+      end if
+   end do
+   options = observe_options_t(max_periods=max_periods, p_max=p_max, tol=tol, repeats=repeats, &
+                               harmonics=harmonics, stop_at_steady=stop_at_steady)
+   if (all(ierr == ok)) call observe_batch(configs, options, observers, ierr, messages, threads)
+   do k = 1, n_configs
+      if (ierr(k) /= ok) then
+         if (len_trim(errmsg) == 0) errmsg = messages(k)
+         cycle
+      end if
+      m = observers(k)%n_periods
+      s = observers(k)%n_state
+      n_periods(k) = m
+      period(k) = observers(k)%found_period
+      values(k, 1:m, :) = observers(k)%values(1:m, :)
+      harmonic_amplitude(k, 1:m, :) = observers(k)%harmonic_amplitude(1:m, :)
+      harmonic_phase(k, 1:m, :) = observers(k)%harmonic_phase(1:m, :)
+      poincare(k, 1:m + 1, 1:s) = transpose(observers(k)%poincare(:, 0:m))
+      scales = config_scales(configs(k))
+      factors(k, :) = observable_factors(scales)
+      has_scales(k) = merge(1, 0, scales%known)
+   end do
+end subroutine observe_texts
+
+!> The classifier of tmafm_steady_state on a sequence of points (n_points x n_dim), for tests.
+subroutine steady_period_of(points, n_points, n_dim, p_max, tol, repeats, period)
+   use tmafm_kinds, only: dp
+   use tmafm_steady_state, only: steady_period
+   implicit none
+   integer, intent(in) :: n_points
+   integer, intent(in) :: n_dim
+   real(dp), intent(in) :: points(n_points, n_dim)
+   integer, intent(in) :: p_max
+   real(dp), intent(in) :: tol
+   integer, intent(in) :: repeats
+   integer, intent(out) :: period
+   period = steady_period(transpose(points), p_max, tol, repeats)
+end subroutine steady_period_of

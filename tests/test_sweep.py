@@ -24,7 +24,8 @@ QUICK = dict(max_periods=12, steady_tol=1e-5)
 @pytest.fixture
 def no_runs(monkeypatch):
     """Count every call into the core's observers; a sweep that validates first makes none."""
-    from tmafm import observe as observe_module
+    import importlib
+    observe_module = importlib.import_module("tmafm.observe")
     calls = []
 
     def refuse(*args, **kwargs):

@@ -15,6 +15,7 @@ from ._resultio import load
 from .errors import (BlowUpError, InputError, InputFileError, InputTypeError, SolverError,
                      TmafmError)
 from ._exe import executable
+from .observe import Observation, observe, observe_batch
 from .sweeps import approach, basin, bifurcation, frequency_sweep, sweep
 
 try:
@@ -23,6 +24,6 @@ except PackageNotFoundError:  # running from a source tree
     __version__ = "unknown"
 
 __all__ = ["run", "resolve", "load", "Config", "Model", "Result", "ContactState", "inputs",
-           "SCENE_KEYS", "COUNTER_KEYS", "POWER_NAMES", "executable", "TmafmError", "InputError",
+           "SCENE_KEYS", "COUNTER_KEYS", "observe", "observe_batch", "Observation", "POWER_NAMES", "executable", "TmafmError", "InputError",
            "InputTypeError", "InputFileError", "SolverError", "BlowUpError", "__version__",
            "sweep", "approach", "frequency_sweep", "bifurcation", "basin"]

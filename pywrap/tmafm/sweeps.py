@@ -179,8 +179,9 @@ def _observe_keywords(keywords: Mapping) -> dict:
 # --- Running points ------------------------------------------------------------------------
 
 def _observe_api():
-    from . import observe as _observe_module
-    return _observe_module
+    """The module tmafm.observe (the package's attribute of that name is the function)."""
+    import importlib
+    return importlib.import_module("tmafm.observe")
 
 
 def _names() -> tuple:

@@ -19,6 +19,7 @@ module tmafm_method_adaptive
    use tmafm_dop853, only: dop853_pair_t
    use tmafm_events, only: no_event, event_candidate, step_event_test, initial_phase, phase_sign
    use tmafm_roots, only: bracketed_root_t
+   use tmafm_observers, only: observer_t, stop_requested
    implicit none
    private
 
@@ -59,7 +60,7 @@ module tmafm_method_adaptive
 contains
 
    !> Integrate from y0 at tau = 0 with the pair `kind` until every sample of traj is filled.
-   subroutine run_adaptive(kind, model, settings, y0, traj, ierr, errmsg, progress)
+   subroutine run_adaptive(kind, model, settings, y0, traj, ierr, errmsg, progress, observer)
       integer, intent(in) :: kind
       type(model_t), intent(in) :: model
       type(run_settings_t), intent(in) :: settings
@@ -68,11 +69,13 @@ contains
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       type(progress_t), intent(inout) :: progress
+      !> If present, fed every accepted step and contact (tmafm_observers); may stop the run.
+      type(observer_t), intent(inout), optional :: observer
       type(adaptive_state_t) :: state
 
       call traj%store(model, y0)
       call state%init(kind, model, settings, 0.0_dp, y0)
-      call state%advance(model, settings, traj, .false., ierr, errmsg, progress)
+      call state%advance(model, settings, traj, .false., ierr, errmsg, progress, observer)
    end subroutine run_adaptive
 
    subroutine adaptive_init(self, kind, model, settings, tau0, y0)
@@ -123,7 +126,8 @@ contains
       end associate
    end subroutine gap_state
 
-   subroutine adaptive_advance(self, model, settings, traj, stop_at_switch, ierr, errmsg, progress)
+   subroutine adaptive_advance(self, model, settings, traj, stop_at_switch, ierr, errmsg, progress, &
+                               observer)
       class(adaptive_state_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       type(run_settings_t), intent(in) :: settings
@@ -132,6 +136,7 @@ contains
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       type(progress_t), intent(inout) :: progress
+      type(observer_t), intent(inout), optional :: observer
 
       type(bracketed_root_t) :: root
       real(dp) :: h, norm, side, s_test, theta, step_taken
@@ -219,6 +224,10 @@ contains
                call pair%dense((traj%next_time() - tau)/h, y_sample)
                call traj%store(model, y_sample)
             end do
+            if (present(observer)) then
+               call build_dense(self, model, traj, h, dense_ready)
+               call observer%pair_step(model, pair, tau, h, step_taken, self%in_contact)
+            end if
             tau = tau + step_taken
             y = y_new
             call self%scale%update(y)
@@ -234,8 +243,10 @@ contains
                call traj%add_switch(tau, h, ierr, errmsg)
                if (ierr /= ok) return
                have_f0 = .false.
+               if (present(observer) .and. self%in_contact) call observer%contact_start(tau)
                if (stop_at_switch) return
             end if
+            if (stop_requested(observer)) return
          end do
       end associate
 

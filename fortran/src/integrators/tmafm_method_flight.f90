@@ -11,6 +11,7 @@ module tmafm_method_flight
    use tmafm_trajectory, only: trajectory_t, check_blowup, progress_t
    use tmafm_flight, only: free_flight_t
    use tmafm_method_adaptive, only: adaptive_state_t, pair_dop853
+   use tmafm_observers, only: observer_t, stop_requested
    implicit none
    private
 
@@ -22,7 +23,7 @@ module tmafm_method_flight
 contains
 
    !> Integrate from y0 at tau = 0 until every sample of traj is filled.
-   subroutine run_flight_exact(model, settings, y0, traj, ierr, errmsg, progress)
+   subroutine run_flight_exact(model, settings, y0, traj, ierr, errmsg, progress, observer)
       type(model_t), intent(in) :: model
       type(run_settings_t), intent(in) :: settings
       real(dp), intent(in) :: y0(:)
@@ -30,6 +31,8 @@ contains
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       type(progress_t), intent(inout) :: progress
+      !> If present, fed every flight, contact step and contact (tmafm_observers).
+      type(observer_t), intent(inout), optional :: observer
 
       type(free_flight_t) :: flight
       type(adaptive_state_t) :: contact
@@ -47,8 +50,8 @@ contains
 
       do while (.not. traj%complete())
          if (contact%in_contact) then
-            call contact%advance(model, settings, traj, .true., ierr, errmsg, progress)
-            if (ierr /= ok) return
+            call contact%advance(model, settings, traj, .true., ierr, errmsg, progress, observer)
+            if (ierr /= ok .or. stop_requested(observer)) return
             cycle
          end if
          associate (tau => contact%tau, y => contact%y)
@@ -67,6 +70,7 @@ contains
                call flight%state(model, traj%next_time() - tau, y_sample)
                call traj%store(model, y_sample)
             end do
+            if (present(observer)) call observer%flight_segment(model, flight, tau, s_contact)
             call flight%state(model, s_contact, y)
             tau = tau + s_contact
             call check_blowup(model, settings, tau, s_contact, .false., y, ierr, errmsg)
@@ -76,8 +80,10 @@ contains
                contact%in_contact = .true.
                call traj%add_switch(tau, s_contact, ierr, errmsg)
                if (ierr /= ok) return
+               if (present(observer)) call observer%contact_start(tau)
             end if
             call progress%update(tau, settings%tau_end)
+            if (stop_requested(observer)) return
          end associate
       end do
    end subroutine run_flight_exact

@@ -10,6 +10,7 @@ module tmafm_driver
    use tmafm_method_event, only: run_rk4_event
    use tmafm_method_adaptive, only: run_adaptive, pair_dopri5, pair_dop853
    use tmafm_method_flight, only: run_flight_exact
+   use tmafm_observers, only: observer_t
    implicit none
    private
 
@@ -18,7 +19,7 @@ module tmafm_driver
 contains
 
    !> Integrate `model` from (a0, adot0) at tau = 0 and sample it; ierr /= 0 on failure.
-   subroutine run_trajectory(model, settings, a0, adot0, traj, ierr, errmsg, progress_unit)
+   subroutine run_trajectory(model, settings, a0, adot0, traj, ierr, errmsg, progress_unit, observer)
       type(model_t), intent(in) :: model
       type(run_settings_t), intent(in) :: settings
       real(dp), intent(in) :: a0(:)
@@ -28,6 +29,8 @@ contains
       character(len=*), intent(out) :: errmsg
       !> If present, a progress line is written to this unit every tenth of the run.
       integer, intent(in), optional :: progress_unit
+      !> If present (dopri5, dop853, flight_exact only), computes the per-period observables.
+      type(observer_t), intent(inout), optional :: observer
       type(progress_t) :: progress
 
       if (present(progress_unit)) progress%unit = progress_unit
@@ -38,11 +41,13 @@ contains
       case (method_rk4_event)
          call run_rk4_event(model, settings, [a0, adot0], traj, ierr, errmsg, progress)
       case (method_dopri5)
-         call run_adaptive(pair_dopri5, model, settings, [a0, adot0], traj, ierr, errmsg, progress)
+         call run_adaptive(pair_dopri5, model, settings, [a0, adot0], traj, ierr, errmsg, progress, &
+                           observer)
       case (method_dop853)
-         call run_adaptive(pair_dop853, model, settings, [a0, adot0], traj, ierr, errmsg, progress)
+         call run_adaptive(pair_dop853, model, settings, [a0, adot0], traj, ierr, errmsg, progress, &
+                           observer)
       case (method_flight_exact)
-         call run_flight_exact(model, settings, [a0, adot0], traj, ierr, errmsg, progress)
+         call run_flight_exact(model, settings, [a0, adot0], traj, ierr, errmsg, progress, observer)
       case default
          ierr = err_input
          errmsg = '&solver method = '''//trim(settings%method)//''': must be one of '//known_methods

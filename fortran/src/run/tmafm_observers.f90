@@ -1,0 +1,404 @@
+!> Per-drive-period observables computed during a run from the integrator's accepted steps
+!> (their dense output) or the exact free flight, split at the period boundaries tau = k T,
+!> T = 2 pi/Omega (docs/observables.md defines each one, with units and signs).
+!>
+!> Integrals (Fourier coefficients of V_T, mean deflection, the powers of model_t%energy_flow,
+!> the virial) use 8-point Gauss-Legendre on each piece (a step, or a flight cut into pieces of
+!> at most T/16); contact times come from the located switches; min V_T and the peak normal
+!> force are located on the dense output by a golden-section search around the best node.
+!> Every array is allocated in init; feeding steps allocates nothing.
+module tmafm_observers
+   use tmafm_kinds, only: dp
+   use tmafm_model, only: model_t, n_powers, power_drive, power_beam_damping, &
+      power_contact_damping, power_contact_normal, power_contact_friction
+   use tmafm_contact, only: contact_brackets_t
+   use tmafm_embedded_pair, only: embedded_pair_t
+   use tmafm_flight, only: free_flight_t
+   use tmafm_steady_state, only: steady_period
+   use tmafm_quadrature, only: gauss_legendre
+   use tmafm_units, only: scales_t
+   implicit none
+   private
+
+   public :: observer_t, stop_requested, observable_names, n_observables, observable_factors
+   public :: obs_amplitude, obs_phase, obs_mean_deflection, obs_min_gap, obs_peak_force, &
+      obs_contact_time, obs_contacts, obs_dissipated, obs_dissipated_beam, &
+      obs_dissipated_contact_damping, obs_dissipated_friction, obs_drive_work, obs_virial, &
+      obs_contact_normal_work
+
+   !> Columns of observer_t%values.
+   integer, parameter :: obs_amplitude = 1, obs_phase = 2, obs_mean_deflection = 3, obs_min_gap = 4, &
+      obs_peak_force = 5, obs_contact_time = 6, obs_contacts = 7, obs_dissipated = 8, &
+      obs_dissipated_beam = 9, obs_dissipated_contact_damping = 10, obs_dissipated_friction = 11, &
+      obs_drive_work = 12, obs_virial = 13, obs_contact_normal_work = 14, n_observables = 14
+   !> Names of the columns, as Python reports them.
+   character(len=*), parameter :: observable_names(n_observables) = [character(len=26) :: &
+      'amplitude', 'phase', 'mean_deflection', 'min_gap', 'peak_force', 'contact_time', &
+      'contacts_per_period', 'dissipated_energy', 'dissipated_beam', 'dissipated_contact_damping', &
+      'dissipated_friction', 'drive_work', 'virial', 'contact_normal_work']
+
+   !> Gauss-Legendre points per piece, and pieces per period at least (for long flights).
+   integer, parameter :: gl_points = 8, pieces_per_period = 16
+   !> Golden-section iterations of an extremum search (bracket shrinks by 0.618^k).
+   integer, parameter :: golden_iterations = 64
+   real(dp), parameter :: pi = acos(-1.0_dp)
+
+   !> The observer of one run: settings, the current period's accumulators, and the results.
+   type :: observer_t
+      !> Number of state components 2N.
+      integer :: n_state = 0
+      !> Harmonics 1..harmonics of V_T reported.
+      integer :: harmonics = 3
+      !> Periods to integrate at most.
+      integer :: max_periods = 100
+      !> Largest steady period looked for, and how many repeats in a row confirm it.
+      integer :: p_max = 8, repeats = 3
+      !> Tolerance of the repeats, relative to the orbit's size.
+      real(dp) :: tol = 1.0e-6_dp
+      !> Stop the run at the first steady state found.
+      logical :: stop_at_steady = .true.
+      !> Drive frequency Omega and period T = 2 pi/Omega.
+      real(dp) :: omega = 0, period_length = 0
+      !> .true. once the run may stop (steady state found, or max_periods done).
+      logical :: done = .false.
+      !> Periods completed, and the steady period found (0 = none).
+      integer :: n_periods = 0, found_period = 0
+      !> Accumulators of the current period.
+      real(dp), allocatable :: acc_sin(:), acc_cos(:)
+      real(dp) :: acc_deflection = 0, acc_contact_time = 0, acc_virial = 0
+      real(dp) :: acc_powers(n_powers) = 0
+      real(dp) :: min_gap = huge(1.0_dp), peak_force = -huge(1.0_dp)
+      integer :: contacts = 0
+      !> Gauss-Legendre nodes and weights on [-1, 1]; state registers.
+      real(dp) :: gl_x(gl_points) = 0, gl_w(gl_points) = 0
+      real(dp), allocatable :: y(:)
+      !> Results: values(period, column), the harmonics (period, k), Poincare points (2N, 0:periods).
+      real(dp), allocatable :: values(:, :), harmonic_amplitude(:, :), harmonic_phase(:, :)
+      real(dp), allocatable :: poincare(:, :)
+   contains
+      !> Allocate everything for a run starting from y0 at tau = 0.
+      procedure :: init => observer_init
+      !> Feed an accepted step [tau, tau + taken] of an embedded pair (dense output built).
+      procedure :: pair_step => observer_pair_step
+      !> Feed a free flight [tau, tau + length] of the exact flight solution started at tau.
+      procedure :: flight_segment => observer_flight_segment
+      !> Count a contact that starts at tau.
+      procedure :: contact_start => observer_contact_start
+   end type observer_t
+
+contains
+
+   !> .true. when an observer is present and asks the run to stop.
+   pure logical function stop_requested(observer)
+      type(observer_t), intent(in), optional :: observer
+      stop_requested = .false.
+      if (present(observer)) stop_requested = observer%done
+   end function stop_requested
+
+   subroutine observer_init(self, model, max_periods, harmonics, p_max, tol, repeats, &
+                            stop_at_steady, y0)
+      class(observer_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      integer, intent(in) :: max_periods
+      integer, intent(in) :: harmonics
+      integer, intent(in) :: p_max
+      real(dp), intent(in) :: tol
+      integer, intent(in) :: repeats
+      logical, intent(in) :: stop_at_steady
+      real(dp), intent(in) :: y0(:)
+      self%n_state = size(y0)
+      self%max_periods = max_periods
+      self%harmonics = harmonics
+      self%p_max = p_max
+      self%tol = tol
+      self%repeats = repeats
+      self%stop_at_steady = stop_at_steady
+      self%omega = model%scene%omega
+      self%period_length = 2*pi/model%scene%omega
+      self%done = .false.
+      self%n_periods = 0
+      self%found_period = 0
+      call gauss_legendre(gl_points, self%gl_x, self%gl_w)
+      if (allocated(self%y)) deallocate (self%y)
+      if (allocated(self%acc_sin)) deallocate (self%acc_sin, self%acc_cos)
+      if (allocated(self%values)) deallocate (self%values, self%harmonic_amplitude, &
+                                               self%harmonic_phase, self%poincare)
+      allocate (self%y(self%n_state), self%acc_sin(harmonics), self%acc_cos(harmonics))
+      allocate (self%values(max_periods, n_observables), self%harmonic_amplitude(max_periods, harmonics), &
+                self%harmonic_phase(max_periods, harmonics), self%poincare(self%n_state, 0:max_periods))
+      self%values = 0
+      self%harmonic_amplitude = 0
+      self%harmonic_phase = 0
+      self%poincare = 0
+      self%poincare(:, 0) = y0
+      call reset(self)
+   end subroutine observer_init
+
+   subroutine reset(self)
+      class(observer_t), intent(inout) :: self
+      self%acc_sin = 0
+      self%acc_cos = 0
+      self%acc_deflection = 0
+      self%acc_contact_time = 0
+      self%acc_virial = 0
+      self%acc_powers = 0
+      self%min_gap = huge(1.0_dp)
+      self%peak_force = -huge(1.0_dp)
+      self%contacts = 0
+   end subroutine reset
+
+   subroutine observer_pair_step(self, model, pair, tau, h, taken, in_contact)
+      class(observer_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      class(embedded_pair_t), intent(in) :: pair
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: h
+      real(dp), intent(in) :: taken
+      logical, intent(in) :: in_contact
+      call process(self, model, tau, tau + taken, in_contact, tau, h, pair=pair)
+   end subroutine observer_pair_step
+
+   subroutine observer_flight_segment(self, model, flight, tau, length)
+      class(observer_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      type(free_flight_t), intent(in) :: flight
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: length
+      call process(self, model, tau, tau + length, .false., tau, 1.0_dp, flight=flight)
+   end subroutine observer_flight_segment
+
+   subroutine observer_contact_start(self, tau)
+      class(observer_t), intent(inout) :: self
+      real(dp), intent(in) :: tau
+      if (self%done .or. tau >= self%max_periods*self%period_length) return
+      self%contacts = self%contacts + 1
+   end subroutine observer_contact_start
+
+   !> The state at time t of the current source: the pair's dense output over the step
+   !> [origin, origin + h], or the flight started at origin.
+   subroutine state_at(model, origin, h, t, y, pair, flight)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: origin
+      real(dp), intent(in) :: h
+      real(dp), intent(in) :: t
+      real(dp), intent(out) :: y(:)
+      class(embedded_pair_t), intent(in), optional :: pair
+      type(free_flight_t), intent(in), optional :: flight
+      if (present(pair)) then
+         call pair%dense((t - origin)/h, y)
+      else
+         call flight%state(model, t - origin, y)
+      end if
+   end subroutine state_at
+
+   !> The function an extremum search minimises: V_T (kind 1) or minus the normal force (2).
+   subroutine target(model, kind, origin, h, t, y, value, pair, flight)
+      type(model_t), intent(in) :: model
+      integer, intent(in) :: kind
+      real(dp), intent(in) :: origin
+      real(dp), intent(in) :: h
+      real(dp), intent(in) :: t
+      real(dp), intent(inout) :: y(:)
+      real(dp), intent(out) :: value
+      class(embedded_pair_t), intent(in), optional :: pair
+      type(free_flight_t), intent(in), optional :: flight
+      type(contact_brackets_t) :: state
+      call state_at(model, origin, h, t, y, pair, flight)
+      if (kind == 1) then
+         value = model%tip_gap(t, y)
+      else
+         state = model%contact(t, y(1:model%n_modes))
+         value = -model%kappa5*state%normal
+      end if
+   end subroutine target
+
+   !> Golden-section minimum of target(kind) on [lo, hi]; value at the best point found.
+   subroutine golden_minimum(model, kind, origin, h, lo_in, hi_in, best, y, pair, flight)
+      type(model_t), intent(in) :: model
+      integer, intent(in) :: kind
+      real(dp), intent(in) :: origin
+      real(dp), intent(in) :: h
+      real(dp), intent(in) :: lo_in
+      real(dp), intent(in) :: hi_in
+      real(dp), intent(inout) :: best
+      real(dp), intent(inout) :: y(:)
+      class(embedded_pair_t), intent(in), optional :: pair
+      type(free_flight_t), intent(in), optional :: flight
+      real(dp), parameter :: g = (sqrt(5.0_dp) - 1)/2
+      real(dp) :: lo, hi, x1, x2, f1, f2
+      integer :: k
+      lo = lo_in
+      hi = hi_in
+      x1 = hi - g*(hi - lo)
+      x2 = lo + g*(hi - lo)
+      call target(model, kind, origin, h, x1, y, f1, pair, flight)
+      call target(model, kind, origin, h, x2, y, f2, pair, flight)
+      do k = 1, golden_iterations
+         if (f1 <= f2) then
+            hi = x2
+            x2 = x1
+            f2 = f1
+            x1 = hi - g*(hi - lo)
+            call target(model, kind, origin, h, x1, y, f1, pair, flight)
+         else
+            lo = x1
+            x1 = x2
+            f1 = f2
+            x2 = lo + g*(hi - lo)
+            call target(model, kind, origin, h, x2, y, f2, pair, flight)
+         end if
+         if (hi - lo <= 4*epsilon(1.0_dp)*max(abs(lo), abs(hi))) exit
+      end do
+      best = min(best, f1, f2)
+   end subroutine golden_minimum
+
+   !> Accumulate [t_start, t_end] (one phase), finishing every period whose end it reaches.
+   subroutine process(self, model, t_start, t_end, in_contact, origin, h, pair, flight)
+      class(observer_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: t_start
+      real(dp), intent(in) :: t_end
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: origin
+      real(dp), intent(in) :: h
+      class(embedded_pair_t), intent(in), optional :: pair
+      type(free_flight_t), intent(in), optional :: flight
+      real(dp) :: a, b, boundary
+      a = t_start
+      do while (a < t_end .and. .not. self%done)
+         boundary = (self%n_periods + 1)*self%period_length
+         b = min(t_end, boundary, a + self%period_length/pieces_per_period)
+         if (b > a) call piece(self, model, a, b, in_contact, origin, h, pair, flight)
+         if (b >= boundary) then
+            call state_at(model, origin, h, boundary, self%y, pair, flight)
+            call finish_period(self)
+         end if
+         a = b
+      end do
+   end subroutine process
+
+   !> Gauss-Legendre sums over [a, b] in one phase, and the extrema located in it.
+   subroutine piece(self, model, a, b, in_contact, origin, h, pair, flight)
+      class(observer_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: a
+      real(dp), intent(in) :: b
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: origin
+      real(dp), intent(in) :: h
+      class(embedded_pair_t), intent(in), optional :: pair
+      type(free_flight_t), intent(in), optional :: flight
+      real(dp) :: t(0:gl_points + 1), gap(0:gl_points + 1), force(0:gl_points + 1)
+      real(dp) :: power(n_powers), energy, weight, half, mid, tip_u, best
+      type(contact_brackets_t) :: state
+      integer :: i, k, n, i_best
+
+      n = self%n_state/2
+      half = (b - a)/2
+      mid = (a + b)/2
+      t(0) = a
+      t(gl_points + 1) = b
+      t(1:gl_points) = mid + half*self%gl_x
+      force = 0
+      do i = 0, gl_points + 1
+         call state_at(model, origin, h, t(i), self%y, pair, flight)
+         gap(i) = model%tip_gap(t(i), self%y)
+         if (in_contact) then
+            state = model%contact(t(i), self%y(1:n))
+            force(i) = model%kappa5*state%normal
+         end if
+         if (i == 0 .or. i == gl_points + 1) cycle
+         weight = half*self%gl_w(min(max(i, 1), gl_points))
+         tip_u = gap(i) - model%scene%delta_hat
+         do k = 1, self%harmonics
+            self%acc_sin(k) = self%acc_sin(k) + weight*gap(i)*sin(k*self%omega*t(i))
+            self%acc_cos(k) = self%acc_cos(k) + weight*gap(i)*cos(k*self%omega*t(i))
+         end do
+         self%acc_deflection = self%acc_deflection + weight*(tip_u - model%scene%alpha2*sin(self%omega*t(i)))
+         call model%energy_flow(t(i), self%y(1:n), self%y(n + 1:2*n), in_contact, power, energy)
+         self%acc_powers = self%acc_powers + weight*power
+         self%acc_virial = self%acc_virial + weight*force(i)*tip_u
+      end do
+      if (in_contact) self%acc_contact_time = self%acc_contact_time + (b - a)
+
+      i_best = minloc(gap, 1) - 1
+      best = gap(i_best)
+      if (best < self%min_gap) then
+         if (i_best > 0 .and. i_best < gl_points + 1) &
+            call golden_minimum(model, 1, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
+                                pair, flight)
+         self%min_gap = min(self%min_gap, best)
+      end if
+      if (in_contact) then
+         i_best = maxloc(force, 1) - 1
+         best = -force(i_best)
+         if (-best > self%peak_force) then
+            if (i_best > 0 .and. i_best < gl_points + 1) &
+               call golden_minimum(model, 2, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
+                                   pair, flight)
+            self%peak_force = max(self%peak_force, -best)
+         end if
+      end if
+   end subroutine piece
+
+   !> Close the current period: its observables, its end's Poincare point (in self%y), and the
+   !> steady-state test.
+   subroutine finish_period(self)
+      class(observer_t), intent(inout) :: self
+      real(dp) :: s, c, period
+      integer :: k, m
+
+      period = self%period_length
+      m = self%n_periods + 1
+      do k = 1, self%harmonics
+         s = 2*self%acc_sin(k)/period
+         c = 2*self%acc_cos(k)/period
+         self%harmonic_amplitude(m, k) = hypot(s, c)
+         self%harmonic_phase(m, k) = atan2(c, s)*180/pi
+      end do
+      associate (v => self%values(m, :))
+         v(obs_amplitude) = self%harmonic_amplitude(m, 1)
+         v(obs_phase) = self%harmonic_phase(m, 1)
+         v(obs_mean_deflection) = self%acc_deflection/period
+         v(obs_min_gap) = self%min_gap
+         v(obs_peak_force) = merge(self%peak_force, 0.0_dp, self%peak_force > -huge(1.0_dp))
+         v(obs_contact_time) = self%acc_contact_time
+         v(obs_contacts) = self%contacts
+         v(obs_dissipated_beam) = -self%acc_powers(power_beam_damping)
+         v(obs_dissipated_contact_damping) = -self%acc_powers(power_contact_damping)
+         v(obs_dissipated_friction) = -self%acc_powers(power_contact_friction)
+         v(obs_dissipated) = v(obs_dissipated_beam) + v(obs_dissipated_contact_damping) &
+                             + v(obs_dissipated_friction)
+         v(obs_drive_work) = self%acc_powers(power_drive)
+         v(obs_virial) = self%acc_virial/period
+         v(obs_contact_normal_work) = self%acc_powers(power_contact_normal)
+      end associate
+      self%poincare(:, m) = self%y
+      self%n_periods = m
+      call reset(self)
+      if (self%stop_at_steady .or. m == self%max_periods) then
+         self%found_period = steady_period(self%poincare(:, 0:m), self%p_max, self%tol, self%repeats)
+         if (self%stop_at_steady .and. self%found_period > 0) self%done = .true.
+      end if
+      if (m == self%max_periods) self%done = .true.
+   end subroutine finish_period
+
+   !> Factors from each column's model units to its SI-derived unit (nm, deg, nN, us, 1, aJ).
+   pure function observable_factors(scales) result(factors)
+      type(scales_t), intent(in) :: scales
+      real(dp) :: factors(n_observables)
+      real(dp) :: nm, energy
+      nm = scales%length*1.0e9_dp
+      energy = scales%energy*1.0e18_dp
+      factors = energy
+      factors(obs_amplitude) = nm
+      factors(obs_phase) = 1
+      factors(obs_mean_deflection) = nm
+      factors(obs_min_gap) = nm
+      factors(obs_peak_force) = scales%force*1.0e9_dp
+      factors(obs_contact_time) = scales%time*1.0e6_dp
+      factors(obs_contacts) = 1
+      factors(obs_virial) = scales%force_length*1.0e18_dp
+   end function observable_factors
+
+end module tmafm_observers

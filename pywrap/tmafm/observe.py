@@ -1,0 +1,170 @@
+"""Per-drive-period observables computed by the core while it integrates (no trajectory kept).
+
+``observe`` runs one input, ``observe_batch`` many (the core's OpenMP batch, GIL released).
+Each period T = 2 pi/Omega, from tau = 0, gives the lock-in amplitude and phase of V_T, its
+harmonics, the mean deflection, min V_T, the peak normal force, the contact time and count,
+the energy dissipated (beam damping, contact damping, friction), the drive work, the virial
+and the Poincare point; the run may stop itself at a steady state.  docs/observables.md
+defines every quantity, its units and its signs.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._run import Config
+from .errors import InputError, InputTypeError, raise_for
+
+__all__ = ["Observation", "observe", "observe_batch", "OBSERVABLES", "UNITS", "PHYSICAL_UNITS",
+           "steady_period"]
+
+#: The per-period scalar observables, in the core's column order (tmafm_observers).
+OBSERVABLES = ("amplitude", "phase", "mean_deflection", "min_gap", "peak_force", "contact_time",
+               "contacts_per_period", "dissipated_energy", "dissipated_beam",
+               "dissipated_contact_damping", "dissipated_friction", "drive_work", "virial",
+               "contact_normal_work")
+
+_ENERGY = "E1 I d^2/L^3"
+#: Model units of each observable (d: the gap; tau: time in units of sqrt(m L^4/(E1 I)).
+UNITS = {
+    "amplitude": "d", "phase": "deg", "mean_deflection": "d", "min_gap": "d",
+    "peak_force": "E1 I/L^2", "contact_time": "tau", "contacts_per_period": "1",
+    "dissipated_energy": _ENERGY, "dissipated_beam": _ENERGY,
+    "dissipated_contact_damping": _ENERGY, "dissipated_friction": _ENERGY,
+    "drive_work": _ENERGY, "virial": "E1 I d/L^2", "contact_normal_work": _ENERGY,
+    "harmonic_amplitude": "d", "harmonic_phase": "deg", "poincare": "(d, d/tau)",
+}
+#: SI-derived units of ``Observation.physical`` (inputs given in &physical).
+PHYSICAL_UNITS = {
+    "amplitude": "nm", "phase": "deg", "mean_deflection": "nm", "min_gap": "nm",
+    "peak_force": "nN", "contact_time": "us", "contacts_per_period": "1",
+    "dissipated_energy": "aJ", "dissipated_beam": "aJ", "dissipated_contact_damping": "aJ",
+    "dissipated_friction": "aJ", "drive_work": "aJ", "virial": "aJ", "contact_normal_work": "aJ",
+    "harmonic_amplitude": "nm", "harmonic_phase": "deg",
+}
+
+
+@dataclass
+class Observation:
+    """The observables of one run, one entry per drive period (see docs/observables.md)."""
+
+    periods: int
+    period: int
+    steady: bool
+    per_period: dict
+    poincare: np.ndarray
+    final_state: np.ndarray
+    units: dict = field(default_factory=lambda: dict(UNITS))
+    physical: dict | None = None
+    physical_units: dict = field(default_factory=lambda: dict(PHYSICAL_UNITS))
+    config: Config | None = field(default=None, repr=False)
+
+    def steady_values(self, physical: bool = False) -> dict:
+        """Each observable averaged over the last found period (p periods), or over the last
+        period when none was found; floats, and arrays (one per harmonic) for the harmonics.
+        ``physical=True`` averages the SI-derived values instead."""
+        source = self.physical if physical else self.per_period
+        if source is None:
+            raise InputError("this Observation has no physical units (the input did not give "
+                             "&physical)")
+        last = max(self.period, 1)
+        out = {}
+        for name, values in source.items():
+            mean = np.mean(values[-last:], axis=0)
+            out[name] = float(mean) if np.ndim(mean) == 0 else mean
+        return out
+
+
+def _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_steady):
+    checked = {}
+    for name, value in (("max_periods", max_periods), ("p_max", p_max),
+                        ("steady_repeats", steady_repeats), ("harmonics", harmonics)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise InputTypeError(f"observe {name} = {value!r}: must be an integer")
+        if not 1 <= value <= 10_000_000:
+            raise InputError(f"observe {name} = {value}: must be 1 to 10000000")
+        checked[name] = int(value)
+    if isinstance(steady_tol, bool) or not isinstance(steady_tol, (int, float, np.floating)):
+        raise InputTypeError(f"observe steady_tol = {steady_tol!r}: must be a number")
+    if not 0 < float(steady_tol) < 1:
+        raise InputError(f"observe steady_tol = {steady_tol}: must be > 0 and < 1")
+    if not isinstance(stop_at_steady, (bool, np.bool_)):
+        raise InputTypeError(f"observe stop_at_steady = {stop_at_steady!r}: must be True or False")
+    checked["steady_tol"] = float(steady_tol)
+    checked["stop_at_steady"] = bool(stop_at_steady)
+    return checked
+
+
+def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods: int = 100,
+                  p_max: int = 8, steady_tol: float = 1e-6, steady_repeats: int = 3,
+                  harmonics: int = 3, stop_at_steady: bool = True) -> list[Observation]:
+    """Observe every input of ``configs`` (paths, packaged names, dicts or tmafm.Config) with the
+    core's OpenMP batch, the GIL released; ``threads=None`` takes the OpenMP default.
+    Results do not depend on the number of threads."""
+    from . import _core
+    opts = _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_steady)
+    if isinstance(configs, (str, os.PathLike, Mapping, Config)):
+        raise InputTypeError("observe_batch takes a list of inputs; use tmafm.observe for one")
+    configs = [c if isinstance(c, Config) else Config(c) for c in configs]
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int)
+                                or threads < 1):
+        raise InputError(f"observe_batch threads = {threads!r}: must be a positive integer or None")
+    if not configs:
+        return []
+    texts = [c.text for c in configs]
+    offsets = np.cumsum([0] + [len(t) for t in texts]).astype(np.int32)
+    n_modes = np.array([c.n_modes for c in configs], dtype=np.int32)
+    n_state = 2 * int(n_modes.max())
+    h = opts["harmonics"]
+    (values, harm_amp, harm_phase, poincare, n_periods, found, factors, has_scales, ierr,
+     errmsg) = _core.observe_texts(
+        "".join(texts), offsets, n_modes, opts["max_periods"], h, opts["p_max"],
+        opts["steady_tol"], opts["steady_repeats"], opts["stop_at_steady"],
+        0 if threads is None else threads, n_state, len(OBSERVABLES), n_configs=len(configs))
+    bad = np.flatnonzero(ierr)
+    if bad.size:
+        k = int(bad[0])
+        message = errmsg.decode("utf-8", "replace") if isinstance(errmsg, bytes) else str(errmsg)
+        raise_for(int(ierr[k]), f"{configs[k].label}: {message.strip()}")
+    out = []
+    for k, config in enumerate(configs):
+        m = int(n_periods[k])
+        s = 2 * int(n_modes[k])
+        per = {name: values[k, :m, j].copy() for j, name in enumerate(OBSERVABLES)}
+        per["harmonic_amplitude"] = harm_amp[k, :m, :].copy()
+        per["harmonic_phase"] = harm_phase[k, :m, :].copy()
+        physical = None
+        if has_scales[k]:
+            physical = {name: per[name] * factors[k, j] for j, name in enumerate(OBSERVABLES)}
+            physical["harmonic_amplitude"] = per["harmonic_amplitude"] * factors[k, 0]
+            physical["harmonic_phase"] = per["harmonic_phase"].copy()
+        points = poincare[k, :m + 1, :s].copy()
+        out.append(Observation(periods=m, period=int(found[k]), steady=bool(found[k] > 0),
+                               per_period=per, poincare=points, final_state=points[-1].copy(),
+                               physical=physical, config=config))
+    return out
+
+
+def observe(nml, *, max_periods: int = 100, p_max: int = 8, steady_tol: float = 1e-6,
+            steady_repeats: int = 3, harmonics: int = 3, stop_at_steady: bool = True,
+            **overrides) -> Observation:
+    """Observe one input (a path, a packaged name, a dict or a tmafm.Config, plus ``overrides``
+    of groups as in tmafm.run); see observe_batch."""
+    config = nml if isinstance(nml, Config) and not overrides else Config(nml, **overrides)
+    return observe_batch([config], threads=1, max_periods=max_periods, p_max=p_max,
+                         steady_tol=steady_tol, steady_repeats=steady_repeats,
+                         harmonics=harmonics, stop_at_steady=stop_at_steady)[0]
+
+
+def steady_period(points, p_max: int = 8, tol: float = 1e-6, repeats: int = 3) -> int:
+    """The core's steady-state classifier on a sequence of points (rows): the smallest period
+    p <= p_max whose last ``repeats`` points repeat within tol (relative to the orbit's size)."""
+    from . import _core
+    points = np.asarray(points, dtype=float)
+    if points.ndim == 1:
+        points = points[:, None]
+    return int(_core.steady_period_of(np.asfortranarray(points), p_max, tol, repeats))

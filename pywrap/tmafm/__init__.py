@@ -16,7 +16,17 @@ from .errors import (BlowUpError, InputError, InputFileError, InputTypeError, So
                      TmafmError)
 from ._exe import executable
 from .observe import Observation, observe, observe_batch
-from .sweeps import approach, basin, bifurcation, frequency_sweep, sweep
+
+_SWEEPS = ("sweep", "approach", "frequency_sweep", "bifurcation", "basin")
+
+
+def __getattr__(name):
+    """tmafm.sweep & co. come from tmafm.sweeps, imported on first use (so that
+    ``python -m tmafm.sweeps`` runs a module the package has not imported yet)."""
+    if name in _SWEEPS:
+        from . import sweeps
+        return getattr(sweeps, name)
+    raise AttributeError(f"module 'tmafm' has no attribute {name!r}")
 
 try:
     __version__ = _version("tmafm")

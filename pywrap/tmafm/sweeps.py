@@ -416,16 +416,29 @@ def _both_ways(base: dict, key: str, first, n_modes: int, curve_point: Mapping,
     return [forward, backward[::-1]]
 
 
-def mark_jumps(amplitude, threshold: float = 0.2, axis: int = -1) -> np.ndarray:
-    """Flag jumps along `axis`: True at point i when |A[i] - A[i-1]| exceeds `threshold` times
-    the largest |A| on that curve (a jump is marked on the point after it, in array order)."""
-    amplitude = np.moveaxis(np.asarray(amplitude, dtype=float), axis, -1)
-    step = np.abs(np.diff(amplitude, axis=-1))
-    scale = np.nanmax(np.abs(amplitude), axis=-1, keepdims=True)
-    flags = np.zeros(amplitude.shape, dtype=bool)
-    with np.errstate(invalid="ignore"):
-        flags[..., 1:] = step > threshold * scale
-    return np.moveaxis(flags, -1, axis)
+def mark_jumps(values, threshold: float = 0.2, ratio: float = 2.0) -> np.ndarray:
+    """Flag jumps along the last axis (the order of travel): True at point i when the step
+    d_i = |y[i] - y[i-1]| exceeds `threshold` times the curve's range of y AND `ratio` times
+    both neighbouring steps d_(i-1) and d_(i+1).  So a branch that changes steeply but
+    smoothly is not a jump, and a switch between branches is (marked on its arrival point)."""
+    y = np.asarray(values, dtype=float)
+    flat = y.reshape(-1, y.shape[-1])
+    flags = np.zeros(flat.shape, dtype=bool)
+    for row, out in zip(flat, flags):
+        if row.size < 2 or not np.isfinite(row).all():
+            continue
+        step = np.abs(np.diff(row))
+        span = np.ptp(row)
+        if span == 0:
+            continue
+        left = np.concatenate([[0.0], step[:-1]])
+        right = np.concatenate([step[1:], [0.0]])
+        out[1:] = (step > threshold * span) & (step > ratio * left) & (step > ratio * right)
+    return flags.reshape(y.shape)
+
+
+#: The observables whose jumps mark a change of branch in continuation sweeps.
+JUMP_NAMES = ("amplitude", "phase")
 
 
 def _continuation(base, key: str, values, *, directions: tuple[str, str], reverse: bool,
@@ -481,15 +494,19 @@ def _continuation(base, key: str, values, *, directions: tuple[str, str], revers
     data["final_state"] = xr.Variable(
         (*dims, "state"), np.array([s["final_state"] for s in ordered]).reshape(*shape, n_state),
         attrs={"long_name": "state (a, a') at the last period boundary"})
-    amplitude = data["amplitude"].values
     # A jump is marked along the direction of travel: the first point of the new branch.
     flags = np.zeros(shape, dtype=bool)
-    flags[0] = mark_jumps(amplitude[0], jump_threshold)
-    if reverse:
-        flags[1] = mark_jumps(amplitude[1][..., ::-1], jump_threshold)[..., ::-1]
+    for name in JUMP_NAMES:
+        observed = data[name].values
+        travel = [observed[0]] + ([observed[1][..., ::-1]] if reverse else [])
+        for d, y in enumerate(travel):
+            if name == "phase":  # degrees: a wrap at +-180 is no jump
+                y = np.unwrap(y, period=360.0, axis=-1)
+            found = mark_jumps(y, jump_threshold)
+            flags[d] |= found if d == 0 else found[..., ::-1]
     data["jump"] = xr.Variable(dims, flags.astype(np.int8), attrs={
-        "long_name": "1 where the amplitude jumped on arriving at this point",
-        "threshold": float(jump_threshold)})
+        "long_name": "1 where amplitude or phase jumped on arriving at this point "
+                     "(tmafm.sweeps.mark_jumps)", "threshold": float(jump_threshold)})
     coords = {key: xr.Variable((key,), np.asarray(values)),
               "direction": xr.Variable(("direction",), np.array(used, dtype="U8"))}
     for ckey, cvalues in curves.items():
@@ -548,14 +565,14 @@ def bifurcation(base, key, values, *, periods_kept=32, workers=None, client=None
     at steady state unless asked, so the last points sample the attractor.
     """
     import xarray as xr
+    _split_key(key)
+    values = _axis_values(key, values)
     if not isinstance(periods_kept, (int, np.integer)) or periods_kept < 1:
         raise InputTypeError(f"periods_kept = {periods_kept!r}: must be a positive integer")
     keywords = _observe_keywords(dict(observe_keywords, max_periods=max_periods,
                                       stop_at_steady=stop_at_steady))
     if periods_kept > max_periods:
         raise InputError(f"periods_kept = {periods_kept} is more than max_periods = {max_periods}")
-    values = _axis_values(key, values)
-    _split_key(key)
     base_config = _base_config(base)
     base_groups = _base_dict(base_config)
     points = [{key: v} for v in _raw(values)]
@@ -590,15 +607,27 @@ def same_orbit(x: np.ndarray, y: np.ndarray, tol: float) -> bool:
     return any(np.max(np.abs(np.roll(x, k, axis=0) - y)) <= tol for k in range(x.shape[0]))
 
 
+def minimal_orbit(orbit: np.ndarray, tol: float) -> np.ndarray:
+    """The orbit cut to its smallest period q (q divides p) whose points repeat within `tol`:
+    a steady-state test can call a period-1 point period-2 while the transient still
+    alternates around it (a negative Floquet multiplier)."""
+    p = orbit.shape[0]
+    for q in range(1, p):
+        if p % q == 0 and np.max(np.abs(orbit - np.roll(orbit, q, axis=0))) <= tol:
+            return orbit[:q]
+    return orbit
+
+
 def label_attractors(orbits: Sequence[np.ndarray], periods: Sequence[int],
                      tol: float) -> tuple[np.ndarray, list[np.ndarray]]:
-    """(labels, representative orbits): points whose orbits agree (same period, within `tol` up
-    to a cyclic shift) share a label 0, 1, ...; a point with no period found gets -1."""
+    """(labels, representative orbits): points whose orbits (cut to their minimal period) agree
+    within `tol` up to a cyclic shift share a label 0, 1, ...; no period found gives -1."""
     labels = np.full(len(orbits), -1, dtype=np.int32)
     known: list[np.ndarray] = []
     for i, (orbit, period) in enumerate(zip(orbits, periods)):
         if period <= 0:
             continue
+        orbit = minimal_orbit(np.asarray(orbit)[-period:], tol)
         for k, representative in enumerate(known):
             if same_orbit(orbit, representative, tol):
                 labels[i] = k
@@ -614,8 +643,9 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
     """A basin map: a grid of initial states a1(0) x a1'(0) (other modes from the base's
     &initial), each labelled by the attractor it reaches.  Variables (dims ('a1', 'adot1')):
     ``attractor`` (0, 1, ...: points whose final Poincaré orbits agree within `tol` times the
-    largest |state| up to a cyclic shift share a label; -1: no period found), ``period``, and
-    the steady values; attribute-free variable ``attractor_orbit_<k>`` holds each orbit."""
+    largest |state| up to a cyclic shift share a label; -1: no period found),
+    ``attractor_period``, ``period`` (the steady-state test's), and the steady values;
+    ``attractor_orbit_<k>`` holds each attractor's Poincaré orbit."""
     import xarray as xr
     keywords = _observe_keywords(observe_keywords)
     a1 = _axis_values("a1", a1)
@@ -644,10 +674,13 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
     data = _steady_variables(summaries, shape, ("a1", "adot1"), units, physical_units)
     orbits = [s["orbit"] for s in summaries]
     periods = [s["period"] for s in summaries]
-    scale = max(1.0, max(float(np.max(np.abs(o))) for o in orbits))
+    scale = max(float(np.max(np.abs(o))) for o in orbits) or 1.0
     labels, known = label_attractors(orbits, periods, tol * scale)
     data["attractor"] = xr.Variable(("a1", "adot1"), labels.reshape(shape), attrs={
         "long_name": "attractor label (-1: no period found)", "tolerance": tol * scale})
+    data["attractor_period"] = xr.Variable(("a1", "adot1"), np.array(
+        [len(known[k]) if k >= 0 else 0 for k in labels], dtype=np.int32).reshape(shape),
+        attrs={"long_name": "period of the attractor reached (0: none found)"})
     for k, orbit in enumerate(known):
         data[f"attractor_orbit_{k}"] = xr.Variable((f"orbit_{k}_point", "state"), orbit)
     coords = {"a1": xr.Variable(("a1",), a1, attrs={"long_name": "a1(0)"}),
@@ -664,7 +697,8 @@ _FILE_KEYS = {"kind": str, "base": str, "key": str, "start": float, "stop": floa
               "curve_key": str, "curve_values": list, "reverse": bool, "max_periods": int,
               "p_max": int, "steady_tol": float, "steady_repeats": int, "harmonics": int,
               "stop_at_steady": bool, "periods_kept": int, "tol": float,
-              "jump_threshold": float, "workers": int, "output": str}
+              "jump_threshold": float, "workers": int, "output": str, "method": str,
+              "rtol": float, "atol": float}
 _KINDS = ("grid", "approach", "frequency", "bifurcation", "basin")
 
 
@@ -725,6 +759,9 @@ def run_sweep_file(path, *, workers=None, client=None, progress=False):
     """Run the sweep a file describes; return its Dataset."""
     spec = read_sweep_file(path)
     kind, base = spec["kind"], spec["base"]
+    solver = {k: spec[k] for k in ("method", "rtol", "atol") if k in spec}
+    if solver:
+        base = Config(base, solver=solver)
     keywords = {k: spec[k] for k in OBSERVE_KEYWORDS if k in spec}
     workers = workers if workers is not None else spec.get("workers")
     common = dict(workers=workers, client=client, progress=progress)

@@ -124,6 +124,17 @@ def test_netcdf_round_trip(grid, tmp_path):
     assert not list(tmp_path.glob(".*partial"))
 
 
+def test_a_failed_run_is_recorded_and_the_others_kept():
+    axes = {"solver.max_steps": [1_000_000, 40, 2_000_000]}
+    ds = tmafm.sweep(BASE, axes, workers=2, chunk=3, **QUICK)
+    assert ds["failed"].values.tolist() == [0, 1, 0]
+    amplitude = ds["amplitude"].values
+    assert np.isnan(amplitude[1]) and np.isfinite(amplitude[[0, 2]]).all()
+    assert amplitude[0] == amplitude[2]  # the step budget does not change a run that fits in it
+    assert ds.attrs["failures"] == 1 and "max_steps" in ds.attrs["first_failure"]
+    assert "\n" not in ds.attrs["first_failure"]
+
+
 def test_physical_base_gives_physical_variables():
     ds = tmafm.sweep(tmafm.Config("physical_polystyrene", solver={"method": "flight_exact"}),
                      {"physical.drive_amplitude": [2e-9, 3e-9]}, workers=1, max_periods=4)

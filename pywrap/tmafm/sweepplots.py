@@ -90,7 +90,7 @@ def plot_bifurcation(ds, path, variable="vt"):
     for ax, name in zip(axes, [variable, "a1"]):
         y = ds[name].values
         x = np.broadcast_to(ds[key].values[:, None], y.shape)
-        ax.plot(x.ravel(), y.ravel(), ",k", marker=".", ms=1.5, ls="none")
+        ax.plot(x.ravel(), y.ravel(), "k.", ms=1.5, ls="none")
         ax.set_ylabel(ds[name].attrs.get("long_name", name), fontsize=8)
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel(key)

@@ -31,7 +31,7 @@ import numpy as np
 
 from ._namelist import GROUPS, KEY_TYPES
 from ._run import Config
-from .errors import InputError, InputFileError, InputTypeError, TmafmError
+from .errors import InputError, InputFileError, InputTypeError, SolverError, TmafmError
 
 __all__ = ["sweep", "approach", "frequency_sweep", "bifurcation", "basin", "read_sweep_file",
            "run_sweep_file", "STEADY_NAMES", "main"]
@@ -215,8 +215,31 @@ def _run_chunk(base: dict, points: Sequence[Mapping], threads, keywords: Mapping
     """Observe the points of one chunk with the core's batch; one summary per point."""
     observe = _observe_api()
     configs = [_config(base, point) for point in points]
-    observations = observe.observe_batch(configs, threads=threads, **keywords)
+    try:
+        observations = observe.observe_batch(configs, threads=threads, **keywords)
+    except SolverError:
+        # One run failed (the batch names the first): run the chunk's points one by one, so
+        # every other point keeps its result and each failure is recorded with its message.
+        return [_observe_one(observe, config, keywords, keep) for config in configs]
     return [_summary(obs, keep) for obs in observations]
+
+
+def _observe_one(observe, config: Config, keywords: Mapping, keep: int = 0) -> dict:
+    """The summary of one run, or a failed summary carrying the solver's message."""
+    try:
+        return _summary(observe.observe_batch([config], threads=1, **keywords)[0], keep)
+    except SolverError as exc:
+        return _failed_summary(str(exc), 2 * config.n_modes, keep)
+
+
+def _failed_summary(message: str, n_state: int, keep: int = 0) -> dict:
+    """A point whose run failed (SolverError, BlowUpError): NaN values, period 0."""
+    out = {"steady": False, "period": 0, "periods": 0, "error": message,
+           "values": {name: np.nan for name in _names()}, "physical": None,
+           "final_state": np.full(n_state, np.nan), "orbit": np.full((1, n_state), np.nan)}
+    if keep:
+        out["poincare"] = np.full((keep, n_state), np.nan)
+    return out
 
 
 def _run_chunk_processes(args):
@@ -306,14 +329,19 @@ def _steady_variables(summaries: list[dict], shape: tuple, dims: tuple, units: d
         values = np.array([s["values"][name] for s in summaries], dtype=float).reshape(shape)
         data[name] = xr.Variable(dims, values, attrs={"units": units.get(name, "1"),
                                                       "long_name": f"steady {name}"})
-        if all(name in s["physical"] for s in summaries):
+        good = [s for s in summaries if "error" not in s]
+        if good and all(name in s["physical"] for s in good):
             unit = physical_units.get(name, "")
-            physical = np.array([s["physical"][name] for s in summaries]).reshape(shape)
+            physical = np.array([s["physical"][name] if "error" not in s else np.nan
+                                 for s in summaries]).reshape(shape)
             data[f"{name}_{unit}" if unit else f"{name}_physical"] = xr.Variable(
                 dims, physical, attrs={"units": unit, "long_name": f"steady {name} ({unit})"})
     for name in ("harmonic_amplitude", "harmonic_phase"):
-        if all(name in s for s in summaries):
-            values = np.array([s[name] for s in summaries], dtype=float)
+        good = [s for s in summaries if "error" not in s]
+        if good and all(name in s for s in good):
+            size = len(good[0][name])
+            values = np.array([s[name] if "error" not in s else np.full(size, np.nan)
+                               for s in summaries], dtype=float)
             data[name] = xr.Variable((*dims, "harmonic"), values.reshape(*shape, -1),
                                      attrs={"units": units.get(name, ""),
                                             "long_name": f"steady {name} (harmonics 1, 2, ...)"})
@@ -324,6 +352,10 @@ def _steady_variables(summaries: list[dict], shape: tuple, dims: tuple, units: d
     data["steady"] = xr.Variable(dims, np.array([s["steady"] for s in summaries],
                                                 dtype=np.int8).reshape(shape),
                                  attrs={"long_name": "1 where steady state was reached"})
+    data["failed"] = xr.Variable(dims, np.array(["error" in s for s in summaries],
+                                                dtype=np.int8).reshape(shape),
+                                 attrs={"long_name": "1 where the run failed (SolverError); "
+                                                     "its values are NaN"})
     data["periods"] = xr.Variable(dims, np.array([s["periods"] for s in summaries],
                                                  dtype=np.int32).reshape(shape),
                                   attrs={"units": "drive periods", "long_name": "periods run"})
@@ -338,6 +370,12 @@ def _attrs(base, kind: str, keywords: dict) -> dict:
     for key, value in keywords.items():
         attrs[f"observe_{key}"] = int(value) if isinstance(value, bool) else value
     return attrs
+
+
+def _failure_attrs(summaries: list[dict]) -> dict:
+    """The count of failed runs and the first one's message, for the Dataset's attributes."""
+    errors = [s["error"] for s in summaries if "error" in s]
+    return {"failures": len(errors), "first_failure": errors[0] if errors else ""}
 
 
 def _base_config(base) -> Config:
@@ -382,7 +420,9 @@ def _grid_dataset(base, base_config, axes, summaries, keywords, kind):
     data = _steady_variables(summaries, shape, tuple(keys), units, physical_units)
     coords = {key: xr.Variable((key,), np.asarray(values), attrs={"long_name": key})
               for key, values in axes.items()}
-    return xr.Dataset(data, coords=coords, attrs=_attrs(base, kind, keywords))
+    attrs = _attrs(base, kind, keywords)
+    attrs.update(_failure_attrs(summaries))
+    return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
 # --- Continuation: approach/retract and frequency sweeps -----------------------------------
@@ -399,10 +439,10 @@ def _warm_chain(base: dict, key: str, values, curve_point: Mapping, n_modes: int
         if state is not None:
             point["initial.a0"] = state[:n_modes].tolist()
             point["initial.adot0"] = state[n_modes:].tolist()
-        obs = observe.observe(_config(base, point), **keywords)
-        summary = _summary(obs)
+        summary = _observe_one(observe, _config(base, point), keywords)
         summaries.append(summary)
-        state = summary["final_state"]
+        if "error" not in summary:  # after a failed point, go on from the last good state
+            state = summary["final_state"]
     return summaries, state
 
 
@@ -512,6 +552,7 @@ def _continuation(base, key: str, values, *, directions: tuple[str, str], revers
     for ckey, cvalues in curves.items():
         coords[ckey] = xr.Variable((ckey,), np.asarray(cvalues))
     attrs = _attrs(base, kind, keywords)
+    attrs.update(_failure_attrs(ordered))
     attrs["swept_key"] = key
     attrs["order"] = f"{used[0]} runs {key} in the order given" + (
         f", {used[1]} in reverse" if reverse else "")
@@ -686,6 +727,7 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
     coords = {"a1": xr.Variable(("a1",), a1, attrs={"long_name": "a1(0)"}),
               "adot1": xr.Variable(("adot1",), adot1, attrs={"long_name": "a1'(0)"})}
     attrs = _attrs(base, "basin", keywords)
+    attrs.update(_failure_attrs(summaries))
     attrs["attractors"] = len(known)
     return xr.Dataset(data, coords=coords, attrs=attrs)
 

@@ -118,7 +118,7 @@ def plot_basin(ds, path):
     image = axes[1].imshow(ds["period"].values, origin="lower", extent=extent, aspect="auto",
                            interpolation="nearest", cmap="viridis")
     fig.colorbar(image, ax=axes[1])
-    axes[1].set_title("period (0: none found)", fontsize=9)
+    axes[1].set_title("period by the steady-state test (0: none found)", fontsize=9)
     for ax in axes:
         ax.set_xlabel("a1'(0)")
         ax.set_ylabel("a1(0)")

@@ -34,7 +34,8 @@ from ._run import Config
 from .errors import InputError, InputFileError, InputTypeError, SolverError, TmafmError
 
 __all__ = ["sweep", "approach", "frequency_sweep", "bifurcation", "basin", "read_sweep_file",
-           "run_sweep_file", "STEADY_NAMES", "main"]
+           "run_sweep_file", "write_dataset", "summarize", "mark_jumps", "label_attractors",
+           "STEADY_NAMES", "main"]
 
 #: The steady values every sweep dataset carries (besides period, steady and periods).
 STEADY_NAMES = ("amplitude", "phase", "mean_deflection", "min_gap", "peak_force", "contact_time",
@@ -829,6 +830,40 @@ def run_sweep_file(path, *, workers=None, client=None, progress=False):
                  **keywords)
 
 
+def summarize(ds) -> dict:
+    """The facts docs/sweeps.md quotes, from a sweep Dataset: jump positions per curve and
+    direction, attractor counts, period counts, where the bifurcation points split."""
+    kind = ds.attrs.get("tmafm_kind")
+    out = {"kind": kind, "failures": int(ds.attrs.get("failures", 0)),
+           "periods_found": {str(int(k)): int((ds["period"].values == k).sum())
+                             for k in np.unique(ds["period"].values)}}
+    if kind in ("approach", "frequency_sweep"):
+        key = ds.attrs["swept_key"]
+        curve_dims = [d for d in ds["jump"].dims if d not in ("direction", key)]
+        stacked = ds.stack(curve=curve_dims) if curve_dims else ds.expand_dims(curve=[0])
+        out["jumps"] = []
+        for c in range(stacked.sizes["curve"]):
+            for direction in ds["direction"].values:
+                part = stacked.isel(curve=c).sel(direction=direction)
+                flags = part["jump"].values.astype(bool)
+                label = {d: float(part[d].values) for d in curve_dims}
+                out["jumps"].append(dict(label, direction=str(direction),
+                                         at=part[key].values[flags].tolist(),
+                                         amplitude_max=float(np.nanmax(part["amplitude"]))))
+    elif kind == "bifurcation":
+        key = ds.attrs["swept_key"]
+        vt = ds["vt"]
+        spread = ((vt.max("kept") - vt.min("kept")) / np.abs(vt).max("kept")).values
+        out["split_1e-6_at"] = ds[key].values[spread > 1e-6].tolist()
+        out["period"] = dict(zip(map(float, ds[key].values), map(int, ds["period"].values)))
+    elif kind == "basin":
+        labels = ds["attractor"].values
+        out["attractors"] = int(ds.attrs["attractors"])
+        out["points_per_label"] = {str(int(k)): int((labels == k).sum()) for k in
+                                   np.unique(labels)}
+    return out
+
+
 def main(argv=None) -> int:
     """``python -m tmafm.sweeps FILE [-o OUT.nc] [--workers N] [--plot PNG] [--progress]``."""
     parser = argparse.ArgumentParser(prog="python -m tmafm.sweeps",
@@ -840,7 +875,15 @@ def main(argv=None) -> int:
     parser.add_argument("--plot", default=None, help="the PNG to draw (default: OUTPUT.png)")
     parser.add_argument("--no-plot", action="store_true", help="write no plot")
     parser.add_argument("--progress", action="store_true", help="show a progress bar")
+    parser.add_argument("--summarize", action="store_true", help="FILE is a sweep NetCDF file: "
+                        "print its summary (jumps, attractors, periods) as JSON")
     args = parser.parse_args(argv)
+    if args.summarize:
+        import json
+        import xarray as xr
+        with xr.open_dataset(args.file) as ds:
+            print(json.dumps(summarize(ds.load()), indent=1))
+        return 0
     try:
         spec = read_sweep_file(args.file)
         out = Path(args.output or spec.get("output") or Path(args.file).with_suffix(".nc"))

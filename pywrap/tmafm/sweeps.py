@@ -212,10 +212,12 @@ def _summary(obs, keep: int = 0) -> dict:
 
 
 def _run_chunk(base: dict, points: Sequence[Mapping], threads, keywords: Mapping,
-               keep: int = 0) -> list[dict]:
-    """Observe the points of one chunk with the core's batch; one summary per point."""
+               keep: int = 0, configs: Sequence[Config] | None = None) -> list[dict]:
+    """Observe the points of one chunk with the core's batch; one summary per point.
+    ``configs``, when given, are the points' validated Configs (same process only)."""
     observe = _observe_api()
-    configs = [_config(base, point) for point in points]
+    if configs is None:
+        configs = [_config(base, point) for point in points]
     try:
         observations = observe.observe_batch(configs, threads=threads, **keywords)
     except SolverError:
@@ -272,8 +274,10 @@ def _progress(total: int, enabled: bool, label: str):
 
 
 def _run_points(base: dict, points: list[dict], *, workers=None, client=None, progress=False,
-                chunk=None, backend="batch", keep=0, keywords=None, label="sweep") -> list[dict]:
-    """Summaries of every point, in order, on local cores or on a Dask client."""
+                chunk=None, backend="batch", keep=0, keywords=None, label="sweep",
+                configs=None) -> list[dict]:
+    """Summaries of every point, in order, on local cores or on a Dask client.  ``configs``
+    (the validated Configs of the points) saves building them again in this process."""
     keywords = keywords or {}
     n_workers = _workers(workers)
     if client is not None:
@@ -303,7 +307,8 @@ def _run_points(base: dict, points: list[dict], *, workers=None, client=None, pr
         elif backend == "batch":
             for k, piece in enumerate(pieces):
                 results[k] = _run_chunk(base, [points[i] for i in piece], n_workers, keywords,
-                                        keep)
+                                        keep, None if configs is None else
+                                        [configs[i] for i in piece])
                 if bar is not None:
                     bar.update(len(piece))
         else:
@@ -383,10 +388,9 @@ def _base_config(base) -> Config:
     return base if isinstance(base, Config) else Config(base)
 
 
-def _validate(base: dict, points: list[dict]) -> None:
+def _validate(base: dict, points: list[dict]) -> list[Config]:
     """Every point's Config, built up front: the first bad one raises, before any run."""
-    for point in points:
-        _config(base, point)
+    return [_config(base, point) for point in points]
 
 
 def sweep(base, axes, *, workers=None, client=None, progress=False, chunk=None,
@@ -407,8 +411,8 @@ def sweep(base, axes, *, workers=None, client=None, progress=False, chunk=None,
     base_groups = _base_dict(base_config)
     keys = list(axes)
     points = [dict(zip(keys, combo)) for combo in itertools.product(*map(_raw, axes.values()))]
-    _validate(base_groups, points)
-    summaries = _run_points(base_groups, points, workers=workers, client=client,
+    configs = _validate(base_groups, points)
+    summaries = _run_points(base_groups, points, configs=configs, workers=workers, client=client,
                             progress=progress, chunk=chunk, backend=backend, keywords=keywords)
     return _grid_dataset(base, base_config, axes, summaries, keywords, "sweep")
 
@@ -618,8 +622,8 @@ def bifurcation(base, key, values, *, periods_kept=32, workers=None, client=None
     base_config = _base_config(base)
     base_groups = _base_dict(base_config)
     points = [{key: v} for v in _raw(values)]
-    _validate(base_groups, points)
-    summaries = _run_points(base_groups, points, workers=workers, client=client,
+    configs = _validate(base_groups, points)
+    summaries = _run_points(base_groups, points, configs=configs, workers=workers, client=client,
                             progress=progress, chunk=chunk, backend=backend,
                             keep=periods_kept, keywords=keywords, label="bifurcation")
     ds = _grid_dataset(base, base_config, {key: np.asarray(values)}, summaries, keywords,
@@ -632,10 +636,9 @@ def bifurcation(base, key, values, *, periods_kept=32, workers=None, client=None
     dims = (key, "kept")
     ds["a1"] = xr.Variable(dims, kept[..., 0], attrs={"long_name": "a1 at the Poincaré section"})
     ds["adot1"] = xr.Variable(dims, kept[..., n], attrs={"long_name": "a1' at the section"})
-    tip = np.stack([_tip_displacement(_config(base_groups, p), kept[i])
-                    for i, p in enumerate(points)])
+    tip = np.stack([_tip_displacement(configs[i], kept[i]) for i in range(len(points))])
     ds["tip"] = xr.Variable(dims, tip, attrs={"long_name": "p^T a at the section"})
-    offsets = np.array([_config(base_groups, p).scene["delta_hat"] for p in points])
+    offsets = np.array([c.scene["delta_hat"] for c in configs])
     ds["vt"] = xr.Variable(dims, tip + offsets[:, None],
                            attrs={"long_name": "V_T at the section (drive phase 0)"})
     ds.attrs["swept_key"] = key
@@ -707,8 +710,8 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
         start, rate = a0.copy(), adot0.copy()
         start[0], rate[0] = float(x), float(v)
         points.append({"initial.a0": start.tolist(), "initial.adot0": rate.tolist()})
-    _validate(base_groups, points)
-    summaries = _run_points(base_groups, points, workers=workers, client=client,
+    configs = _validate(base_groups, points)
+    summaries = _run_points(base_groups, points, configs=configs, workers=workers, client=client,
                             progress=progress, chunk=chunk, backend=backend, keywords=keywords,
                             label="basin")
     shape = (len(a1), len(adot1))

@@ -304,3 +304,10 @@ def test_bad_sweep_file_is_one_line_and_writes_nothing(tmp_path, text, words):
     for word in words:
         assert word in message, message
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.nml"]
+
+
+def test_progress_bar_counts_every_run(capsys):
+    tmafm.sweep(BASE, {"scene.delta_hat": [0.0, 1e-3, 2e-3]}, workers=1, chunk=1, progress=True,
+                **QUICK)
+    err = capsys.readouterr().err
+    assert "3/3" in err and "sweep" in err

@@ -17,6 +17,9 @@ BASE = {"model": {"n_modes": 2, "contact_law": "hertz", "convention": "paper"},
         "initial": {"a0": [0.0, 0.0]},
         "solver": {"method": "flight_exact", "rtol": 1e-8, "tau_end": 10.0}}
 QUICK = dict(max_periods=12, steady_tol=1e-5)
+# The bistable scene of docs/sweeps.md (inputs/sweeps/bistable_n2.nml): N = 2, Omega = 3.8,
+# above the first resonance.
+BISTABLE = dict(BASE, scene={"omega": 3.8, "alpha2": 5e-4})
 
 
 # --- Bad input: one clear error, and nothing runs ------------------------------------------
@@ -107,7 +110,11 @@ def test_local_threads_processes_and_dask_give_identical_datasets(grid):
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
         on_dask = tmafm.sweep(BASE, axes, client=client, chunk=2, **QUICK)
+        curves = dict(delta_hat=[4e-3, 2e-3, 1e-3], curves={"scene.alpha2": [4e-4, 5e-4]},
+                      **QUICK)
+        approach_on_dask = tmafm.approach(BISTABLE, client=client, **curves)
     xr.testing.assert_identical(local, on_dask)
+    xr.testing.assert_identical(tmafm.approach(BISTABLE, workers=2, **curves), approach_on_dask)
 
 
 def test_process_pool_gives_the_same_dataset(grid):
@@ -154,9 +161,6 @@ def test_mark_jumps():
                                                                      False]
 
 
-# The bistable scene of docs/sweeps.md (inputs/sweeps/bistable_n2.nml): N = 2, Omega = 3.8,
-# above the first resonance; found by benchmarks/sweep_bistability_search.py.
-BISTABLE = dict(BASE, scene={"omega": 3.8, "alpha2": 5e-4})
 
 
 @pytest.fixture(scope="module")
@@ -311,3 +315,11 @@ def test_progress_bar_counts_every_run(capsys):
                 **QUICK)
     err = capsys.readouterr().err
     assert "3/3" in err and "sweep" in err
+
+
+def test_continuation_dataset_round_trips_through_netcdf(hysteresis, tmp_path):
+    _, ds = hysteresis
+    path = sweeps.write_dataset(ds, tmp_path / "approach.nc")
+    with xr.open_dataset(path) as back:
+        xr.testing.assert_identical(ds, back.load())
+        assert back["direction"].values.tolist() == ["approach", "retract"]

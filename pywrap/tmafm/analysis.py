@@ -3,7 +3,12 @@ in and out of contact, per-period contact measures and dissipation, and the harm
 
 Everything works on a :class:`tmafm.Result`.  Array work is numpy; what needs the model
 (contact forces, powers, modal energy) comes from the Fortran core (``tmafm.Model``),
-so no physics is written here.
+so no physics is written here.  The per-period measures the core observes itself
+(``tmafm.observe``: contact time and count, min V_T, dissipation, lock-in amplitude and
+phase, harmonics) are taken from it, exact to the trajectory's accuracy: the run's own input
+is integrated again over its whole drive periods, without samples (``observation``).  Only a
+Result the core cannot re-run (no input, a synthetic one, or ``rk4_event``) falls back to its
+samples.
 
 Definitions used throughout:
 
@@ -27,12 +32,45 @@ import numpy as np
 from ._model import POWER_NAMES, Model
 from ._run import Config
 
-__all__ = ["drive_period", "sample_dtau_for", "poincare_sections", "section_distances",
+__all__ = ["observation", "drive_period", "sample_dtau_for", "poincare_sections", "section_distances",
            "default_tolerance", "state_scale",
            "classify_sections", "classify_period", "steady_state", "modal_amplitudes",
            "energy_flow", "per_period", "energy_balance", "lockin", "harmonics", "summary",
            "POWER_NAMES"]
 
+
+
+#: Harmonics the core computes for the analysis (``harmonics`` asks for more if needed).
+_CORE_HARMONICS = 10
+
+
+def observation(result, harmonics: int = _CORE_HARMONICS):
+    """The core's per-period observables (a tmafm.Observation) of the run behind `result`: its
+    input (method, tolerances, initial state) integrated again over the run's whole drive
+    periods.  None when the core cannot re-run it (no input, a synthetic Result, rk4_event)."""
+    cache = result.__dict__.setdefault("_observations", {})
+    for count, obs in cache.items():
+        if count >= harmonics:
+            return obs
+    config = getattr(result, "config", None)
+    if config is None:
+        try:
+            groups = {g: dict(v) for g, v in result.resolved.todict(complex_tuple=False).items()
+                      if not g.startswith("_")}
+        except AttributeError:
+            return None
+        if "model" not in groups or not ({"scene", "physical"} & set(groups)):
+            return None
+        config = _model_of(result).config
+    if config.to_dict()["solver"]["method"] == "rk4_event":
+        return None
+    periods = int(math.floor(result.tau[-1] / drive_period(result) + 1e-9))
+    if periods < 1:
+        return None
+    from .observe import observe
+    obs = observe(config, max_periods=periods, stop_at_steady=False, harmonics=harmonics)
+    cache[harmonics] = obs
+    return obs
 
 
 def drive_period(result) -> float:
@@ -220,16 +258,34 @@ def modal_amplitudes(result, since: float = 0.0) -> dict:
 
 def per_period(result, since: float = 0.0) -> list[dict]:
     """For every whole drive period after `since`: contact fraction, contacts begun, maximum
-    indentation (-min V_T), peak normal and friction groups ((L/d) kappa f_c and (L/d) kappa h
+    indentation (-min V_T) and min V_T (these four, and the works, from the core's
+    observation when there is one), peak normal and friction groups ((L/d) kappa f_c and (L/d) kappa h
     are the forces in units of E1 I d / L^3; here f_c and h themselves), and the work of the
     contact damping and of friction, and the energy dissipated in all."""
     stride = _stride(result)
     flow = energy_flow(result)
     first = int(math.ceil(since / drive_period(result) - 1e-9)) * stride
+    obs = observation(result)
     rows = []
     for start in range(first, result.tau.size - stride, stride):
         sl = slice(start, start + stride + 1)
         tau = result.tau[sl]
+        k = start // stride
+        if obs is not None and k < obs.periods:
+            p = obs.per_period
+            rows.append({
+                "tau_start": float(tau[0]),
+                "contact_fraction": float(p["contact_time"][k] / drive_period(result)),
+                "contacts": int(p["contacts_per_period"][k]),
+                "max_indentation": float(max(0.0, -p["min_gap"][k])),
+                "peak_normal_group": float(np.max(np.abs(flow["normal_group"][sl]))),
+                "peak_friction_group": float(np.max(np.abs(flow["friction_group"][sl]))),
+                "work_contact_damping": float(-p["dissipated_contact_damping"][k]),
+                "work_friction": float(-p["dissipated_friction"][k]),
+                "dissipated": float(p["dissipated_energy"][k]),
+                "min_gap": float(p["min_gap"][k]),
+            })
+            continue
         contact = result.contact[sl]
         onsets = int(np.count_nonzero(np.diff(contact) == 1))
         work = {name: _integrate(flow[name], result, start, start + stride) for name in POWER_NAMES}
@@ -243,6 +299,7 @@ def per_period(result, since: float = 0.0) -> list[dict]:
             "work_contact_damping": work["contact_damping"],
             "work_friction": work["contact_friction"],
             "dissipated": -(work["beam_damping"] + work["contact_damping"] + work["contact_friction"]),
+            "min_gap": float(result.vt[sl].min()),
         })
     return rows
 
@@ -257,9 +314,19 @@ def _whole_periods(result, since):
 
 
 def lockin(result, since: float = 0.0) -> dict:
-    """Amplitude and phase of V_T at the drive frequency over whole periods after `since`:
-    V_T ~ mean + amplitude sin(Omega tau + phase)."""
+    """Amplitude and phase (radians) of V_T at the drive frequency over whole periods after
+    `since`: V_T ~ mean + amplitude sin(Omega tau + phase); the mean of the core's per-period
+    Fourier coefficients when it observes the run."""
     sl, periods = _whole_periods(result, since)
+    obs = observation(result)
+    if obs is not None:
+        k0 = sl.start // _stride(result)
+        rows = slice(k0, min(k0 + periods, obs.periods))
+        amp, phase = obs.per_period["amplitude"][rows], np.radians(obs.per_period["phase"][rows])
+        in_phase, quadrature = np.mean(amp * np.cos(phase)), np.mean(amp * np.sin(phase))
+        mean = np.mean(obs.per_period["mean_deflection"][rows]) + result.scene.get("delta_hat", 0.0)
+        return {"mean": float(mean), "amplitude": float(math.hypot(in_phase, quadrature)),
+                "phase": float(math.atan2(quadrature, in_phase)), "periods": periods}
     tau, vt = result.tau[sl], result.vt[sl]
     omega = result.scene["omega"]
     in_phase = 2 * np.mean(vt * np.sin(omega * tau))
@@ -269,8 +336,18 @@ def lockin(result, since: float = 0.0) -> dict:
 
 
 def harmonics(result, since: float = 0.0, k_max: int = 20) -> np.ndarray:
-    """|FFT| amplitudes of V_T at k Omega, k = 0..k_max, over whole periods after `since`."""
+    """Amplitudes of V_T at k Omega, k = 0..k_max, over whole periods after `since` (the core's
+    per-period Fourier coefficients, averaged; |FFT| of the samples as the fallback)."""
     sl, periods = _whole_periods(result, since)
+    obs = observation(result, max(k_max, _CORE_HARMONICS))
+    if obs is not None:
+        k0 = sl.start // _stride(result)
+        rows = slice(k0, min(k0 + periods, obs.periods))
+        amp = obs.per_period["harmonic_amplitude"][rows, :k_max]
+        phase = np.radians(obs.per_period["harmonic_phase"][rows, :k_max])
+        mean = np.mean(obs.per_period["mean_deflection"][rows]) + result.scene.get("delta_hat", 0.0)
+        coefficients = np.abs(np.mean(amp * np.exp(1j * phase), axis=0))
+        return np.concatenate([[abs(mean)], coefficients])
     spectrum = np.abs(np.fft.rfft(result.vt[sl])) / (result.vt[sl].size / 2)
     spectrum[0] /= 2
     return spectrum[: (k_max + 1) * periods: periods][: k_max + 1]
@@ -290,7 +367,8 @@ def summary(result, since: float | None = None, tol: float | None = None) -> dic
             "steady_state": steady_state(result, tol=tol, max_period=8),
             "contact_fraction": float(np.mean([r["contact_fraction"] for r in rows])),
             "contacts_per_period": float(np.mean([r["contacts"] for r in rows])),
-            "vt_min": float(result.vt[result.tau >= since].min()),
+            "vt_min": float(min(r["min_gap"] for r in rows) if rows
+                            else result.vt[result.tau >= since].min()),
             "vt_max": float(result.vt[result.tau >= since].max()),
             "max_indentation": float(max(r["max_indentation"] for r in rows)),
             "dissipated_per_period": float(np.mean([r["dissipated"] for r in rows])),

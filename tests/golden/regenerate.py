@@ -266,7 +266,10 @@ def section_evidence(result, tol: float) -> dict:
 
 def write_errors() -> None:
     """errors.npz and analysis_errors.json: the error estimates of every golden."""
-    spread = {name: under_blas(name) for name in usable_blas_configs()}
+    # A build that links LAPACK and BLAS statically (meson.build) maps no shared BLAS: no
+    # configuration can swap it, so there is no BLAS spread to measure (it is zero).
+    swappable = bool(loaded_blas()["paths"])
+    spread = {name: under_blas(name) for name in usable_blas_configs()} if swappable else {}
     arrays = {}
     for case in CASES:
         stored = np.load(HERE / f"{case}.npz")
@@ -276,8 +279,8 @@ def write_errors() -> None:
             if key != "contact":
                 arrays[f"{case}/{key}/method"] = running_max(np.abs(old - np.asarray(getattr(accurate, key), float)))
             arrays[f"{case}/{key}/blas"] = np.max(
-                [np.abs(np.asarray(d["cases"][case][key], float) - old).max(axis=0) for d in spread.values()],
-                axis=0)
+                [np.abs(np.asarray(d["cases"][case][key], float) - old).max(axis=0) for d in spread.values()]
+                or [np.zeros(old.shape[1:])], axis=0)
     np.savez_compressed(HERE / "errors.npz", **arrays)
     print(f"wrote {HERE / 'errors.npz'}")
 
@@ -293,8 +296,8 @@ def write_errors() -> None:
             accurate = summarize(accurate_run, tol=tol)
             old = dict(_leaves(stored_table[key]))
             new = dict(_leaves(accurate))
-            blas = {path: max(abs(dict(_leaves(d["analysis"][key])).get(path, value) - value)
-                              for d in spread.values())
+            blas = {path: max([abs(dict(_leaves(d["analysis"][key])).get(path, value) - value)
+                               for d in spread.values()], default=0.0)
                     for path, value in old.items()}
             table[key] = {"method": {path: abs(new[path] - value) if path in new else None
                                      for path, value in old.items()},
@@ -302,7 +305,8 @@ def write_errors() -> None:
                           "trajectory": window_error(stored_run, accurate_run),
                           "classification_tolerance": tol,
                           "sections": section_evidence(stored_run, tol),
-                          "sections_blas": {n: max(abs(d["sections"][key][n] - value) for d in spread.values())
+                          "sections_blas": {n: max([abs(d["sections"][key][n] - value) for d in spread.values()],
+                                                   default=0.0)
                                             for n, value in section_evidence(stored_run, tol).items()},
                           "sections_accurate": section_evidence(accurate_run, tol),
                           "classification_accurate": accurate["classification"]}

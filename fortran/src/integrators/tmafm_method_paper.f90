@@ -9,6 +9,7 @@ module tmafm_method_paper
    use tmafm_trajectory, only: trajectory_t, check_blowup, progress_t
    use tmafm_rk4, only: rk4_stepper_t
    use tmafm_interpolation, only: hermite_cubic
+   use tmafm_observers, only: observer_t, stop_requested
    implicit none
    private
 
@@ -17,7 +18,7 @@ module tmafm_method_paper
 contains
 
    !> Integrate from y0 at tau = 0 until every sample of traj is filled.
-   subroutine run_rk4_paper(model, settings, y0, traj, ierr, errmsg, progress)
+   subroutine run_rk4_paper(model, settings, y0, traj, ierr, errmsg, progress, observer)
       type(model_t), intent(in) :: model
       type(run_settings_t), intent(in) :: settings
       real(dp), intent(in) :: y0(:)
@@ -25,6 +26,8 @@ contains
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       type(progress_t), intent(inout) :: progress
+      !> If present, fed every step through its cubic Hermite interpolant (tmafm_observers).
+      type(observer_t), intent(inout), optional :: observer
 
       type(rk4_stepper_t) :: stepper
       real(dp) :: y(size(y0)), y_new(size(y0)), f0(size(y0)), f_end(size(y0)), y_sample(size(y0))
@@ -52,6 +55,7 @@ contains
          if (in_contact .neqv. was_in_contact) then
             call traj%add_switch(tau, settings%dtau, ierr, errmsg)
             if (ierr /= ok) return
+            if (present(observer) .and. in_contact) call observer%contact_start(tau)
          end if
          was_in_contact = in_contact
          call traj%charge(settings, tau, 1, ierr, errmsg)
@@ -73,20 +77,23 @@ contains
          call check_blowup(model, settings, tau_new, h, in_contact, y_new, ierr, errmsg)
          if (ierr /= ok) return
 
-         do while (traj%next_time() <= tau_new)
+         do while (traj%next_time() <= tau_new .or. present(observer))
             if (.not. have_f_end) then
                call model%derivative(tau_new, y_new, in_contact, f_end)
                traj%rhs_evaluations = traj%rhs_evaluations + 1
                have_f_end = .true.
                f_end_contact = in_contact
             end if
+            if (traj%next_time() > tau_new) exit
             call hermite_cubic(y, f0, y_new, f_end, h, (traj%next_time() - tau)/h, y_sample)
             call traj%store(model, y_sample)
          end do
+         if (present(observer)) call observer%hermite_step(model, tau, h, y, f0, y_new, f_end, in_contact)
 
          tau = tau_new
          y = y_new
          call progress%update(tau, settings%tau_end)
+         if (stop_requested(observer)) return
       end do
    end subroutine run_rk4_paper
 

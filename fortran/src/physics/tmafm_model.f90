@@ -496,8 +496,12 @@ contains
       integer :: k
 
       associate (s => self%scene)
-         energy = 0.5_dp*dot_product(adot, matmul(self%mass, adot)) &
-                  + 0.5_dp*sum(self%eigen*a*a)
+         ! Explicit sums: no array temporaries (observers call this inside the step loop).
+         energy = 0
+         do k = 1, self%n_modes
+            energy = energy + adot(k)*dot_product(self%mass(:, k), adot)
+         end do
+         energy = 0.5_dp*energy + 0.5_dp*sum(self%eigen*a*a)
          power = 0
          power(power_drive) = dot_product(adot, &
             s%alpha2*s%omega**2*(s%alpha1*self%mass_point + self%integral)*sin(s%omega*tau) &
@@ -511,7 +515,10 @@ contains
                                     dot_product(self%slope, a)/s%l_over_d, &
                                     self%errata%e7_signed_slope, sin1, cos1)
          moment_rate = dot_product(self%moment_shape, adot)
-         axial_work = dot_product(adot, matmul(self%axial, a))
+         axial_work = 0
+         do k = 1, self%n_modes
+            axial_work = axial_work + a(k)*dot_product(adot, self%axial(:, k))
+         end do
          do k = 1, 2
             ! k = 1: the normal part (kappa5 f_c); k = 2: the friction part (kappa6 h).
             if (k == 1) then

@@ -6,7 +6,8 @@ module tmafm_batch
    use tmafm_errors, only: ok, err_input
    use tmafm_config, only: config_t
    use tmafm_model, only: model_t
-   use tmafm_settings, only: run_settings_t, method_dopri5, method_dop853, method_flight_exact
+   use tmafm_settings, only: run_settings_t, method_rk4_paper, method_dopri5, method_dop853, &
+      method_flight_exact, check_run_size
    use tmafm_trajectory, only: trajectory_t
    use tmafm_driver, only: run_trajectory
    use tmafm_simulation, only: build_model, choose_mode_count
@@ -73,7 +74,8 @@ contains
    end function config_scales
 
    !> Integrate a configuration from tau = 0 for at most options%max_periods drive periods,
-   !> filling `observer` (its N already chosen, or chosen here).  Adaptive methods only.
+   !> filling `observer` (its N already chosen, or chosen here).  Every method but rk4_event
+   !> (whose restarted steps have no single dense output to feed).
    subroutine observe_config(config, options, observer, ierr, errmsg)
       type(config_t), intent(in) :: config
       type(observe_options_t), intent(in) :: options
@@ -90,11 +92,11 @@ contains
       call check_options(options, ierr, errmsg)
       if (ierr /= ok) return
       select case (trim(config%solver%method))
-      case (method_dopri5, method_dop853, method_flight_exact)
+      case (method_rk4_paper, method_dopri5, method_dop853, method_flight_exact)
       case default
          ierr = err_input
-         errmsg = '&solver method = '''//trim(config%solver%method)//''': observables need '// &
-                  'dense output: use ''dopri5'', ''dop853'' or ''flight_exact'''
+         errmsg = '&solver method = '''//trim(config%solver%method)//''': observables are '// &
+                  'computed for ''rk4_paper'', ''dopri5'', ''dop853'' and ''flight_exact'''
          return
       end select
       if (.not. (config%scene%omega > 0)) then
@@ -114,6 +116,8 @@ contains
       ! No samples kept: the run ends at the last period boundary, or when the observer stops it.
       settings%tau_end = options%max_periods*period
       settings%sample_dtau = settings%tau_end
+      call check_run_size(settings, n, ierr, errmsg)
+      if (ierr /= ok) return
       call observer%init(model, options%max_periods, options%harmonics, options%p_max, options%tol, &
                          options%repeats, options%stop_at_steady, [chosen%a0(1:n), chosen%adot0(1:n)])
       call run_trajectory(model, settings, chosen%a0(1:n), chosen%adot0(1:n), traj, ierr, errmsg, &

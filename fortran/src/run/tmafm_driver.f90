@@ -29,7 +29,7 @@ contains
       character(len=*), intent(out) :: errmsg
       !> If present, a progress line is written to this unit every tenth of the run.
       integer, intent(in), optional :: progress_unit
-      !> If present (dopri5, dop853, flight_exact only), computes the per-period observables.
+      !> If present (every method but rk4_event), computes the per-period observables.
       type(observer_t), intent(inout), optional :: observer
       type(progress_t) :: progress
 
@@ -37,7 +37,7 @@ contains
       call init_trajectory(traj, settings, model%n_modes)
       select case (trim(settings%method))
       case (method_rk4_paper)
-         call run_rk4_paper(model, settings, [a0, adot0], traj, ierr, errmsg, progress)
+         call run_rk4_paper(model, settings, [a0, adot0], traj, ierr, errmsg, progress, observer)
       case (method_rk4_event)
          call run_rk4_event(model, settings, [a0, adot0], traj, ierr, errmsg, progress)
       case (method_dopri5)

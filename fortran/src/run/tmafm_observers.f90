@@ -4,7 +4,7 @@
 !>
 !> Integrals (Fourier coefficients of V_T, mean deflection, the powers of model_t%energy_flow,
 !> the virial) use 8-point Gauss-Legendre on each piece (a step, or a flight cut into pieces of
-!> at most T/16); contact times come from the located switches; min V_T and the peak normal
+!> at most T/16; 3 points on a fixed rk4_paper step's cubic); contact times come from the located switches; min V_T and the peak normal
 !> force are located on the dense output by a golden-section search around the best node.
 !> Every array is allocated in init; feeding steps allocates nothing.
 module tmafm_observers
@@ -17,6 +17,7 @@ module tmafm_observers
    use tmafm_steady_state, only: steady_period
    use tmafm_quadrature, only: gauss_legendre
    use tmafm_units, only: scales_t
+   use tmafm_interpolation, only: hermite_cubic
    implicit none
    private
 
@@ -39,9 +40,18 @@ module tmafm_observers
 
    !> Gauss-Legendre points per piece, and pieces per period at least (for long flights).
    integer, parameter :: gl_points = 8, pieces_per_period = 16
+   !> Gauss-Legendre points per fixed step (its dense output is a cubic: 3 points integrate
+   !> the quadratic powers of it exactly to degree 5, beyond RK4's own O(h^4)).
+   integer, parameter :: hermite_points = 3
    !> Golden-section iterations of an extremum search (bracket shrinks by 0.618^k).
    integer, parameter :: golden_iterations = 64
    real(dp), parameter :: pi = acos(-1.0_dp)
+
+   !> A fixed step's end points and derivatives: its cubic Hermite dense output.
+   type :: hermite_t
+      !> State and derivative at the step start (0) and end (1).
+      real(dp), allocatable :: y0(:), f0(:), y1(:), f1(:)
+   end type hermite_t
 
    !> The observer of one run: settings, the current period's accumulators, and the results.
    type :: observer_t
@@ -71,7 +81,10 @@ module tmafm_observers
       integer :: contacts = 0
       !> Gauss-Legendre nodes and weights on [-1, 1]; state registers.
       real(dp) :: gl_x(gl_points) = 0, gl_w(gl_points) = 0
+      real(dp) :: gl3_x(hermite_points) = 0, gl3_w(hermite_points) = 0
       real(dp), allocatable :: y(:)
+      !> The fixed step being fed (rk4_paper).
+      type(hermite_t) :: cubic
       !> Results: values(period, column), the harmonics (period, k), Poincare points (2N, 0:periods).
       real(dp), allocatable :: values(:, :), harmonic_amplitude(:, :), harmonic_phase(:, :)
       real(dp), allocatable :: poincare(:, :)
@@ -82,6 +95,8 @@ module tmafm_observers
       procedure :: pair_step => observer_pair_step
       !> Feed a free flight [tau, tau + length] of the exact flight solution started at tau.
       procedure :: flight_segment => observer_flight_segment
+      !> Feed a fixed step [tau, tau + h] through its cubic Hermite interpolant (rk4_paper).
+      procedure :: hermite_step => observer_hermite_step
       !> Count a contact that starts at tau.
       procedure :: contact_start => observer_contact_start
    end type observer_t
@@ -119,7 +134,11 @@ contains
       self%n_periods = 0
       self%found_period = 0
       call gauss_legendre(gl_points, self%gl_x, self%gl_w)
-      if (allocated(self%y)) deallocate (self%y)
+      call gauss_legendre(hermite_points, self%gl3_x, self%gl3_w)
+      if (allocated(self%y)) deallocate (self%y, self%cubic%y0, self%cubic%f0, self%cubic%y1, &
+                                         self%cubic%f1)
+      allocate (self%cubic%y0(size(y0)), self%cubic%f0(size(y0)), self%cubic%y1(size(y0)), &
+                self%cubic%f1(size(y0)))
       if (allocated(self%acc_sin)) deallocate (self%acc_sin, self%acc_cos)
       if (allocated(self%values)) deallocate (self%values, self%harmonic_amplitude, &
                                                self%harmonic_phase, self%poincare)
@@ -167,6 +186,33 @@ contains
       call process(self, model, tau, tau + length, .false., tau, 1.0_dp, flight=flight)
    end subroutine observer_flight_segment
 
+   subroutine observer_hermite_step(self, model, tau, h, y0, f0, y1, f1, in_contact)
+      class(observer_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: h
+      real(dp), intent(in) :: y0(:)
+      real(dp), intent(in) :: f0(:)
+      real(dp), intent(in) :: y1(:)
+      real(dp), intent(in) :: f1(:)
+      logical, intent(in) :: in_contact
+      type(hermite_t) :: cubic
+      self%cubic%y0 = y0
+      self%cubic%f0 = f0
+      self%cubic%y1 = y1
+      self%cubic%f1 = f1
+      ! A copy keeps the argument apart from self (which process updates).
+      call move_alloc(self%cubic%y0, cubic%y0)
+      call move_alloc(self%cubic%f0, cubic%f0)
+      call move_alloc(self%cubic%y1, cubic%y1)
+      call move_alloc(self%cubic%f1, cubic%f1)
+      call process(self, model, tau, tau + h, in_contact, tau, h, cubic=cubic)
+      call move_alloc(cubic%y0, self%cubic%y0)
+      call move_alloc(cubic%f0, self%cubic%f0)
+      call move_alloc(cubic%y1, self%cubic%y1)
+      call move_alloc(cubic%f1, self%cubic%f1)
+   end subroutine observer_hermite_step
+
    subroutine observer_contact_start(self, tau)
       class(observer_t), intent(inout) :: self
       real(dp), intent(in) :: tau
@@ -176,7 +222,7 @@ contains
 
    !> The state at time t of the current source: the pair's dense output over the step
    !> [origin, origin + h], or the flight started at origin.
-   subroutine state_at(model, origin, h, t, y, pair, flight)
+   subroutine state_at(model, origin, h, t, y, pair, flight, cubic)
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: origin
       real(dp), intent(in) :: h
@@ -184,15 +230,18 @@ contains
       real(dp), intent(out) :: y(:)
       class(embedded_pair_t), intent(in), optional :: pair
       type(free_flight_t), intent(in), optional :: flight
+      type(hermite_t), intent(in), optional :: cubic
       if (present(pair)) then
          call pair%dense((t - origin)/h, y)
-      else
+      else if (present(flight)) then
          call flight%state(model, t - origin, y)
+      else
+         call hermite_cubic(cubic%y0, cubic%f0, cubic%y1, cubic%f1, h, (t - origin)/h, y)
       end if
    end subroutine state_at
 
    !> The function an extremum search minimises: V_T (kind 1) or minus the normal force (2).
-   subroutine target(model, kind, origin, h, t, y, value, pair, flight)
+   subroutine target(model, kind, origin, h, t, y, value, pair, flight, cubic)
       type(model_t), intent(in) :: model
       integer, intent(in) :: kind
       real(dp), intent(in) :: origin
@@ -202,8 +251,9 @@ contains
       real(dp), intent(out) :: value
       class(embedded_pair_t), intent(in), optional :: pair
       type(free_flight_t), intent(in), optional :: flight
+      type(hermite_t), intent(in), optional :: cubic
       type(contact_brackets_t) :: state
-      call state_at(model, origin, h, t, y, pair, flight)
+      call state_at(model, origin, h, t, y, pair, flight, cubic)
       if (kind == 1) then
          value = model%tip_gap(t, y)
       else
@@ -213,7 +263,7 @@ contains
    end subroutine target
 
    !> Golden-section minimum of target(kind) on [lo, hi]; value at the best point found.
-   subroutine golden_minimum(model, kind, origin, h, lo_in, hi_in, best, y, pair, flight)
+   subroutine golden_minimum(model, kind, origin, h, lo_in, hi_in, best, y, pair, flight, cubic)
       type(model_t), intent(in) :: model
       integer, intent(in) :: kind
       real(dp), intent(in) :: origin
@@ -224,6 +274,7 @@ contains
       real(dp), intent(inout) :: y(:)
       class(embedded_pair_t), intent(in), optional :: pair
       type(free_flight_t), intent(in), optional :: flight
+      type(hermite_t), intent(in), optional :: cubic
       real(dp), parameter :: g = (sqrt(5.0_dp) - 1)/2
       real(dp) :: lo, hi, x1, x2, f1, f2
       integer :: k
@@ -231,21 +282,21 @@ contains
       hi = hi_in
       x1 = hi - g*(hi - lo)
       x2 = lo + g*(hi - lo)
-      call target(model, kind, origin, h, x1, y, f1, pair, flight)
-      call target(model, kind, origin, h, x2, y, f2, pair, flight)
+      call target(model, kind, origin, h, x1, y, f1, pair, flight, cubic)
+      call target(model, kind, origin, h, x2, y, f2, pair, flight, cubic)
       do k = 1, golden_iterations
          if (f1 <= f2) then
             hi = x2
             x2 = x1
             f2 = f1
             x1 = hi - g*(hi - lo)
-            call target(model, kind, origin, h, x1, y, f1, pair, flight)
+            call target(model, kind, origin, h, x1, y, f1, pair, flight, cubic)
          else
             lo = x1
             x1 = x2
             f1 = f2
             x2 = lo + g*(hi - lo)
-            call target(model, kind, origin, h, x2, y, f2, pair, flight)
+            call target(model, kind, origin, h, x2, y, f2, pair, flight, cubic)
          end if
          if (hi - lo <= 4*epsilon(1.0_dp)*max(abs(lo), abs(hi))) exit
       end do
@@ -253,7 +304,7 @@ contains
    end subroutine golden_minimum
 
    !> Accumulate [t_start, t_end] (one phase), finishing every period whose end it reaches.
-   subroutine process(self, model, t_start, t_end, in_contact, origin, h, pair, flight)
+   subroutine process(self, model, t_start, t_end, in_contact, origin, h, pair, flight, cubic)
       class(observer_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: t_start
@@ -263,14 +314,15 @@ contains
       real(dp), intent(in) :: h
       class(embedded_pair_t), intent(in), optional :: pair
       type(free_flight_t), intent(in), optional :: flight
+      type(hermite_t), intent(in), optional :: cubic
       real(dp) :: a, b, boundary
       a = t_start
       do while (a < t_end .and. .not. self%done)
          boundary = (self%n_periods + 1)*self%period_length
          b = min(t_end, boundary, a + self%period_length/pieces_per_period)
-         if (b > a) call piece(self, model, a, b, in_contact, origin, h, pair, flight)
+         if (b > a) call piece(self, model, a, b, in_contact, origin, h, pair, flight, cubic)
          if (b >= boundary) then
-            call state_at(model, origin, h, boundary, self%y, pair, flight)
+            call state_at(model, origin, h, boundary, self%y, pair, flight, cubic)
             call finish_period(self)
          end if
          a = b
@@ -278,7 +330,7 @@ contains
    end subroutine process
 
    !> Gauss-Legendre sums over [a, b] in one phase, and the extrema located in it.
-   subroutine piece(self, model, a, b, in_contact, origin, h, pair, flight)
+   subroutine piece(self, model, a, b, in_contact, origin, h, pair, flight, cubic)
       class(observer_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: a
@@ -288,54 +340,74 @@ contains
       real(dp), intent(in) :: h
       class(embedded_pair_t), intent(in), optional :: pair
       type(free_flight_t), intent(in), optional :: flight
+      type(hermite_t), intent(in), optional :: cubic
       real(dp) :: t(0:gl_points + 1), gap(0:gl_points + 1), force(0:gl_points + 1)
-      real(dp) :: power(n_powers), energy, weight, half, mid, tip_u, best
+      real(dp) :: power(n_powers), energy, weight, half, mid, tip_u, best, s1, c1, sk, ck, next
+      real(dp) :: nodes(gl_points), weights(gl_points)
       type(contact_brackets_t) :: state
-      integer :: i, k, n, i_best
+      integer :: i, k, n, i_best, m
 
       n = self%n_state/2
       half = (b - a)/2
       mid = (a + b)/2
+      ! A fixed step's cubic needs fewer points than the pairs' higher-degree dense output.
+      if (present(cubic)) then
+         m = hermite_points
+         nodes(1:m) = self%gl3_x
+         weights(1:m) = self%gl3_w
+      else
+         m = gl_points
+         nodes(1:m) = self%gl_x
+         weights(1:m) = self%gl_w
+      end if
       t(0) = a
-      t(gl_points + 1) = b
-      t(1:gl_points) = mid + half*self%gl_x
+      t(m + 1) = b
+      t(1:m) = mid + half*nodes(1:m)
       force = 0
-      do i = 0, gl_points + 1
-         call state_at(model, origin, h, t(i), self%y, pair, flight)
+      do i = 0, m + 1
+         call state_at(model, origin, h, t(i), self%y, pair, flight, cubic)
          gap(i) = model%tip_gap(t(i), self%y)
          if (in_contact) then
             state = model%contact(t(i), self%y(1:n))
             force(i) = model%kappa5*state%normal
          end if
-         if (i == 0 .or. i == gl_points + 1) cycle
-         weight = half*self%gl_w(min(max(i, 1), gl_points))
+         if (i == 0 .or. i == m + 1) cycle
+         weight = half*weights(i)
          tip_u = gap(i) - model%scene%delta_hat
+         ! sin(k Omega t), cos(k Omega t) by the angle-addition recurrence.
+         s1 = sin(self%omega*t(i))
+         c1 = cos(self%omega*t(i))
+         sk = s1
+         ck = c1
          do k = 1, self%harmonics
-            self%acc_sin(k) = self%acc_sin(k) + weight*gap(i)*sin(k*self%omega*t(i))
-            self%acc_cos(k) = self%acc_cos(k) + weight*gap(i)*cos(k*self%omega*t(i))
+            self%acc_sin(k) = self%acc_sin(k) + weight*gap(i)*sk
+            self%acc_cos(k) = self%acc_cos(k) + weight*gap(i)*ck
+            next = sk*c1 + ck*s1
+            ck = ck*c1 - sk*s1
+            sk = next
          end do
-         self%acc_deflection = self%acc_deflection + weight*(tip_u - model%scene%alpha2*sin(self%omega*t(i)))
+         self%acc_deflection = self%acc_deflection + weight*(tip_u - model%scene%alpha2*s1)
          call model%energy_flow(t(i), self%y(1:n), self%y(n + 1:2*n), in_contact, power, energy)
          self%acc_powers = self%acc_powers + weight*power
          self%acc_virial = self%acc_virial + weight*force(i)*tip_u
       end do
       if (in_contact) self%acc_contact_time = self%acc_contact_time + (b - a)
 
-      i_best = minloc(gap, 1) - 1
+      i_best = minloc(gap(0:m + 1), 1) - 1
       best = gap(i_best)
       if (best < self%min_gap) then
-         if (i_best > 0 .and. i_best < gl_points + 1) &
+         if (i_best > 0 .and. i_best < m + 1) &
             call golden_minimum(model, 1, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
-                                pair, flight)
+                                pair, flight, cubic)
          self%min_gap = min(self%min_gap, best)
       end if
       if (in_contact) then
-         i_best = maxloc(force, 1) - 1
+         i_best = maxloc(force(0:m + 1), 1) - 1
          best = -force(i_best)
          if (-best > self%peak_force) then
-            if (i_best > 0 .and. i_best < gl_points + 1) &
+            if (i_best > 0 .and. i_best < m + 1) &
                call golden_minimum(model, 2, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
-                                   pair, flight)
+                                   pair, flight, cubic)
             self%peak_force = max(self%peak_force, -best)
          end if
       end if

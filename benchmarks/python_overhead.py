@@ -8,8 +8,10 @@
    (f90nml writes a temporary namelist, the core resolves it into a temporary folder, f90nml reads
    that back, and the core reads the input again to run it).
 2. Throughput on `--scenes` short scenes (Fig. 2 with varied drive amplitude and frequency,
-   tau_end = 20): 1 and 2 threads, 1 and 2 processes, wall time.  On a shared 2-core machine the
-   2-worker numbers depend on what else runs; the JSON records the load average.
+   tau_end = 20): 1 and 2 threads, 1 and 2 processes, wall time, and for threads the CPU seconds
+   this process used per wall second (above 1 only when two threads compute at once).  On a
+   shared 2-core machine the 2-worker numbers depend on what else runs; the JSON records the
+   load average.
 
 Writes benchmarks/python_overhead.json and .png next to this file.
 """
@@ -75,13 +77,17 @@ def _one(groups):
     return float(tmafm.run(groups).vt.min())
 
 
-def throughput(items, workers: int, pool_class) -> float:
-    """Scenes per second of wall time."""
+def throughput(items, workers: int, pool_class, busy: dict | None = None) -> float:
+    """Scenes per second of wall time.  For threads, `busy` gets this process's CPU seconds per
+    wall second: above 1 only if two threads computed at once (the GIL was released)."""
     with pool_class(max_workers=workers) as pool:
         list(pool.map(_one, items[:workers]))  # start-up (process spawn, imports) not timed
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         list(pool.map(_one, items))
-        return len(items) / (time.perf_counter() - start)
+        wall = time.perf_counter() - start
+        if busy is not None:
+            busy[f"threads_{workers}"] = round((time.process_time() - cpu) / wall, 3)
+        return len(items) / wall
 
 
 def main(argv=None) -> dict:
@@ -100,9 +106,10 @@ def main(argv=None) -> dict:
     }
     counters = config.run().counters
     items = scenes(args.scenes)
+    busy: dict = {}
     rates = {
-        "threads_1": throughput(items, 1, ThreadPoolExecutor),
-        "threads_2": throughput(items, 2, ThreadPoolExecutor),
+        "threads_1": throughput(items, 1, ThreadPoolExecutor, busy),
+        "threads_2": throughput(items, 2, ThreadPoolExecutor, busy),
         "processes_1": throughput(items, 1, ProcessPoolExecutor),
         "processes_2": throughput(items, 2, ProcessPoolExecutor),
     }
@@ -113,6 +120,7 @@ def main(argv=None) -> dict:
                        "cpu_ms_per_call": {k: round(v * 1e3, 4) for k, v in fixed.items()}},
         "throughput": {"scenes": args.scenes, "tau_end": 20.0,
                        "scenes_per_s": {k: round(v, 2) for k, v in rates.items()},
+                       "cpu_seconds_per_wall_second": busy,
                        "speedup_2_threads": round(rates["threads_2"] / rates["threads_1"], 3),
                        "speedup_2_processes": round(rates["processes_2"] / rates["processes_1"], 3)},
     }

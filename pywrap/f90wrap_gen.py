@@ -13,8 +13,10 @@ import subprocess
 import sys
 from pathlib import Path
 
-#: Wrapped routines that run without the GIL (they touch no Python object).
-THREADSAFE = ("f90wrap_tmafm_api__run_config",)
+#: Wrapped routines that run without the GIL (they touch no Python object; choosing N in
+#: config_from_text runs the comparison runs).
+THREADSAFE = ("f90wrap_tmafm_api__run_config", "f90wrap_tmafm_api__config_from_text",
+              "f90wrap_tmafm_api__config_from_texts", "f90wrap_tmafm_api__trajectory_energy_flow")
 #: Core entities that Python never calls (the integrators' own helpers).
 SKIP = ["check_blowup", "init_trajectory", "scene_from_physical", "errata_for_convention", "parse_errata",
         "errata_label", "contact_angle", "contact_radius", "normal_force_group", "friction_group",
@@ -28,7 +30,7 @@ def mark_threadsafe(path: Path) -> None:
     for line in lines:
         out.append(line)
         stripped = line.strip().lower()
-        if stripped.startswith("subroutine ") and any(name in stripped for name in THREADSAFE):
+        if stripped.startswith("subroutine ") and stripped.split("(")[0].split()[-1] in THREADSAFE:
             pending = True
         elif pending and stripped == "implicit none":
             out.append("    !f2py threadsafe\n")

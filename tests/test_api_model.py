@@ -162,3 +162,16 @@ def test_model_from_config_and_overrides_agree():
 def test_wrong_shapes_are_input_errors(call):
     with pytest.raises(tmafm.InputError, match="shape"):
         call(_model())
+
+
+@pytest.mark.parametrize("call,match", [
+    (lambda m: m.derivative("soon", np.zeros(8), False), "tau"),
+    (lambda m: m.derivative(float("nan"), np.zeros(8), False), "tau"),
+    (lambda m: m.derivative(0.0, ["a"] * 8, False), "numbers"),
+    (lambda m: m.contact(None, np.zeros(4)), "tau"),
+    (lambda m: m.trajectory_energy_flow(np.zeros((2, 2)), np.zeros((4, 4)), np.zeros((4, 4)),
+                                        np.zeros(4)), "samples"),
+])
+def test_bad_arguments_are_input_errors(call, match):
+    with pytest.raises(tmafm.InputError, match=match):
+        call(_model())

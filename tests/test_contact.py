@@ -1,4 +1,4 @@
-"""Contact kinematics and forces (spec section 4)."""
+"""Contact kinematics and forces (docs/model.md §6)."""
 
 import math
 

@@ -1,5 +1,5 @@
 """The two conventions differ exactly in the errata terms, each tested on its own
-(spec section 7).  Every check compares the explicit M, C, K, F of Eq. (15) built with one
+(docs/model.md §8).  Every check compares the explicit M, C, K, F of Eq. (15) built with one
 correction against the printed forms, and requires every other term to be identical."""
 
 import math

@@ -1,4 +1,4 @@
-"""Galerkin quantities (spec section 3) and the end-mass eigenfrequency check."""
+"""Galerkin quantities (docs/model.md §5) and the end-mass eigenfrequency check."""
 
 import numpy as np
 import pytest

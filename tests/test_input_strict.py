@@ -148,3 +148,16 @@ def test_values_spanning_lines_repeats_and_exponents(tmp_path, run_exe):
     proc = run_exe(path, "-q")
     assert proc.returncode == 0, proc.stderr
     assert "#     a0 = 1.5E-004, 0.0E+000, 0.0E+000, -2.0E-005" in (tmp_path / "o.dat").read_text()
+
+
+@pytest.mark.parametrize("text, words", [
+    ("&initial a0 = " + "0 " * 400000 + "/\n", ["&initial a0 = 0 0 0", "...: takes at most 30 values"]),
+    ("&output file = '" + "x" * 900000 + "' /\n", ["&output file = 'xxx", "is 900000 characters long"]),
+])
+def test_large_inputs_end_in_one_short_line(tmp_path, run_exe, text, words):
+    """Inputs near the 1 MiB limit are parsed in linear time; the message quotes their start."""
+    proc = run_exe(write_input(tmp_path, text))
+    assert proc.returncode == INPUT_ERROR
+    assert proc.stderr.count("\n") == 1 and len(proc.stderr) < 400, proc.stderr[:400]
+    for word in words:
+        assert word in proc.stderr

@@ -1,4 +1,4 @@
-"""The paper's integrator rk4_paper (spec section 6): order, step-for-step agreement with an
+"""The paper's integrator rk4_paper (docs/model.md §9): order, step-for-step agreement with an
 independent implementation, and the stability limit."""
 
 import math
@@ -75,7 +75,7 @@ def blowup_input(tmp_path):
 
 
 def test_past_stability_limit_blows_up_from_python(tmp_path):
-    """beta_14^2 ~ 1.79e3 gives dtau * omega_max ~ 3.6 > 2.83 (spec section 6)."""
+    """beta_14^2 ~ 1.79e3 gives dtau * omega_max ~ 3.6 > 2.83 (docs/model.md §9)."""
     with pytest.raises(tmafm.BlowUpError, match="blow-up at tau"):
         tmafm.run(blowup_input(tmp_path))
 
@@ -91,7 +91,7 @@ def test_past_stability_limit_blows_up_from_executable(tmp_path, run_exe):
 
 
 def test_thirteen_modes_fail_and_twelve_run(tmp_path):
-    """The stability edge of spec section 6: 2 sqrt(2)/omega_max(N) < 2e-3 from N = 13 on."""
+    """The stability edge of docs/model.md §9: 2 sqrt(2)/omega_max(N) < 2e-3 from N = 13 on."""
     for n, stable in ((12, True), (13, False)):
         groups = dict(model={"n_modes": n}, initial={"a0": [0.0] * n}, solver={"tau_end": 20.0})
         if stable:

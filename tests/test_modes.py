@@ -1,4 +1,4 @@
-"""Cantilever modes (spec section 2): roots, normalisation, boundary values, orthogonality,
+"""Cantilever modes (docs/model.md §4): roots, normalisation, boundary values, orthogonality,
 and accuracy against an extended-precision evaluation."""
 
 import mpmath

@@ -142,6 +142,11 @@ def test_classifier_on_synthetic_sequences():
     decaying = np.array([fixed + 0.5 ** n * np.array([1.0, 1.0]) for n in range(40)])
     assert steady_period(decaying[:12], tol=1e-6) == 0      # still a transient (0.5^11 > 1e-6)
     assert steady_period(decaying[:40], tol=1e-6) == 1      # 0.5^36 < 2e-6
+    # A decaying flip transient, P_n = P + (-0.9)^n v, repeats every 2 periods (within tol)
+    # from n ~ 111 on, every period only from n ~ 132: it is never period 2.
+    flip = np.array([fixed + (-0.9) ** n * np.array([1.0, 0.5]) for n in range(140)])
+    assert steady_period(flip[:120], tol=1e-6) == 0
+    assert steady_period(flip, tol=1e-6) == 1
     assert steady_period(rng.standard_normal((30, 3)), tol=1e-6) == 0
     assert steady_period(two[:4], repeats=3) == 0           # too short to confirm p = 2
 

@@ -94,3 +94,26 @@ def test_format_and_name_must_agree(tmp_path, run_exe, fmt, name):
     assert proc.returncode == 2
     assert proc.stderr.count("tmafm: error:") == 1 and ".npz" in proc.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in.nml"]
+
+
+def es25(value: float) -> str:
+    """Fortran's es25.16e3 for a double, from Python's correctly rounded %.16E."""
+    mantissa, exponent = f"{value:.16E}".split("E")
+    return f"{mantissa}E{exponent[0]}{int(exponent[1:]):03d}".rjust(25)
+
+
+def test_text_digits_are_correctly_rounded(tmp_path, run_exe):
+    """Every real in the text is the correctly rounded 17-digit es25.16e3 of its double."""
+    path = write_nml(tmp_path / "in.nml", base=INPUTS / "fig2_n4.nml",
+                     initial={"a0": [1e-200, -3.3e-17, 0.0, 2.5e-3], "adot0": [-0.0, 7e-250, 1.0, -1e-5]},
+                     solver={"tau_end": 20.0, "method": "dopri5"}, output={"file": "out.dat"})
+    assert run_exe(path, "-q").returncode == 0
+    rows = [line for line in (tmp_path / "out.dat").read_text().splitlines() if not line.startswith("#")]
+    checked = 0
+    for row in rows:
+        fields = [row[i:i + 25] for i in range(0, 75, 25)] + [row[i:i + 25] for i in range(78, len(row), 25)]
+        for field in fields:
+            assert field == es25(float(field)), field
+            checked += 1
+    assert checked == len(rows) * 11
+    assert rows[0][78:178] == es25(1e-200) + es25(-3.3e-17) + es25(0.0) + es25(2.5e-3)

@@ -1,4 +1,4 @@
-"""Physical inputs to dimensionless groups (spec section 1, paper Eq. (12), (24))."""
+"""Physical inputs to dimensionless groups (docs/model.md §2, paper Eq. (12), (24))."""
 
 import math
 

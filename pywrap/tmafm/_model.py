@@ -34,10 +34,23 @@ class ContactState(NamedTuple):
 
 
 def _vector(name: str, value, size: int) -> np.ndarray:
-    array = np.ascontiguousarray(value, dtype=np.float64)
+    try:
+        array = np.ascontiguousarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{name} must be {size} numbers: {exc}") from exc
     if array.shape != (size,):
         raise InputError(f"{name} must have shape ({size},), got {array.shape}")
     return array
+
+
+def _time(tau) -> float:
+    try:
+        value = float(tau)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"tau must be a number, got {tau!r}") from exc
+    if not np.isfinite(value):
+        raise InputError(f"tau = {tau!r}: must be finite")
+    return value
 
 
 class Model:
@@ -81,7 +94,7 @@ class Model:
         n = self.n_modes
         y = _vector("y", y, 2 * n)
         rate = np.zeros(2 * n)
-        self._f.derivative(float(tau), y, bool(in_contact), rate)
+        self._f.derivative(_time(tau), y, bool(in_contact), rate)
         return rate
 
     def matrices(self, tau: float, a, in_contact: bool):
@@ -90,15 +103,15 @@ class Model:
         a = _vector("a", a, n)
         mass, damping, stiffness = (np.zeros((n, n), order="F") for _ in range(3))
         force = np.zeros(n)
-        self._f.matrices(float(tau), a, bool(in_contact), mass, damping, stiffness, force)
+        self._f.matrices(_time(tau), a, bool(in_contact), mass, damping, stiffness, force)
         return mass, damping, stiffness, force
 
     def contact(self, tau: float, a) -> ContactState:
         """V_T and the contact state (theta1, radius A, f_c, h, P1, P2) at displacements a."""
         n = self.n_modes
         a = _vector("a", a, n)
-        vt = float(self._f.tip_gap(float(tau), a))
-        s = self._f.contact(float(tau), a)
+        vt = float(self._f.tip_gap(_time(tau), a))
+        s = self._f.contact(_time(tau), a)
         return ContactState(vt, float(s.theta1), float(s.radius), float(s.normal),
                             float(s.friction), float(s.transverse), float(s.axial))
 
@@ -108,19 +121,23 @@ class Model:
         a = _vector("a", a, n)
         adot = _vector("adot", adot, n)
         power = np.zeros(len(POWER_NAMES))
-        energy = self._f.energy_flow(float(tau), a, adot, bool(in_contact), power)
+        energy = self._f.energy_flow(_time(tau), a, adot, bool(in_contact), power)
         out = dict(zip(POWER_NAMES, map(float, power)))
         out["energy"] = float(energy)
         return out
 
     def trajectory_energy_flow(self, tau, a, adot, contact):
         """Along samples: (powers samples x 5, energy, contact state samples x 6)."""
-        tau = np.ascontiguousarray(tau, dtype=np.float64)
+        try:
+            tau = np.ascontiguousarray(tau, dtype=np.float64)
+            a = np.asfortranarray(a, dtype=np.float64)
+            adot = np.asfortranarray(adot, dtype=np.float64)
+            contact = np.ascontiguousarray(contact, dtype=np.int32)
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"tau, a, adot and contact must be numeric arrays: {exc}") from exc
         k = tau.size
-        a = np.asfortranarray(a, dtype=np.float64)
-        adot = np.asfortranarray(adot, dtype=np.float64)
-        contact = np.ascontiguousarray(contact, dtype=np.int32)
-        if a.shape != (k, self.n_modes) or adot.shape != a.shape or contact.shape != (k,):
+        if tau.ndim != 1 or a.shape != (k, self.n_modes) or adot.shape != a.shape \
+                or contact.shape != (k,):
             raise InputError(f"a and adot must be samples x N = ({k}, {self.n_modes}), and "
                              f"contact of length {k}")
         power = np.zeros((k, len(POWER_NAMES)), order="F")

@@ -63,9 +63,9 @@ def _real_text(where: str, value) -> str:
     return repr(number)
 
 
-def _value_text(group: str, key: str, value) -> str:
+def _value_text(group: str, key: str, value, what: str) -> str:
     """The namelist text of one value, after the type checks."""
-    where = f"&{group} {key}"
+    where = f"{what}: &{group} {key}"
     kind = KEY_TYPES.get(group, {}).get(key)
     if value is None:
         raise InputError(f"{where} = None: give a value (or leave the key out for its default)")
@@ -137,14 +137,15 @@ def merge(base: Mapping, overrides: Mapping) -> dict:
     return merged
 
 
-def to_text(groups: Mapping) -> str:
-    """Namelist text of checked groups; raises InputError naming the group and key of a bad value."""
+def to_text(groups: Mapping, what: str = "<dict input>") -> str:
+    """Namelist text of checked groups; raises InputError naming the input (`what`), the group
+    and the key of a bad value."""
     lines = []
     for group in GROUPS:
         if group not in groups:
             continue
         lines.append(f"&{group}")
         for key, value in groups[group].items():
-            lines.append(f"    {key} = {_value_text(group, key, value)}")
+            lines.append(f"    {key} = {_value_text(group, key, value, what)}")
         lines.append("/")
     return "\n".join(lines) + "\n"

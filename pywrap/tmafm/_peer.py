@@ -5,7 +5,7 @@ This is deliberately what a Python user would write, and it exists only to be me
 against (benchmarks, work-precision chart).  Like the independent reference in
 ``tests/reference``, it is a second implementation on purpose: it takes the Galerkin
 constants from the core (``_core.model_data``) but writes the contact law and the
-equations of motion (spec sections 4-5) again, in numpy.
+equations of motion (docs/model.md §6-7) again, in numpy.
 """
 
 from __future__ import annotations

@@ -70,32 +70,29 @@ def _check_known(groups: Mapping, what: str) -> None:
                                  f"{', '.join(KEY_TYPES[group])})")
 
 
-def _source(nml, overrides: Mapping) -> tuple[str, str]:
-    """(namelist text, label for messages) of any accepted input."""
+def _source(nml, overrides: Mapping) -> tuple[str, str, str | None]:
+    """(namelist text, label for messages, override text or None) of any accepted input.
+
+    A text base (a file or a Config) keeps its own text; the core patches it with the
+    override text key by key (tmafm_api config_from_texts), so no Python namelist parser runs.
+    """
+    override_text = None
     if overrides:
-        overrides = check_groups(overrides, f"override {dict(overrides)!r}")
-        _check_known(overrides, f"override {dict(overrides)!r}")
+        what = f"override {dict(overrides)!r}"
+        overrides = check_groups(overrides, what)
+        _check_known(overrides, what)
+        override_text = to_text(overrides, what)
     if isinstance(nml, Config):
-        if not overrides:
-            return nml.text, nml.label
-        return to_text(merge(check_groups(nml.to_dict()), overrides)), f"{nml.label} + overrides"
+        return nml.text, nml.label, override_text
     if isinstance(nml, (str, os.PathLike)):
         path = _input_path(nml)
-        text = _read_text(path)
-        if not overrides:
-            return text, str(path)
-        try:
-            base = f90nml.reads(text).todict()
-        except Exception as exc:  # f90nml raises assorted errors on malformed text
-            raise InputError(f"{path}: cannot parse namelist: {exc}") from exc
-        base = {g: dict(v) for g, v in base.items() if not g.startswith("_")}
-        return to_text(merge(check_groups(base, str(path)), overrides)), f"{path} + overrides"
+        return _read_text(path), str(path), override_text
     if isinstance(nml, Mapping):
         groups = check_groups(nml, "<dict input>")
         _check_known(groups, "<dict input>")
-        return to_text(merge(groups, overrides)), "<dict input>"
+        return to_text(merge(groups, overrides or {})), "<dict input>", None
     raise InputTypeError(f"nml must be a path, a packaged input name, a dict of groups or a Config, "
-                     f"not {type(nml).__name__}")
+                         f"not {type(nml).__name__}")
 
 
 class Config:
@@ -107,9 +104,14 @@ class Config:
     """
 
     def __init__(self, nml: NamelistLike = None, **overrides):
-        text, self.label = _source({} if nml is None else nml, overrides)
-        handle, ierr, errmsg = _api.config_from_text(text, self.label)
+        text, label, override_text = _source({} if nml is None else nml, overrides)
+        if override_text is None:
+            handle, ierr, errmsg = _api.config_from_text(text, label)
+        else:
+            label = f"{label} + overrides"
+            handle, ierr, errmsg = _api.config_from_texts(text, label[:-12], override_text, label)
         raise_for(ierr, errmsg)
+        self.label = label
         self._f = handle
         self._text = None
         self._scene = None
@@ -169,9 +171,13 @@ class Config:
         if max_switches is not None and n_switches > max_switches:
             raise SolverError(f"the run changed phase {n_switches} times, more than "
                               f"max_switches = {max_switches}")
-        tau, vt, vtdot = (np.empty(n_samples) for _ in range(3))
-        contact = np.empty(n_samples, dtype=np.int32)
-        a, adot = (np.empty((n_samples, n_modes), order="F") for _ in range(2))
+        try:
+            tau, vt, vtdot = (np.empty(n_samples) for _ in range(3))
+            contact = np.empty(n_samples, dtype=np.int32)
+            a, adot = (np.empty((n_samples, n_modes), order="F") for _ in range(2))
+        except MemoryError as exc:
+            raise SolverError(f"not enough memory to return {n_samples} samples of N = {n_modes} "
+                              f"modes: raise &output sample_dtau") from exc
         _api.run_samples(handle, tau, vt, vtdot, contact, a, adot)
         switches = np.empty(n_switches)
         _api.run_switches(handle, switches)
@@ -326,11 +332,14 @@ class _NamelistFile:
         config = nml if isinstance(nml, Config) and not overrides else Config(
             copy.deepcopy(nml) if isinstance(nml, Mapping) else nml, **(overrides or {}))
         self.label = config.label
-        handle = tempfile.NamedTemporaryFile("w", suffix=".nml", delete=False)
-        self._temporary = handle.name
-        with handle:
-            handle.write(config.text)
-        self.path = handle.name
+        fd, self.path = tempfile.mkstemp(suffix=".nml")
+        try:
+            with os.fdopen(fd, "w") as handle:
+                handle.write(config.text)
+        except BaseException:
+            os.unlink(self.path)
+            raise
+        self._temporary = self.path
 
     def check(self, ierr, errmsg) -> None:
         """Raise for a core error, naming the user's input rather than a temporary file."""

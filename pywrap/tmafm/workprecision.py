@@ -4,6 +4,7 @@ a numpy right-hand side (the peer a Python user would write).
 
     python -m tmafm.workprecision --out benchmarks            # full study (minutes)
     python -m tmafm.workprecision --out /tmp/wp --quick       # one scene, fewer points
+                                                              # (never into the committed folder)
     python -m tmafm.workprecision --summarize benchmarks/work_precision.json
 
 Writes work_precision.json and work_precision.png.  The reference of each scene is
@@ -35,6 +36,7 @@ TMAFM_SWEEPS = {
     "rk4_paper": ("dtau", [1.6e-2, 8e-3, 4e-3, 2e-3, 1e-3, 5e-4, 2.5e-4]),
     "rk4_event": ("dtau", [1.6e-2, 8e-3, 4e-3, 2e-3, 1e-3, 5e-4, 2.5e-4]),
     "dopri5": ("rtol", [1e-2, 1e-3, 1e-4, 1e-6, 1e-8, 1e-10, 1e-12]),
+    "dop853": ("rtol", [1e-2, 1e-3, 1e-4, 1e-6, 1e-8, 1e-10, 1e-12]),
     "flight_exact": ("rtol", [1e-2, 1e-3, 1e-4, 1e-6, 1e-8, 1e-10, 1e-12]),
 }
 SCIPY_SWEEPS = {
@@ -164,7 +166,8 @@ def _equal_error(methods: dict) -> dict:
 
 
 STYLE = {"rk4_paper": ("tab:red", "o", "-"), "rk4_event": ("tab:orange", "s", "-"),
-         "dopri5": ("tab:blue", "^", "-"), "flight_exact": ("tab:green", "D", "-"),
+         "dopri5": ("tab:blue", "^", "-"), "dop853": ("tab:cyan", "v", "-"),
+         "flight_exact": ("tab:green", "D", "-"),
          "scipy_RK45": ("tab:gray", "v", "--"), "scipy_DOP853": ("black", "P", "--"),
          "scipy_Radau": ("tab:purple", "x", "--"), "scipy_LSODA": ("tab:brown", "*", "--")}
 
@@ -176,8 +179,23 @@ def plot(report: dict, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     rows = list(report["scenes"].items())
-    fig, axes = plt.subplots(len(rows), 2, figsize=(11, 3.4 * len(rows)), squeeze=False)
-    for (key, entry), (ax_t, ax_f) in zip(rows, axes):
+    fig, axes = plt.subplots(len(rows), 3, figsize=(16, 3.4 * len(rows)), squeeze=False)
+    for (key, entry), (ax_t, ax_f, ax_tol) in zip(rows, axes):
+        # What the tolerance means: the V_T error each rtol buys (atol = 1e-6 rtol).
+        for name in ("dopri5", "dop853", "flight_exact"):
+            ok = [p for p in entry["methods"].get(name, []) if "error" in p and p["error"] > 0]
+            if ok:
+                color, marker, line = STYLE[name]
+                ax_tol.loglog([p["rtol"] for p in ok], [p["error"] for p in ok], line, color=color,
+                              marker=marker, label=name)
+        span = [1e-12, 1e-2]
+        ax_tol.loglog(span, span, ":", color="0.5", label="error = rtol")
+        ax_tol.loglog(span, [1e-3 * x for x in span], "--", color="0.7", label="error = 1e-3 rtol")
+        ax_tol.set_xlabel("rtol (atol = 1e-6 rtol)")
+        ax_tol.set_ylabel("max |V_T error| (gap units)")
+        ax_tol.set_title(f"{key}: V_T error against the tolerance")
+        ax_tol.grid(True, which="both", alpha=0.3)
+        ax_tol.legend(fontsize=7)
         for name, points in entry["methods"].items():
             ok = [p for p in points if "error" in p and p["error"] > 0]
             if not ok:
@@ -211,11 +229,15 @@ def main(argv=None) -> None:
     if args.summarize:
         print(json.dumps(summarize(json.loads(args.summarize.read_text())), indent=1))
         return
+    if args.quick and (args.out / "work_precision.json").exists() and not (args.out / ".quick").exists():
+        parser.error(f"--quick would overwrite the full results in {args.out}: pass another --out")
     scenes = {"fig2": SCENES["fig2"]} if args.quick else SCENES
     conventions = ("paper",) if args.quick else ("paper", "consistent")
     report = study(args.inputs, scenes, conventions, tau_end=args.tau_end, repeat=1 if args.quick else 3)
     report["summary"] = summarize(report)
     args.out.mkdir(parents=True, exist_ok=True)
+    if args.quick:
+        (args.out / ".quick").write_text("this folder holds a --quick run\n")
     (args.out / "work_precision.json").write_text(json.dumps(report, indent=1))
     plot(report, args.out / "work_precision.png")
     print(json.dumps(report["summary"], indent=1))

@@ -314,7 +314,29 @@ def write_errors() -> None:
     print(f"wrote {HERE / 'analysis_errors.json'}")
 
 
+def summarize_errors() -> None:
+    """Print, per method, the largest method error estimate and BLAS spread of V_T and a
+    (from errors.npz), and how many analysis classifications are well conditioned."""
+    errors = np.load(HERE / "errors.npz")
+    methods = {"rk4_paper": [c for c in CASES if not c.endswith("flight_exact")],
+               "flight_exact": [c for c in CASES if c.endswith("flight_exact")]}
+    for method, cases in methods.items():
+        for key in ("vt", "a"):
+            m = max(float(errors[f"{c}/{key}/method"].max()) for c in cases)
+            b = max(float(errors[f"{c}/{key}/blas"].max()) for c in cases)
+            print(f"{method:13s} {key:3s} method error <= {m:.1e}   BLAS spread <= {b:.1e}   ({len(cases)} cases)")
+    table = json.loads((HERE / "analysis_errors.json").read_text())
+    for method in ANALYSIS_METHODS:
+        rel = [abs(v) / abs(old) for key, t in table.items() if key.endswith(method)
+               for path, old in _leaves(json.loads((HERE / "analysis.json").read_text())[key])
+               for v in [t["blas"].get(path, 0.0)] if isinstance(old, float) and old]
+        print(f"analysis {method}: largest relative BLAS spread {max(rel):.1e}")
+
+
 def main() -> None:
+    if sys.argv[1:] == ["--summary"]:
+        summarize_errors()
+        return
     if sys.argv[1:2] == ["--dump"]:
         Path(sys.argv[2]).write_bytes(pickle.dumps(dump_all()))
         return

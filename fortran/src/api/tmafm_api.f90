@@ -15,10 +15,11 @@ module tmafm_api
    use tmafm_trajectory, only: trajectory_t
    use tmafm_simulation, only: build_model, simulate, choose_mode_count
    use tmafm_namelist, only: read_config_text, config_text
+   use tmafm_nml_syntax, only: nml_document_t, parse_namelist, entry_text
    implicit none
    private
 
-   public :: api_errmsg_len, run_t, config_from_text, config_sample_count, config_text_length, &
+   public :: api_errmsg_len, run_t, config_from_text, config_from_texts, config_sample_count, config_text_length, &
       config_text_codes, model_of_config, run_config, run_sizes, run_samples, run_switches, &
       run_counters, trajectory_energy_flow
 
@@ -43,6 +44,65 @@ contains
       call read_config_text(text, source_label, config, ierr, errmsg)
       if (ierr == ok) call choose_mode_count(config, ierr, errmsg)
    end subroutine config_from_text
+
+   !> A configuration from a base text patched key by key by an override text: both are parsed
+   !> for syntax (messages name base_label or '<overrides>'), entries of the base that an override
+   !> sets are dropped, and the merged text is read as one input named `source_label`.
+   subroutine config_from_texts(base_text, base_label, override_text, source_label, config, &
+                                ierr, errmsg)
+      character(len=*), intent(in) :: base_text
+      character(len=*), intent(in) :: base_label
+      character(len=*), intent(in) :: override_text
+      character(len=*), intent(in) :: source_label
+      type(config_t), intent(out) :: config
+      integer, intent(out) :: ierr
+      character(len=api_errmsg_len), intent(out) :: errmsg
+      type(nml_document_t) :: base, over
+      character(len=:), allocatable :: merged
+      logical, allocatable :: used(:)
+      integer :: g, h, e, k
+      character(len=*), parameter :: nl = new_line('a')
+
+      call parse_namelist(base_text, base_label, base, ierr, errmsg)
+      if (ierr /= ok) return
+      call parse_namelist(override_text, '<overrides>', over, ierr, errmsg)
+      if (ierr /= ok) return
+      allocate (used(over%n_groups), source=.false.)
+      merged = ''
+      do g = 1, base%n_groups
+         associate (group => base%groups(g))
+            h = 0
+            do k = 1, over%n_groups
+               if (over%groups(k)%name == group%name) h = k
+            end do
+            merged = merged//'&'//group%name//nl
+            do e = 1, group%n_entries
+               if (h > 0) then
+                  if (any([(over%groups(h)%entries(k)%key == group%entries(e)%key, &
+                            k = 1, over%groups(h)%n_entries)])) cycle
+               end if
+               merged = merged//'    '//entry_text(group%entries(e))//nl
+            end do
+            if (h > 0) then
+               used(h) = .true.
+               do k = 1, over%groups(h)%n_entries
+                  merged = merged//'    '//entry_text(over%groups(h)%entries(k))//nl
+               end do
+            end if
+            merged = merged//'/'//nl
+         end associate
+      end do
+      do h = 1, over%n_groups
+         if (used(h)) cycle
+         merged = merged//'&'//over%groups(h)%name//nl
+         do k = 1, over%groups(h)%n_entries
+            merged = merged//'    '//entry_text(over%groups(h)%entries(k))//nl
+         end do
+         merged = merged//'/'//nl
+      end do
+      call read_config_text(merged, source_label, config, ierr, errmsg)
+      if (ierr == ok) call choose_mode_count(config, ierr, errmsg)
+   end subroutine config_from_texts
 
    !> Number of output samples of a configuration's run.
    function config_sample_count(config) result(n)

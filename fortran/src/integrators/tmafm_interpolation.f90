@@ -1,4 +1,4 @@
-!> Dense output between step points: the cubic Hermite interpolant of spec section 6.
+!> Dense output between step points: the cubic Hermite interpolant of docs/model.md §9.
 module tmafm_interpolation
    use tmafm_kinds, only: dp
    implicit none

@@ -25,6 +25,10 @@ module tmafm_method_adaptive
 
    public :: run_adaptive, adaptive_state_t, pair_dopri5, pair_dop853
 
+   !> In contact, the next step ends at most this multiple of the linear estimate of the time
+   !> left to the exit (V_T = 0): just past the kink of the contact force, not far across it.
+   real(dp), parameter :: exit_reach = 1.1_dp
+
    !> Which embedded pair an adaptive state uses.
    integer, parameter :: pair_dopri5 = 1, pair_dop853 = 2
 
@@ -233,6 +237,11 @@ contains
             call self%scale%update(y)
             call progress%update(tau, settings%tau_end)
             if (status == no_event) then
+               ! In contact the force has a kink where V_T crosses zero: a trial step far
+               ! across it fails the error test again and again.  Aim the next step just past
+               ! the crossing that G and its rate predict.
+               if (self%in_contact .and. side*rate1 < 0) &
+                  self%h = min(self%h, exit_reach*(side*vt1 + margin0)/(-side*rate1))
                ! The step end is the next start: carry f, V_T, its rate and the margin.
                f0 = f_new
                vt0 = vt1

@@ -1,8 +1,8 @@
 !> `flight_exact`: out of contact the state is propagated by the exact modal solution
 !> (tmafm_flight), and the next contact is the first root of V_T on that closed form; only
 !> the contact phases are integrated numerically, by the adaptive pair `contact_pair`.
-!> The first-contact scan of one flight is bounded inside tmafm_flight; its evaluations are
-!> then charged to &solver max_steps.
+!> Each flight and its scan points are charged to &solver max_steps (one scan is itself
+!> bounded by tmafm_flight).
 module tmafm_method_flight
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok
@@ -57,8 +57,7 @@ contains
          associate (tau => contact%tau, y => contact%y)
             call flight%start(model, tau, y)
             evaluations = 0
-            call flight%first_contact(model, horizon - tau, found, s_contact, evaluations, ierr, &
-                                      errmsg)
+            call flight%first_contact(model, horizon - tau, found, s_contact, evaluations, ierr, errmsg)
             if (ierr /= ok) return
             ! Closed-form evaluations of V_T cost O(N); count them as right-hand sides, and
             ! charge them (and the flight itself) to the step budget.

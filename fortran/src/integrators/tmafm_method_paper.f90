@@ -1,4 +1,4 @@
-!> The paper's scheme `rk4_paper`, spec section 6: classical RK4 with step dtau out of
+!> The paper's scheme `rk4_paper`, docs/model.md §9: classical RK4 with step dtau out of
 !> contact and dtau/contact_refine in contact, the phase decided from V_T <= 0 at each step
 !> start and frozen over the step, no switch location, cubic Hermite output.
 module tmafm_method_paper

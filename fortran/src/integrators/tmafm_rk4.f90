@@ -1,4 +1,4 @@
-!> The classical fourth-order Runge-Kutta step, spec section 6, paper Sec. 2 ("a Fortran
+!> The classical fourth-order Runge-Kutta step, docs/model.md §9, paper Sec. 2 ("a Fortran
 !> program of the fourth-order Runge-Kutta integration").
 !>
 !> The phase (contact or free) is an argument: it is frozen for all four stages, as the

@@ -163,7 +163,7 @@ contains
       contact_law = trim(config%contact_law)
       convention = trim(config%convention)
       errata = trim(config%errata)
-      call check_repeats(p, g, ierr, errmsg)
+      ierr = ok
       do k = 1, g%n_entries
          if (ierr /= ok) return
          associate (e => g%entries(k))
@@ -204,6 +204,7 @@ contains
             end select
          end associate
       end do
+      if (ierr == ok) call check_repeats(p, g, ierr, errmsg)
       if (ierr /= ok) return
       if (lower(trim(adjustl(errata))) == 'convention') then
          parsed = errata_for_convention(convention)
@@ -229,7 +230,7 @@ contains
       integer :: k, j
 
       values = scene_values(config%scene)
-      call check_repeats(p, g, ierr, errmsg)
+      ierr = ok
       do k = 1, g%n_entries
          if (ierr /= ok) return
          associate (e => g%entries(k))
@@ -243,6 +244,7 @@ contains
             end if
          end associate
       end do
+      if (ierr == ok) call check_repeats(p, g, ierr, errmsg)
       if (ierr /= ok) return
       config%scene = scene_t(values(1), values(2), values(3), values(4), values(5), values(6), &
                              values(7), values(8), values(9), values(10), values(11), values(12), &
@@ -270,7 +272,7 @@ contains
       type(nml_entry_t) :: fixed
 
       v = physical_values(config%physical)
-      call check_repeats(p, g, ierr, errmsg)
+      ierr = ok
       do k = 1, g%n_entries
          if (ierr /= ok) return
          associate (e => g%entries(k))
@@ -283,6 +285,7 @@ contains
             end if
          end associate
       end do
+      if (ierr == ok) call check_repeats(p, g, ierr, errmsg)
       if (ierr /= ok) return
       ! tip_position lies on the beam: 0 < x0 <= L.
       if (v(15) > v(1)) then
@@ -313,7 +316,7 @@ contains
       character(len=*), intent(out) :: errmsg
       integer :: k
 
-      call check_repeats(p, g, ierr, errmsg)
+      ierr = ok
       do k = 1, g%n_entries
          if (ierr /= ok) return
          associate (e => g%entries(k))
@@ -329,6 +332,7 @@ contains
             end select
          end associate
       end do
+      if (ierr == ok) call check_repeats(p, g, ierr, errmsg)
    end subroutine read_initial
 
    !> Exactly n_modes values (or, with n_modes = 0, any number up to max_modes of leading
@@ -378,7 +382,7 @@ contains
       s = config%solver
       refine = s%contact_refine
       method = trim(s%method)
-      call check_repeats(p, g, ierr, errmsg)
+      ierr = ok
       do k = 1, g%n_entries
          if (ierr /= ok) return
          associate (e => g%entries(k))
@@ -420,6 +424,7 @@ contains
             end select
          end associate
       end do
+      if (ierr == ok) call check_repeats(p, g, ierr, errmsg)
       if (ierr /= ok) return
       s%method = method
       s%contact_refine = int(refine)
@@ -439,7 +444,7 @@ contains
       file = trim(config%output_file)
       format = trim(config%output_format)
       sample_dtau = config%solver%sample_dtau
-      call check_repeats(p, g, ierr, errmsg)
+      ierr = ok
       do k = 1, g%n_entries
          if (ierr /= ok) return
          associate (e => g%entries(k))
@@ -464,6 +469,7 @@ contains
             end select
          end associate
       end do
+      if (ierr == ok) call check_repeats(p, g, ierr, errmsg)
       if (ierr /= ok) return
       config%output_file = adjustl(file)
       config%output_format = format

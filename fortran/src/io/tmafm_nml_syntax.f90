@@ -94,6 +94,8 @@ module tmafm_nml_syntax
    character(len=*), parameter :: blank_chars = ' '//achar(9)//achar(13)//achar(12)
    character(len=*), parameter :: letters = 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ'
    character(len=*), parameter :: digits = '0123456789'
+   !> Longest value text kept for messages.
+   integer, parameter :: max_written = 100
 
 contains
 
@@ -174,9 +176,11 @@ contains
    function output_header(text) result(header)
       character(len=*), intent(in) :: text
       character(len=:), allocatable :: header
-      integer :: first, last, eol
+      character(len=:), allocatable :: buffer
+      integer :: first, last, eol, used, skip
 
-      header = ''
+      allocate (character(len=len(text)) :: buffer)
+      used = 0
       first = 1
       do while (first <= len(text))
          eol = index(text(first:), new_line('a'))
@@ -188,13 +192,13 @@ contains
          if (last < first) exit
          if (text(first:first) /= '#') exit
          if (starts_with(text(first:last), '# columns:')) exit
-         if (starts_with(text(first:last), '# ')) then
-            header = header//text(first + 2:last)//new_line('a')
-         else
-            header = header//text(first + 1:last)//new_line('a')
-         end if
+         skip = 1
+         if (starts_with(text(first:last), '# ')) skip = 2
+         buffer(used + 1:used + last - first + 2 - skip) = text(first + skip:last)//new_line('a')
+         used = used + last - first + 2 - skip
          first = last + 2
       end do
+      header = buffer(1:used)
    end function output_header
 
    !> Parse the body of group `name` (its name already read) up to its closing '/'.
@@ -367,10 +371,13 @@ contains
          n = n + 1
          if (n > size(values)) call grow_values(values)
          values(n) = value
-         if (n > 1 .and. after_comma) then
-            entry%written = entry%written//', '//s%text(start:s%p - 1)
+         if (len(entry%written) > max_written) then
+            ! Long lists and strings: messages show their start only.
+            if (.not. ends_with_dots(entry%written)) entry%written = entry%written//' ...'
+         else if (n > 1 .and. after_comma) then
+            entry%written = entry%written//', '//s%text(start:min(s%p - 1, start + max_written))
          else
-            entry%written = join(entry%written, s%text(start:s%p - 1))
+            entry%written = join(entry%written, s%text(start:min(s%p - 1, start + max_written)))
          end if
          need_value = .false.
          after_comma = .false.
@@ -396,29 +403,37 @@ contains
       integer, intent(out) :: ierr
       character :: quote
       character(len=:), allocatable :: contents
-      integer :: q
+      integer :: q, n, eol, last
 
       ierr = err_input
       quote = s%text(s%p:s%p)
-      contents = ''
+      eol = index(s%text(s%p:), new_line('a'))
+      if (eol == 0) then
+         last = len(s%text)
+      else
+         last = s%p + eol - 2
+      end if
+      allocate (character(len=max(last - s%p, 0)) :: contents)
+      n = 0
       q = s%p + 1
-      do while (q <= len(s%text))
-         if (s%text(q:q) == new_line('a')) return
+      do while (q <= last)
          if (s%text(q:q) == quote) then
-            if (q < len(s%text)) then
+            if (q < last) then
                if (s%text(q + 1:q + 1) == quote) then
-                  contents = contents//quote
+                  n = n + 1
+                  contents(n:n) = quote
                   q = q + 2
                   cycle
                end if
             end if
             value%kind = value_string
-            value%text = contents
+            value%text = contents(1:n)
             s%p = q + 1
             ierr = ok
             return
          end if
-         contents = contents//s%text(q:q)
+         n = n + 1
+         contents(n:n) = s%text(q:q)
          q = q + 1
       end do
    end subroutine read_string
@@ -687,6 +702,13 @@ contains
          c = a//' '//b
       end if
    end function join
+
+   pure logical function ends_with_dots(text)
+      character(len=*), intent(in) :: text
+      ends_with_dots = .false.
+      if (len(text) < 4) return
+      ends_with_dots = text(len(text) - 3:) == ' ...'
+   end function ends_with_dots
 
    pure logical function starts_with(text, head)
       character(len=*), intent(in) :: text

@@ -1,4 +1,4 @@
-!> Tip-sample contact kinematics and forces, spec section 4, paper Eqs. (3)-(7), (11), (13).
+!> Tip-sample contact kinematics and forces, docs/model.md §6, paper Eqs. (3)-(7), (11), (13).
 !>
 !> All quantities are dimensionless.  The indentation is -V_T (V_T <= 0 in contact);
 !> A = sqrt(-V_T sin(theta1)/beta) is the contact radius, f_c the normal-force group

@@ -1,4 +1,4 @@
-!> The printed errata of the paper and the two conventions, spec section 7.
+!> The printed errata of the paper and the two conventions, docs/model.md §8.
 !>
 !> Each erratum is one named switch.  `paper` keeps every printed form; `consistent`
 !> corrects all of them.  The model reads these switches in exactly one place each.

@@ -1,4 +1,4 @@
-!> Galerkin quantities of the cantilever modes, spec section 3, paper Eqs. (16)-(23).
+!> Galerkin quantities of the cantilever modes, docs/model.md §5, paper Eqs. (16)-(23).
 !>
 !> p = phi(xi0), s = phi'(xi0), c = phi''(xi0), q = int_0^1 phi, Lambda = diag(beta^4),
 !> G_ij = int_0^xi_end phi_i phi_j''  (not symmetric).  Closed forms hold on [0, 1];

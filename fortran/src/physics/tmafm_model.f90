@@ -1,4 +1,4 @@
-!> The Galerkin equations of motion M a'' + C a' + K a = F, spec section 5,
+!> The Galerkin equations of motion M a'' + C a' + K a = F, docs/model.md §7,
 !> paper Eqs. (15)-(23), in both phases and with each erratum as one named switch.
 !>
 !> Out of contact:  M = I + alpha1 m m^T, C = alpha3 I, K = Lambda,

@@ -1,4 +1,4 @@
-!> Clamped-free (cantilever) beam modes, spec section 2, paper Eqs. (14), (25).
+!> Clamped-free (cantilever) beam modes, docs/model.md §4, paper Eqs. (14), (25).
 !>
 !> The textbook form cosh - cos - sigma (sinh - sin) cancels two terms of size
 !> exp(beta xi)/2 and loses every digit from mode 13 on.  Here every term is O(1):

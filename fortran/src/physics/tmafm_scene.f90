@@ -1,4 +1,4 @@
-!> The dimensionless scene (spec section 1, paper Eqs. (10), (12), (24)) and its
+!> The dimensionless scene (docs/model.md §2, paper Eqs. (10), (12), (24)) and its
 !> conversion from physical SI inputs.
 !>
 !> Defaults are the paper's Sec. 3 values.  The physical defaults describe the same

@@ -1,0 +1,214 @@
+"""Cost per drive period of every method on four scenes, with the V_T error it buys, and tmafm
+against scipy's solve_ivp (DOP853 with events) at equal error.
+
+    /opt/tmafm-venv/bin/python benchmarks/period_cost.py [--periods 1000] [--skip-scipy]
+    /opt/tmafm-venv/bin/python benchmarks/period_cost.py --out /tmp/pc --periods 50   # quick look
+    /opt/tmafm-venv/bin/python benchmarks/period_cost.py --table benchmarks/period_cost.json
+
+Cost: CPU time (user + sys) of the whole `tmafm` process over `periods` drive periods, one
+output row per period, divided by the periods; every number comes from the same run of this
+script, so compare ratios.  Error: max |V_T - V_T_ref| over the first 20 periods, sampled
+every 0.05, against flight_exact at rtol 1e-13, atol 1e-18.  The scipy peer
+(tmafm/_peer.py) integrates 100 periods at rtol 1e-10 (its call timed whole, in CPU time);
+tmafm is timed as a whole process at the tolerance whose error is closest to the peer's
+without exceeding it.  Writes period_cost.json and period_cost.png into --out (default
+benchmarks/; the committed results are the default run).
+"""
+
+import argparse
+import json
+import math
+import os
+import resource
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import tmafm
+
+REPO = Path(__file__).resolve().parent.parent
+PERIOD = math.pi  # 2 pi / Omega, Omega = 2 in every scene here
+BASE = REPO / "inputs" / "fig2_n4.nml"
+
+#: name -> (input file, overrides)
+SCENES = {
+    "fig2": ("fig2_n4.nml", {}),
+    "tilted_hertz_3": ("fig2_n4.nml", {"model": {"n_modes": 3},
+                                       "scene": {"alpha2": 7e-4, "theta": 0.2},
+                                       "initial": {"a0": [2e-4, 0.0, 0.0]}}),
+    "untilted_3_no_contact_damping": ("fig2_n4.nml", {"model": {"n_modes": 3},
+                                                      "scene": {"alpha2": 7e-4, "theta": 0.0,
+                                                                "alpha4": 0.0},
+                                                      "initial": {"a0": [2e-4, 0.0, 0.0]}}),
+    "dmt_fig7": ("fig7_dmt.nml", {}),
+}
+FIXED = {"rk4_paper": {"dtau": 2e-3}, "rk4_event": {"dtau": 2e-3}}
+ADAPTIVE = ("dopri5", "dop853", "flight_exact")
+#: (rtol, atol) settings of the adaptive methods: the profile's, the defaults, and a sweep.
+TOLERANCES = [(1e-10, 1e-14), (1e-7, 1e-10), (1e-6, 1e-9), (1e-8, 1e-11), (1e-9, 1e-12)]
+ERROR_PERIODS = 20
+
+
+def groups(scene, solver, periods, sample_dtau, out_file):
+    file, overrides = SCENES[scene]
+    import f90nml
+    nml = {g: dict(v) for g, v in f90nml.read(str(REPO / "inputs" / file)).items()}
+    for g, v in overrides.items():
+        nml.setdefault(g, {}).update(v)
+    nml.setdefault("solver", {}).update(solver, tau_end=periods * PERIOD)
+    nml.setdefault("output", {}).update(sample_dtau=sample_dtau, file=str(out_file))
+    return nml
+
+
+def process_cpu(nml, scratch):
+    """CPU seconds (user + sys) of one whole tmafm process on the namelist dict."""
+    import f90nml
+    path = Path(scratch) / "run.nml"
+    f90nml.write(f90nml.Namelist(nml), str(path), force=True)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    subprocess.run([tmafm.executable(), "-q", str(path)], check=True, cwd=scratch)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def vt_error(scene, solver, reference):
+    nml = groups(scene, solver, ERROR_PERIODS, 0.05, "unused.dat")
+    result = tmafm.run(nml)
+    return float(np.max(np.abs(result.vt - reference))), result.counters
+
+
+def study(periods, with_scipy, progress=print):
+    report = {"tmafm": tmafm.__version__, "periods": periods,
+              "cost": "CPU (user+sys) of the whole tmafm process / periods; one row per period",
+              "error": f"max |V_T - V_T_ref| over {ERROR_PERIODS} periods, samples every 0.05; "
+                       "ref flight_exact rtol 1e-13 atol 1e-18",
+              "scenes": {}}
+    with tempfile.TemporaryDirectory() as scratch:
+        for scene in SCENES:
+            reference = tmafm.run(groups(scene, {"method": "flight_exact", "rtol": 1e-13, "atol": 1e-18},
+                                         ERROR_PERIODS, 0.05, "unused.dat")).vt
+            rows = []
+            settings = [(m, dict(s)) for m, s in FIXED.items()]
+            settings += [(m, {"rtol": r, "atol": a}) for m in ADAPTIVE for r, a in TOLERANCES]
+            for method, solver in settings:
+                solver = {"method": method, **solver}
+                error, counters = vt_error(scene, solver, reference)
+                cpu = process_cpu(groups(scene, solver, periods, PERIOD, "out.dat"), scratch)
+                rows.append({**solver, "us_per_period": 1e6 * cpu / periods, "vt_error": error,
+                             "rhs_per_period_error_window": counters["rhs_evaluations"] / ERROR_PERIODS})
+                progress(f"{scene} {solver}: {rows[-1]['us_per_period']:.1f} us/period, error {error:.2e}")
+            entry = {"input": SCENES[scene][0], "overrides": SCENES[scene][1], "rows": rows}
+            cheapest = [r for r in rows if r["vt_error"] <= 1e-9]
+            if cheapest:
+                entry["cheapest_with_vt_error_le_1e-9"] = min(cheapest, key=lambda r: r["us_per_period"])
+            report["scenes"][scene] = entry
+        if with_scipy:
+            report["scipy"] = scipy_comparison(scratch, progress)
+    return report
+
+
+def scipy_comparison(scratch, progress, periods=100, scene="tilted_hertz_3"):
+    """scipy DOP853 with events at rtol 1e-10 on `periods` periods, against tmafm at equal error."""
+    from tmafm._peer import ScipyPeer
+    sample = 0.05
+    reference = tmafm.run(groups(scene, {"method": "flight_exact", "rtol": 1e-13, "atol": 1e-18},
+                                 periods, sample, "unused.dat")).vt
+    peer = ScipyPeer(groups(scene, {}, periods, sample, "unused.dat"))
+    start = time.process_time()
+    out = peer.solve(periods * PERIOD, sample, "DOP853", 1e-10, 1e-16)
+    scipy_cpu = time.process_time() - start
+    n = min(len(out["vt"]), len(reference))
+    scipy_error = float(np.max(np.abs(out["vt"][:n] - reference[:n])))
+    progress(f"scipy DOP853 rtol 1e-10: {scipy_cpu:.1f} s CPU, error {scipy_error:.2e}")
+    best = None
+    for method in ("flight_exact", "dop853"):
+        for rtol, atol in sorted(TOLERANCES, reverse=True):
+            solver = {"method": method, "rtol": rtol, "atol": atol}
+            result = tmafm.run(groups(scene, solver, periods, sample, "unused.dat"))
+            error = float(np.max(np.abs(result.vt - reference)))
+            if error <= scipy_error:
+                cpu = process_cpu(groups(scene, solver, periods, sample, "out.dat"), scratch)
+                if best is None or cpu < best["cpu_s"]:
+                    best = {**solver, "cpu_s": cpu, "vt_error": error}
+                break
+    return {"scene": scene, "periods": periods, "sample_dtau": sample,
+            "scipy_DOP853_rtol_1e-10": {"cpu_s": scipy_cpu, "vt_error": scipy_error,
+                                        "rhs_evaluations": out["rhs_evaluations"]},
+            "tmafm_at_equal_error": best,
+            "ratio": scipy_cpu / best["cpu_s"] if best else None,
+            "how": "scipy: CPU of the whole peer.solve call; tmafm: CPU of the whole process "
+                   "(start-up, input, output file included), at the loosest tolerance whose "
+                   "error does not exceed scipy's"}
+
+
+def plot(report, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    scenes = list(report["scenes"].items())
+    fig, axes = plt.subplots(1, len(scenes), figsize=(4.2 * len(scenes), 4), squeeze=False)
+    colors = {"rk4_paper": "tab:red", "rk4_event": "tab:orange", "dopri5": "tab:blue",
+              "dop853": "tab:purple", "flight_exact": "tab:green"}
+    for ax, (name, entry) in zip(axes[0], scenes):
+        for method, color in colors.items():
+            rows = sorted((r for r in entry["rows"] if r["method"] == method and r["vt_error"] > 0),
+                          key=lambda r: r["vt_error"])
+            if rows:
+                ax.loglog([r["us_per_period"] for r in rows], [r["vt_error"] for r in rows], "o-",
+                          color=color, label=method)
+        ax.axhline(1e-9, color="0.7", lw=0.8)
+        ax.set_xlabel("CPU per drive period (µs)")
+        ax.set_ylabel("max |V_T error| (gap units)")
+        ax.set_title(name, fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def table(report):
+    """The markdown tables of docs/performance.md, from a report."""
+    lines = []
+    for name, entry in report["scenes"].items():
+        lines += [f"**{name}** (`inputs/{entry['input']}` with {json.dumps(entry['overrides'])})", "",
+                  "| method | setting | µs per period | V_T error |", "|---|---|---|---|"]
+        for r in entry["rows"]:
+            setting = f"dtau {r['dtau']:g}" if "dtau" in r else f"rtol {r['rtol']:g}, atol {r['atol']:g}"
+            lines.append(f"| `{r['method']}` | {setting} | {r['us_per_period']:.0f} | {r['vt_error']:.1e} |")
+        lines.append("")
+    if "scipy" in report:
+        s = report["scipy"]
+        peer, best = s["scipy_DOP853_rtol_1e-10"], s["tmafm_at_equal_error"]
+        lines.append(f"scipy DOP853 (rtol 1e-10), {s['periods']} periods of {s['scene']}: "
+                     f"{peer['cpu_s']:.2f} s CPU, V_T error {peer['vt_error']:.1e}; tmafm "
+                     f"`{best['method']}` at rtol {best['rtol']:g}, atol {best['atol']:g}: "
+                     f"{best['cpu_s']:.3f} s CPU (whole process), error {best['vt_error']:.1e}; "
+                     f"ratio {s['ratio']:.0f}x")
+    return "\n".join(lines)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--table", type=Path, help="print the markdown tables of a JSON and stop")
+    parser.add_argument("--periods", type=int, default=1000)
+    parser.add_argument("--out", type=Path, default=REPO / "benchmarks")
+    parser.add_argument("--skip-scipy", action="store_true")
+    args = parser.parse_args()
+    if args.table:
+        print(table(json.loads(args.table.read_text())))
+        return
+    if args.out.resolve() == (REPO / "benchmarks").resolve() and args.periods != 1000:
+        parser.error("a shortened run must not overwrite the committed results: pass --out")
+    report = study(args.periods, not args.skip_scipy)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "period_cost.json").write_text(json.dumps(report, indent=1))
+    plot(report, args.out / "period_cost.png")
+    print(f"wrote {args.out / 'period_cost.json'} and {args.out / 'period_cost.png'}")
+
+
+if __name__ == "__main__":
+    main()

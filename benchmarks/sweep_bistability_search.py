@@ -40,8 +40,12 @@ def main():
                          "at_delta_hat": float(deltas[k]),
                          "bistable_points": int((difference > 0.2).sum())})
             print(json.dumps(rows[-1]), flush=True)
+    # The first resonance out of contact: sqrt of the smallest eigenvalue of M^-1 K.
+    mass, _, stiffness, _ = tmafm.Config(BASE).model().matrices(0.0, np.zeros(2), False)
+    omega_1 = float(np.sqrt(np.min(np.linalg.eigvals(np.linalg.solve(mass, stiffness)).real)))
+    print(f"omega_1 = {omega_1:.4f}")
     (REPO / "benchmarks" / "sweep_bistability_search.json").write_text(
-        json.dumps({"base": BASE, "rows": rows}, indent=1))
+        json.dumps({"base": BASE, "omega_1": omega_1, "rows": rows}, indent=1))
 
 
 if __name__ == "__main__":

@@ -17,6 +17,17 @@ from .errors import (BlowUpError, InputError, InputFileError, InputTypeError, So
 from ._exe import executable
 from .observe import Observation, observe, observe_batch
 
+_SWEEPS = ("sweep", "approach", "frequency_sweep", "bifurcation", "basin")
+
+
+def __getattr__(name):
+    """tmafm.sweep & co. come from tmafm.sweeps, imported on first use (so that
+    ``python -m tmafm.sweeps`` runs a module the package has not imported yet)."""
+    if name in _SWEEPS:
+        from . import sweeps
+        return getattr(sweeps, name)
+    raise AttributeError(f"module 'tmafm' has no attribute {name!r}")
+
 try:
     __version__ = _version("tmafm")
 except PackageNotFoundError:  # running from a source tree
@@ -24,4 +35,5 @@ except PackageNotFoundError:  # running from a source tree
 
 __all__ = ["run", "resolve", "load", "Config", "Model", "Result", "ContactState", "inputs",
            "SCENE_KEYS", "COUNTER_KEYS", "observe", "observe_batch", "Observation", "POWER_NAMES", "executable", "TmafmError", "InputError",
-           "InputTypeError", "InputFileError", "SolverError", "BlowUpError", "__version__"]
+           "InputTypeError", "InputFileError", "SolverError", "BlowUpError", "__version__",
+           "sweep", "approach", "frequency_sweep", "bifurcation", "basin"]

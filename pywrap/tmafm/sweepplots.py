@@ -1,0 +1,161 @@
+"""Plots of sweep datasets (matplotlib): one function per kind, and plot() that picks by kind.
+
+    >>> from tmafm import sweepplots                                     # doctest: +SKIP
+    >>> sweepplots.plot(tmafm.approach("fig2_n4", delta_hat=...), "approach.png")
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["plot", "plot_approach", "plot_frequency", "plot_bifurcation", "plot_basin",
+           "plot_grid"]
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _label(ds, name: str) -> str:
+    unit = ds[name].attrs.get("units", "")
+    return f"{name} [{unit}]" if unit and unit != "1" else name
+
+
+def _save(fig, path) -> Path:
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    _pyplot().close(fig)
+    return path
+
+
+def _continuation_panels(ds, path, names):
+    plt = _pyplot()
+    key = ds.attrs["swept_key"]
+    x = ds[key].values
+    curve_dims = [d for d in ds["amplitude"].dims if d not in ("direction", key)]
+    fig, axes = plt.subplots(len(names), 1, figsize=(6.4, 2.1 * len(names)), sharex=True)
+    styles = {0: dict(marker="o", ms=3, lw=1.2), 1: dict(marker="x", ms=4, lw=1.0, ls="--")}
+    for ax, name in zip(np.atleast_1d(axes), names):
+        data = ds[name]
+        stacked = data.stack(curve=curve_dims) if curve_dims else data.expand_dims(curve=[0])
+        jump = ds["jump"].stack(curve=curve_dims) if curve_dims else ds["jump"].expand_dims(
+            curve=[0])
+        for c in range(stacked.sizes["curve"]):
+            for d, direction in enumerate(ds["direction"].values):
+                y = stacked.isel(direction=d, curve=c).transpose(key).values
+                curve_label = ""
+                if curve_dims:
+                    value = stacked["curve"].values[c]
+                    curve_label = f", {curve_dims[0]} = {value if np.isscalar(value) else value[0]:g}"
+                line, = ax.plot(x, y, label=f"{direction}{curve_label}", **styles[d % 2])
+                flags = jump.isel(direction=d, curve=c).transpose(key).values.astype(bool)
+                if flags.any():
+                    ax.plot(x[flags], y[flags], ls="none", marker="s", mfc="none", ms=9,
+                            color=line.get_color())
+        ax.set_ylabel(_label(ds, name), fontsize=8)
+        ax.grid(alpha=0.3)
+    axes = np.atleast_1d(axes)
+    axes[-1].set_xlabel(key)
+    axes[0].legend(fontsize=7, loc="best")
+    axes[0].set_title(f"{ds.attrs.get('tmafm_kind', '')}: {ds.attrs.get('base', '')} "
+                      f"(squares: jumps)", fontsize=9)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_approach(ds, path):
+    """Amplitude, phase, peak force and indentation (-min_gap when < 0) against delta_hat, both
+    branches, jumps marked by squares."""
+    ds = ds.copy()
+    ds["indentation"] = (-ds["min_gap"]).clip(min=0)
+    ds["indentation"].attrs["units"] = ds["min_gap"].attrs.get("units", "")
+    return _continuation_panels(ds, path, ["amplitude", "phase", "peak_force", "indentation"])
+
+
+def plot_frequency(ds, path):
+    """Amplitude and phase against omega, up and down sweeps, jumps marked."""
+    return _continuation_panels(ds, path, ["amplitude", "phase"])
+
+
+def plot_bifurcation(ds, path, variable="vt"):
+    """Poincaré points (`variable`, default V_T at the section) against the swept key."""
+    plt = _pyplot()
+    key = ds.attrs["swept_key"]
+    fig, axes = plt.subplots(2, 1, figsize=(6.4, 5.2), sharex=True)
+    for ax, name in zip(axes, [variable, "a1"]):
+        y = ds[name].values
+        x = np.broadcast_to(ds[key].values[:, None], y.shape)
+        ax.plot(x.ravel(), y.ravel(), "k.", ms=1.5, ls="none")
+        ax.set_ylabel(ds[name].attrs.get("long_name", name), fontsize=8)
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel(key)
+    axes[0].set_title(f"bifurcation diagram: {ds.attrs.get('base', '')}", fontsize=9)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_basin(ds, path):
+    """The basin map: attractor labels over (a1(0), a1'(0)), and the period."""
+    plt = _pyplot()
+    from matplotlib.colors import ListedColormap
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2))
+    a1, adot1 = ds["a1"].values, ds["adot1"].values
+    extent = [adot1[0], adot1[-1], a1[0], a1[-1]]
+    labels = ds["attractor"].values
+    n = int(max(labels.max(), 0)) + 2
+    colours = ["#bbbbbb"] + [plt.get_cmap("tab10")(k % 10) for k in range(n - 1)]
+    image = axes[0].imshow(labels + 1, origin="lower", extent=extent, aspect="auto",
+                           cmap=ListedColormap(colours), vmin=-0.5, vmax=n - 0.5,
+                           interpolation="nearest")
+    bar = fig.colorbar(image, ax=axes[0], ticks=range(n))
+    bar.ax.set_yticklabels(["none"] + [str(k) for k in range(n - 1)])
+    axes[0].set_title(f"attractor ({ds.attrs.get('attractors', '?')} found)", fontsize=9)
+    image = axes[1].imshow(ds["period"].values, origin="lower", extent=extent, aspect="auto",
+                           interpolation="nearest", cmap="viridis")
+    fig.colorbar(image, ax=axes[1])
+    axes[1].set_title("period by the steady-state test (0: none found)", fontsize=9)
+    for ax in axes:
+        ax.set_xlabel("a1'(0)")
+        ax.set_ylabel("a1(0)")
+    fig.suptitle(f"basin map: {ds.attrs.get('base', '')}", fontsize=10)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_grid(ds, path, names=("amplitude", "phase", "peak_force", "min_gap")):
+    """A grid sweep: lines against its one key, or maps over its two keys."""
+    plt = _pyplot()
+    dims = ds["amplitude"].dims
+    fig, axes = plt.subplots(len(names), 1, figsize=(6.4, 2.1 * len(names)), squeeze=False)
+    for ax, name in zip(axes[:, 0], names):
+        data = ds[name]
+        if len(dims) == 1:
+            ax.plot(ds[dims[0]].values, data.values, "o-", ms=3)
+            ax.set_xlabel(dims[0])
+        else:
+            image = ax.pcolormesh(ds[dims[1]].values, ds[dims[0]].values,
+                                  data.transpose(dims[0], dims[1], ...).values, shading="auto")
+            fig.colorbar(image, ax=ax)
+            ax.set_xlabel(dims[1])
+            ax.set_ylabel(dims[0])
+        ax.set_title(_label(ds, name), fontsize=8)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+_BY_KIND = {"approach": plot_approach, "frequency_sweep": plot_frequency,
+            "bifurcation": plot_bifurcation, "basin": plot_basin, "sweep": plot_grid}
+
+
+def plot(ds, path):
+    """Draw the plot of a sweep Dataset's kind (its 'tmafm_kind' attribute) to `path`."""
+    kind = ds.attrs.get("tmafm_kind")
+    if kind not in _BY_KIND:
+        from .errors import InputError
+        raise InputError(f"dataset kind {kind!r}: no plot (known: {', '.join(_BY_KIND)})")
+    return _BY_KIND[kind](ds, path)

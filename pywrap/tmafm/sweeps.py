@@ -1,0 +1,922 @@
+"""Sweeps at scale: grids of runs, approach/retract and frequency sweeps, bifurcation diagrams and
+basin maps, each returned as an xarray.Dataset (needs the [sweep] extra: xarray, dask, tqdm).
+
+Every grid point is one input: the base input with the swept keys ('group.key', e.g.
+'scene.delta_hat') replaced.  All points are validated (a tmafm.Config each) before any run
+starts, so a bad key or value raises one InputError and nothing runs.  Each point is then
+observed period by period by the core (tmafm.observe_batch), stopped at steady state or after
+max_periods periods.  Work is spread over local cores (workers=, the core's OpenMP batch) or
+over a dask.distributed Client (client=, one task per chunk of points).
+
+    >>> import tmafm
+    >>> ds = tmafm.sweep("fig2_n4", {"scene.delta_hat": [0.2, 0.4]}, max_periods=20)
+    >>> ds.amplitude.dims
+    ('scene.delta_hat',)
+
+The file-driven command line is ``python -m tmafm.sweeps FILE [-o OUT.nc]`` (docs/sweeps.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import math
+import os
+import sys
+from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from ._namelist import GROUPS, KEY_TYPES
+from ._run import Config
+from .errors import InputError, InputFileError, InputTypeError, SolverError, TmafmError
+
+__all__ = ["sweep", "approach", "frequency_sweep", "bifurcation", "basin", "read_sweep_file",
+           "run_sweep_file", "write_dataset", "summarize", "mark_jumps", "label_attractors",
+           "STEADY_NAMES", "main"]
+
+#: The steady values every sweep dataset carries (besides period, steady and periods).
+STEADY_NAMES = ("amplitude", "phase", "mean_deflection", "min_gap", "peak_force", "contact_time",
+                "contacts_per_period", "dissipated_energy", "dissipated_beam",
+                "dissipated_contact_damping", "dissipated_friction", "drive_work", "virial")
+#: The keywords of tmafm.observe that a sweep passes on.
+OBSERVE_KEYWORDS = ("max_periods", "p_max", "steady_tol", "steady_repeats", "harmonics",
+                    "stop_at_steady")
+
+
+# --- Keys, values and validation -----------------------------------------------------------
+
+def _split_key(key) -> tuple[str, str]:
+    """('scene', 'delta_hat') of 'scene.delta_hat'; InputError for a key the core does not know."""
+    if not isinstance(key, str) or key.count(".") != 1:
+        raise InputError(f"sweep key {key!r}: must be 'group.key', e.g. 'scene.delta_hat'")
+    group, name = key.split(".")
+    if group not in GROUPS:
+        raise InputError(f"sweep key {key!r}: unknown group '{group}' (known: {', '.join(GROUPS)})")
+    if name not in KEY_TYPES[group]:
+        raise InputError(f"sweep key {key!r}: &{group} {name}: unknown key (known: "
+                         f"{', '.join(KEY_TYPES[group])})")
+    if group == "output":
+        raise InputError(f"sweep key {key!r}: the &output group cannot be swept (a sweep writes "
+                         f"no run output)")
+    return group, name
+
+
+class _Axis(np.ndarray):
+    """The values of one axis: a 1-D array (the coordinate) that remembers the values as given
+    (``raw``), so an integer key gets integers and a bad value is named as the user wrote it."""
+
+    raw: list
+
+
+def _axis_values(key: str, values) -> np.ndarray:
+    """The values of one axis as a 1-D array; InputError when empty or not 1-D."""
+    if isinstance(values, (str, bytes)) or np.ndim(values) == 0:
+        raise InputError(f"sweep axis {key!r}: values must be a 1-D sequence, not {values!r}")
+    raw = [_value(v) for v in values]
+    try:
+        array = np.asarray(raw)
+    except Exception as exc:  # ragged lists and the like
+        raise InputError(f"sweep axis {key!r}: values must be a 1-D sequence ({exc})") from exc
+    if array.ndim != 1:
+        raise InputError(f"sweep axis {key!r}: values must be a 1-D sequence, got shape "
+                         f"{array.shape}")
+    if array.size == 0:
+        raise InputError(f"sweep axis {key!r}: no values (an empty axis)")
+    axis = array.view(_Axis)
+    axis.raw = raw
+    return axis
+
+
+def _raw(axis) -> list:
+    return getattr(axis, "raw", None) or list(axis)
+
+
+def _check_axes(axes) -> dict:
+    """{key: 1-D values} of a Mapping of axes, keys checked; InputError otherwise."""
+    if not isinstance(axes, Mapping):
+        raise InputTypeError(f"axes must be a dict 'group.key' -> values, not "
+                             f"{type(axes).__name__}")
+    if not axes:
+        raise InputError("sweep: no axes given (give at least one 'group.key' -> values)")
+    checked = {}
+    for key, values in axes.items():
+        _split_key(key)
+        checked[key] = _axis_values(key, values)
+    return checked
+
+
+def _value(value):
+    """A numpy scalar as a Python number (namelist text wants plain values)."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def _overrides(point: Mapping) -> dict:
+    """{group: {key: value}} of {'group.key': value}."""
+    groups: dict = {}
+    for key, value in point.items():
+        group, name = _split_key(key)
+        groups.setdefault(group, {})[name] = _value(value)
+    return groups
+
+
+def _base_dict(base) -> dict:
+    """The resolved base input as a dict of groups (picklable, for other processes)."""
+    config = base if isinstance(base, Config) else Config(base)
+    groups = config.to_dict()
+    groups.pop("output", None)
+    return groups
+
+
+def _merged(base: dict, overrides: Mapping) -> dict:
+    groups = {g: dict(v) for g, v in base.items()}
+    for group, values in overrides.items():
+        groups.setdefault(group, {}).update(values)
+    return groups
+
+
+def _resized_initial(groups: dict, point: Mapping) -> dict:
+    """When n_modes is swept, the base's &initial vectors cut or padded with zeros to N."""
+    n = point.get("model.n_modes")
+    initial = groups.get("initial")
+    if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or not initial:
+        return groups
+    for name in ("a0", "adot0"):
+        if name in initial and f"initial.{name}" not in point:
+            values = np.atleast_1d(np.asarray(initial[name], dtype=float))
+            if n > 0:
+                initial[name] = np.concatenate([values, np.zeros(n)])[:n].tolist()
+            elif not values.any():
+                del initial[name]  # automatic N: zero initial values need no length
+    return groups
+
+
+def _config(base: dict, point: Mapping) -> Config:
+    """The Config of one point; InputError naming the point when the core refuses it."""
+    try:
+        return Config(_resized_initial(_merged(base, _overrides(point)), point))
+    except InputError as exc:
+        where = ", ".join(f"{k} = {_short(v)}" for k, v in point.items())
+        raise type(exc)(f"sweep point {where}: {exc}") from None
+
+
+def _short(value) -> str:
+    value = _value(value)
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return "[" + ", ".join(f"{float(v):.6g}" for v in value) + "]"
+    return f"{value:.6g}" if isinstance(value, float) else repr(value)
+
+
+def _observe_keywords(keywords: Mapping) -> dict:
+    unknown = set(keywords) - set(OBSERVE_KEYWORDS)
+    if unknown:
+        raise InputTypeError(f"unknown keyword(s) {', '.join(sorted(unknown))} (a sweep passes "
+                             f"on: {', '.join(OBSERVE_KEYWORDS)})")
+    return dict(keywords)
+
+
+# --- Running points ------------------------------------------------------------------------
+
+def _observe_api():
+    """The module tmafm.observe (the package's attribute of that name is the function)."""
+    import importlib
+    return importlib.import_module("tmafm.observe")
+
+
+def _names() -> tuple:
+    """The steady observables a dataset carries: the core's list (tmafm.observe.OBSERVABLES)."""
+    return tuple(getattr(_observe_api(), "OBSERVABLES", STEADY_NAMES))
+
+
+def _summary(obs, keep: int = 0) -> dict:
+    """The picklable part of an Observation a sweep keeps: steady values, period, states."""
+    steady = obs.steady_values()
+    out = {"steady": bool(obs.steady), "period": int(obs.period), "periods": int(obs.periods),
+           "values": {name: float(steady[name]) for name in _names()},
+           "final_state": np.asarray(obs.final_state, dtype=float).copy()}
+    for name in ("harmonic_amplitude", "harmonic_phase"):
+        if name in steady:
+            out[name] = np.asarray(steady[name], dtype=float).copy()
+    poincare = np.asarray(obs.poincare, dtype=float)
+    period = int(obs.period)
+    out["orbit"] = poincare[-period:].copy() if period > 0 else poincare[-1:].copy()
+    if keep:
+        out["poincare"] = poincare[-keep:].copy()
+    out["physical"] = {}
+    if getattr(obs, "physical", None) is not None:
+        physical = obs.steady_values(physical=True)
+        out["physical"] = {name: float(physical[name]) for name in _names() if name in physical}
+    return out
+
+
+def _run_chunk(base: dict, points: Sequence[Mapping], threads, keywords: Mapping,
+               keep: int = 0, configs: Sequence[Config] | None = None) -> list[dict]:
+    """Observe the points of one chunk with the core's batch; one summary per point.
+    ``configs``, when given, are the points' validated Configs (same process only)."""
+    observe = _observe_api()
+    if configs is None:
+        configs = [_config(base, point) for point in points]
+    try:
+        observations = observe.observe_batch(configs, threads=threads, **keywords)
+    except SolverError:
+        # One run failed (the batch names the first): run the chunk's points one by one, so
+        # every other point keeps its result and each failure is recorded with its message.
+        return [_observe_one(observe, config, keywords, keep) for config in configs]
+    return [_summary(obs, keep) for obs in observations]
+
+
+def _observe_one(observe, config: Config, keywords: Mapping, keep: int = 0) -> dict:
+    """The summary of one run, or a failed summary carrying the solver's message."""
+    try:
+        return _summary(observe.observe_batch([config], threads=1, **keywords)[0], keep)
+    except SolverError as exc:
+        return _failed_summary(str(exc), 2 * config.n_modes, keep)
+
+
+def _failed_summary(message: str, n_state: int, keep: int = 0) -> dict:
+    """A point whose run failed (SolverError, BlowUpError): NaN values, period 0."""
+    out = {"steady": False, "period": 0, "periods": 0, "error": message,
+           "values": {name: np.nan for name in _names()}, "physical": None,
+           "final_state": np.full(n_state, np.nan), "orbit": np.full((1, n_state), np.nan)}
+    if keep:
+        out["poincare"] = np.full((keep, n_state), np.nan)
+    return out
+
+
+def _run_chunk_processes(args):
+    base, points, keywords, keep = args
+    return _run_chunk(base, points, 1, keywords, keep)
+
+
+def _chunks(n: int, chunk: int | None, workers: int) -> list[range]:
+    if chunk is None:
+        chunk = max(1, min(256, math.ceil(n / (4 * max(1, workers)))))
+    if not isinstance(chunk, (int, np.integer)) or isinstance(chunk, bool) or chunk < 1:
+        raise InputTypeError(f"chunk = {chunk!r}: must be a positive integer")
+    return [range(i, min(n, i + int(chunk))) for i in range(0, n, int(chunk))]
+
+
+def _workers(workers) -> int:
+    if workers is None:
+        return os.cpu_count() or 1
+    if not isinstance(workers, (int, np.integer)) or isinstance(workers, bool) or workers < 1:
+        raise InputTypeError(f"workers = {workers!r}: must be a positive integer")
+    return int(workers)
+
+
+def _progress(total: int, enabled: bool, label: str):
+    if not enabled:
+        return None
+    from tqdm.auto import tqdm
+    return tqdm(total=total, desc=label, unit="run")
+
+
+def _run_points(base: dict, points: list[dict], *, workers=None, client=None, progress=False,
+                chunk=None, backend="batch", keep=0, keywords=None, label="sweep",
+                configs=None) -> list[dict]:
+    """Summaries of every point, in order, on local cores or on a Dask client.  ``configs``
+    (the validated Configs of the points) saves building them again in this process."""
+    keywords = keywords or {}
+    n_workers = _workers(workers)
+    if client is not None:
+        n_workers = max(1, len(client.scheduler_info().get("workers", {})) or n_workers)
+    pieces = _chunks(len(points), chunk, n_workers)
+    bar = _progress(len(points), progress, label)
+    results: list = [None] * len(pieces)
+    try:
+        if client is not None:
+            from dask.distributed import as_completed
+            futures = {client.submit(_run_chunk, base, [points[i] for i in piece], 1, keywords,
+                                     keep, pure=False): k for k, piece in enumerate(pieces)}
+            for future in as_completed(futures):
+                results[futures[future]] = future.result()
+                if bar is not None:
+                    bar.update(len(pieces[futures[future]]))
+        elif backend == "processes":
+            from concurrent.futures import ProcessPoolExecutor
+            import multiprocessing
+            context = multiprocessing.get_context("spawn")
+            with ProcessPoolExecutor(max_workers=n_workers, mp_context=context) as pool:
+                jobs = [(base, [points[i] for i in piece], keywords, keep) for piece in pieces]
+                for k, summaries in enumerate(pool.map(_run_chunk_processes, jobs)):
+                    results[k] = summaries
+                    if bar is not None:
+                        bar.update(len(pieces[k]))
+        elif backend == "batch":
+            for k, piece in enumerate(pieces):
+                results[k] = _run_chunk(base, [points[i] for i in piece], n_workers, keywords,
+                                        keep, None if configs is None else
+                                        [configs[i] for i in piece])
+                if bar is not None:
+                    bar.update(len(piece))
+        else:
+            raise InputTypeError(f"backend = {backend!r}: must be 'batch' or 'processes'")
+    finally:
+        if bar is not None:
+            bar.close()
+    return list(itertools.chain.from_iterable(results))
+
+
+# --- Datasets ------------------------------------------------------------------------------
+
+def _units(base_config: Config) -> tuple[dict, dict]:
+    """(units, physical units) of the observables (tmafm.observe.UNITS, PHYSICAL_UNITS)."""
+    observe = _observe_api()
+    return dict(observe.UNITS), dict(observe.PHYSICAL_UNITS)
+
+
+def _steady_variables(summaries: list[dict], shape: tuple, dims: tuple, units: dict,
+                      physical_units: dict) -> dict:
+    import xarray as xr
+    data = {}
+    for name in _names():
+        values = np.array([s["values"][name] for s in summaries], dtype=float).reshape(shape)
+        data[name] = xr.Variable(dims, values, attrs={"units": units.get(name, "1"),
+                                                      "long_name": f"steady {name}"})
+        good = [s for s in summaries if "error" not in s]
+        if good and all(name in s["physical"] for s in good):
+            unit = physical_units.get(name, "")
+            physical = np.array([s["physical"][name] if "error" not in s else np.nan
+                                 for s in summaries]).reshape(shape)
+            data[f"{name}_{unit}" if unit else f"{name}_physical"] = xr.Variable(
+                dims, physical, attrs={"units": unit, "long_name": f"steady {name} ({unit})"})
+    for name in ("harmonic_amplitude", "harmonic_phase"):
+        good = [s for s in summaries if "error" not in s]
+        if good and all(name in s for s in good):
+            size = len(good[0][name])
+            values = np.array([s[name] if "error" not in s else np.full(size, np.nan)
+                               for s in summaries], dtype=float)
+            data[name] = xr.Variable((*dims, "harmonic"), values.reshape(*shape, -1),
+                                     attrs={"units": units.get(name, ""),
+                                            "long_name": f"steady {name} (harmonics 1, 2, ...)"})
+    data["period"] = xr.Variable(dims, np.array([s["period"] for s in summaries],
+                                                dtype=np.int32).reshape(shape),
+                                 attrs={"units": "drive periods",
+                                        "long_name": "period of the steady motion (0: none found)"})
+    data["steady"] = xr.Variable(dims, np.array([s["steady"] for s in summaries],
+                                                dtype=np.int8).reshape(shape),
+                                 attrs={"long_name": "1 where steady state was reached"})
+    data["failed"] = xr.Variable(dims, np.array(["error" in s for s in summaries],
+                                                dtype=np.int8).reshape(shape),
+                                 attrs={"long_name": "1 where the run failed (SolverError); "
+                                                     "its values are NaN"})
+    data["periods"] = xr.Variable(dims, np.array([s["periods"] for s in summaries],
+                                                 dtype=np.int32).reshape(shape),
+                                  attrs={"units": "drive periods", "long_name": "periods run"})
+    return data
+
+
+def _attrs(base, kind: str, keywords: dict) -> dict:
+    from . import __version__
+    attrs = {"tmafm_kind": kind, "tmafm_version": str(__version__),
+             "base": base.label if isinstance(base, Config) else str(base)
+             if isinstance(base, (str, os.PathLike)) else "<dict input>"}
+    for key, value in keywords.items():
+        attrs[f"observe_{key}"] = int(value) if isinstance(value, bool) else value
+    return attrs
+
+
+def _failure_attrs(summaries: list[dict]) -> dict:
+    """The count of failed runs and the first one's message, for the Dataset's attributes."""
+    errors = [s["error"] for s in summaries if "error" in s]
+    return {"failures": len(errors), "first_failure": errors[0] if errors else ""}
+
+
+def _base_config(base) -> Config:
+    return base if isinstance(base, Config) else Config(base)
+
+
+def _validate(base: dict, points: list[dict]) -> list[Config]:
+    """Every point's Config, built up front: the first bad one raises, before any run."""
+    return [_config(base, point) for point in points]
+
+
+def sweep(base, axes, *, workers=None, client=None, progress=False, chunk=None,
+          backend="batch", **observe_keywords):
+    """A grid of runs over any input keys; an xarray.Dataset of steady values.
+
+    ``axes`` maps 'group.key' to 1-D values; the grid is their outer product (C order, the
+    first key slowest).  The Dataset has one dimension per key, named as the key, and one
+    variable per steady observable (STEADY_NAMES, with units as attributes; plus
+    ``<name>_<unit>`` in physical units when the base has &physical), ``period`` (0 where
+    none was found), ``steady`` and ``periods``.  Every point is validated before any run.
+    ``workers`` threads of the core's batch (default: all cores), or ``backend='processes'``
+    for a process pool; ``client`` a dask.distributed Client (one task per chunk).
+    """
+    axes = _check_axes(axes)
+    keywords = _observe_keywords(observe_keywords)
+    base_config = _base_config(base)
+    base_groups = _base_dict(base_config)
+    keys = list(axes)
+    points = [dict(zip(keys, combo)) for combo in itertools.product(*map(_raw, axes.values()))]
+    configs = _validate(base_groups, points)
+    summaries = _run_points(base_groups, points, configs=configs, workers=workers, client=client,
+                            progress=progress, chunk=chunk, backend=backend, keywords=keywords)
+    return _grid_dataset(base, base_config, axes, summaries, keywords, "sweep")
+
+
+def _grid_dataset(base, base_config, axes, summaries, keywords, kind):
+    import xarray as xr
+    keys = list(axes)
+    shape = tuple(len(v) for v in axes.values())
+    units, physical_units = _units(base_config)
+    data = _steady_variables(summaries, shape, tuple(keys), units, physical_units)
+    coords = {key: xr.Variable((key,), np.asarray(values), attrs={"long_name": key})
+              for key, values in axes.items()}
+    attrs = _attrs(base, kind, keywords)
+    attrs.update(_failure_attrs(summaries))
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+# --- Continuation: approach/retract and frequency sweeps -----------------------------------
+
+def _warm_chain(base: dict, key: str, values, curve_point: Mapping, n_modes: int,
+                keywords: Mapping, start_state=None) -> tuple[list[dict], np.ndarray]:
+    """Observe `values` of `key` in order, each point starting from the previous final state."""
+    observe = _observe_api()
+    state = start_state
+    summaries = []
+    for value in values:
+        point = dict(curve_point)
+        point[key] = value
+        if state is not None:
+            point["initial.a0"] = state[:n_modes].tolist()
+            point["initial.adot0"] = state[n_modes:].tolist()
+        summary = _observe_one(observe, _config(base, point), keywords)
+        summaries.append(summary)
+        if "error" not in summary:  # after a failed point, go on from the last good state
+            state = summary["final_state"]
+    return summaries, state
+
+
+def _both_ways(base: dict, key: str, first, n_modes: int, curve_point: Mapping,
+               keywords: Mapping, reverse: bool) -> list[list[dict]]:
+    """[forward summaries, backward summaries (in forward order)] of one curve."""
+    forward, state = _warm_chain(base, key, first, curve_point, n_modes, keywords)
+    if not reverse:
+        return [forward]
+    backward, _ = _warm_chain(base, key, first[::-1], curve_point, n_modes, keywords, state)
+    return [forward, backward[::-1]]
+
+
+def mark_jumps(values, threshold: float = 0.2, ratio: float = 2.0) -> np.ndarray:
+    """Flag jumps along the last axis (the order of travel): True at point i when the step
+    d_i = |y[i] - y[i-1]| exceeds `threshold` times the curve's range of y AND `ratio` times
+    both neighbouring steps d_(i-1) and d_(i+1).  So a branch that changes steeply but
+    smoothly is not a jump, and a switch between branches is (marked on its arrival point)."""
+    y = np.asarray(values, dtype=float)
+    flat = y.reshape(-1, y.shape[-1])
+    flags = np.zeros(flat.shape, dtype=bool)
+    for row, out in zip(flat, flags):
+        if row.size < 2 or not np.isfinite(row).all():
+            continue
+        step = np.abs(np.diff(row))
+        span = np.ptp(row)
+        if span == 0:
+            continue
+        left = np.concatenate([[0.0], step[:-1]])
+        right = np.concatenate([step[1:], [0.0]])
+        out[1:] = (step > threshold * span) & (step > ratio * left) & (step > ratio * right)
+    return flags.reshape(y.shape)
+
+
+#: The observables whose jumps mark a change of branch in continuation sweeps.
+JUMP_NAMES = ("amplitude", "phase")
+
+
+def _continuation(base, key: str, values, *, directions: tuple[str, str], reverse: bool,
+                  curves, workers, client, progress, jump_threshold, kind, keywords):
+    import xarray as xr
+    keywords = _observe_keywords(keywords)
+    _split_key(key)
+    values = _axis_values(key, values)
+    curves = _check_axes(curves) if curves else {}
+    if key in curves:
+        raise InputError(f"{kind}: {key!r} is both the swept key and a curve key")
+    base_config = _base_config(base)
+    base_groups = _base_dict(base_config)
+    n_modes = base_config.n_modes
+    curve_keys = list(curves)
+    curve_points = [dict(zip(curve_keys, combo))
+                    for combo in itertools.product(*map(_raw, curves.values()))]
+    _validate(base_groups, [dict(c, **{key: v}) for c in curve_points for v in _raw(values)])
+    if not isinstance(jump_threshold, (int, float)) or not jump_threshold > 0:
+        raise InputTypeError(f"jump_threshold = {jump_threshold!r}: must be a positive number")
+
+    bar = _progress(len(curve_points), progress, kind)
+    try:
+        if client is not None:
+            futures = [client.submit(_both_ways, base_groups, key, _raw(values), n_modes, c, keywords,
+                                     reverse, pure=False) for c in curve_points]
+            results = []
+            for future in futures:
+                results.append(future.result())
+                if bar is not None:
+                    bar.update(1)
+        else:
+            with ThreadPoolExecutor(max_workers=_workers(workers)) as pool:
+                futures = [pool.submit(_both_ways, base_groups, key, _raw(values), n_modes, c,
+                                       keywords, reverse) for c in curve_points]
+                results = []
+                for future in futures:
+                    results.append(future.result())
+                    if bar is not None:
+                        bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+
+    used = directions if reverse else directions[:1]
+    # Summaries in the order (direction, curve..., value).
+    ordered = [s for d in range(len(used)) for r in results for s in r[d]]
+    dims = ("direction", *curve_keys, key)
+    shape = (len(used), *(len(v) for v in curves.values()), len(values))
+    units, physical_units = _units(base_config)
+    data = _steady_variables(ordered, shape, dims, units, physical_units)
+    n_state = 2 * n_modes
+    data["final_state"] = xr.Variable(
+        (*dims, "state"), np.array([s["final_state"] for s in ordered]).reshape(*shape, n_state),
+        attrs={"long_name": "state (a, a') at the last period boundary"})
+    # A jump is marked along the direction of travel: the first point of the new branch.
+    flags = np.zeros(shape, dtype=bool)
+    for name in JUMP_NAMES:
+        observed = data[name].values
+        travel = [observed[0]] + ([observed[1][..., ::-1]] if reverse else [])
+        for d, y in enumerate(travel):
+            if name == "phase":  # degrees: a wrap at +-180 is no jump
+                y = np.unwrap(y, period=360.0, axis=-1)
+            found = mark_jumps(y, jump_threshold)
+            flags[d] |= found if d == 0 else found[..., ::-1]
+    data["jump"] = xr.Variable(dims, flags.astype(np.int8), attrs={
+        "long_name": "1 where amplitude or phase jumped on arriving at this point "
+                     "(tmafm.sweeps.mark_jumps)", "threshold": float(jump_threshold)})
+    coords = {key: xr.Variable((key,), np.asarray(values)),
+              "direction": xr.Variable(("direction",), np.array(used, dtype="U8"))}
+    for ckey, cvalues in curves.items():
+        coords[ckey] = xr.Variable((ckey,), np.asarray(cvalues))
+    attrs = _attrs(base, kind, keywords)
+    attrs.update(_failure_attrs(ordered))
+    attrs["swept_key"] = key
+    attrs["order"] = f"{used[0]} runs {key} in the order given" + (
+        f", {used[1]} in reverse" if reverse else "")
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def approach(base, delta_hat, *, retract=True, curves=None, workers=None, client=None,
+             progress=False, jump_threshold=0.2, **observe_keywords):
+    """Approach/retract: sweep scene.delta_hat through `delta_hat` (give them decreasing: the
+    tip approaches the sample), then back, each point warm-started from the previous one's final
+    state, so bistable branches show.  ``curves`` ({'group.key': values}) adds curves, run in
+    parallel.  The Dataset has dims ('direction', *curve keys, 'scene.delta_hat') with
+    direction 'approach'/'retract', the steady values, ``jump`` and ``final_state``."""
+    return _continuation(base, "scene.delta_hat", delta_hat, directions=("approach", "retract"),
+                         reverse=retract, curves=curves, workers=workers, client=client,
+                         progress=progress, jump_threshold=jump_threshold, kind="approach",
+                         keywords=observe_keywords)
+
+
+def frequency_sweep(base, omega, *, reverse=True, curves=None, workers=None, client=None,
+                    progress=False, jump_threshold=0.2, **observe_keywords):
+    """Frequency sweep: scene.omega through `omega` (give them increasing), then back, warm
+    started as in approach(); direction 'up'/'down'."""
+    return _continuation(base, "scene.omega", omega, directions=("up", "down"), reverse=reverse,
+                         curves=curves, workers=workers, client=client, progress=progress,
+                         jump_threshold=jump_threshold, kind="frequency_sweep",
+                         keywords=observe_keywords)
+
+
+# --- Bifurcation diagrams and basins -------------------------------------------------------
+
+def _tip_displacement(config: Config, states: np.ndarray) -> np.ndarray:
+    """p^T a (the tip's modal displacement, V_T without drive and offset) of states (.., 2N)."""
+    model = config.model()
+    n = config.n_modes
+    scene = config.scene
+    # V_T = p^T a + alpha2 sin(Omega tau) + delta_hat; at a period boundary sin(...) = 0.
+    flat = states.reshape(-1, 2 * n)
+    vt = np.array([model.contact(0.0, row[:n]).vt for row in flat]) - scene["delta_hat"]
+    return vt.reshape(states.shape[:-1])
+
+
+def bifurcation(base, key, values, *, periods_kept=32, workers=None, client=None,
+                progress=False, chunk=None, backend="batch", max_periods=200,
+                stop_at_steady=False, **observe_keywords):
+    """Poincaré points against a swept key: the last `periods_kept` section points of each run.
+
+    Variables (dims (key, 'kept')): ``a1`` and ``adot1`` (first mode), ``tip`` = p^T a (the
+    tip's modal displacement at the section, where the drive phase is 0), ``vt`` = V_T there;
+    plus the steady values and ``period``.  Runs go max_periods periods (200) and do not stop
+    at steady state unless asked, so the last points sample the attractor.
+    """
+    import xarray as xr
+    _split_key(key)
+    values = _axis_values(key, values)
+    if not isinstance(periods_kept, (int, np.integer)) or periods_kept < 1:
+        raise InputTypeError(f"periods_kept = {periods_kept!r}: must be a positive integer")
+    keywords = _observe_keywords(dict(observe_keywords, max_periods=max_periods,
+                                      stop_at_steady=stop_at_steady))
+    if periods_kept > max_periods:
+        raise InputError(f"periods_kept = {periods_kept} is more than max_periods = {max_periods}")
+    base_config = _base_config(base)
+    base_groups = _base_dict(base_config)
+    points = [{key: v} for v in _raw(values)]
+    configs = _validate(base_groups, points)
+    summaries = _run_points(base_groups, points, configs=configs, workers=workers, client=client,
+                            progress=progress, chunk=chunk, backend=backend,
+                            keep=periods_kept, keywords=keywords, label="bifurcation")
+    ds = _grid_dataset(base, base_config, {key: np.asarray(values)}, summaries, keywords,
+                       "bifurcation")
+    n = base_config.n_modes
+    kept = np.full((len(values), periods_kept, 2 * n), np.nan)
+    for i, s in enumerate(summaries):
+        rows = s["poincare"]
+        kept[i, periods_kept - len(rows):] = rows
+    dims = (key, "kept")
+    ds["a1"] = xr.Variable(dims, kept[..., 0], attrs={"long_name": "a1 at the Poincaré section"})
+    ds["adot1"] = xr.Variable(dims, kept[..., n], attrs={"long_name": "a1' at the section"})
+    tip = np.stack([_tip_displacement(configs[i], kept[i]) for i in range(len(points))])
+    ds["tip"] = xr.Variable(dims, tip, attrs={"long_name": "p^T a at the section"})
+    offsets = np.array([c.scene["delta_hat"] for c in configs])
+    ds["vt"] = xr.Variable(dims, tip + offsets[:, None],
+                           attrs={"long_name": "V_T at the section (drive phase 0)"})
+    ds.attrs["swept_key"] = key
+    return ds
+
+
+def same_orbit(x: np.ndarray, y: np.ndarray, tol: float) -> bool:
+    """True when two periodic Poincaré orbits (p x 2N) agree within `tol` up to a cyclic shift."""
+    if x.shape != y.shape:
+        return False
+    return any(np.max(np.abs(np.roll(x, k, axis=0) - y)) <= tol for k in range(x.shape[0]))
+
+
+def minimal_orbit(orbit: np.ndarray, tol: float) -> np.ndarray:
+    """The orbit cut to its smallest period q (q divides p) whose points repeat within `tol`:
+    a steady-state test can call a period-1 point period-2 while the transient still
+    alternates around it (a negative Floquet multiplier)."""
+    p = orbit.shape[0]
+    for q in range(1, p):
+        if p % q == 0 and np.max(np.abs(orbit - np.roll(orbit, q, axis=0))) <= tol:
+            return orbit[:q]
+    return orbit
+
+
+def label_attractors(orbits: Sequence[np.ndarray], periods: Sequence[int],
+                     tol: float) -> tuple[np.ndarray, list[np.ndarray]]:
+    """(labels, representative orbits): points whose orbits (cut to their minimal period) agree
+    within `tol` up to a cyclic shift share a label 0, 1, ...; no period found gives -1."""
+    labels = np.full(len(orbits), -1, dtype=np.int32)
+    known: list[np.ndarray] = []
+    for i, (orbit, period) in enumerate(zip(orbits, periods)):
+        if period <= 0:
+            continue
+        orbit = minimal_orbit(np.asarray(orbit)[-period:], tol)
+        for k, representative in enumerate(known):
+            if same_orbit(orbit, representative, tol):
+                labels[i] = k
+                break
+        else:
+            labels[i] = len(known)
+            known.append(orbit)
+    return labels, known
+
+
+def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=False, chunk=None,
+          backend="batch", **observe_keywords):
+    """A basin map: a grid of initial states a1(0) x a1'(0) (other modes from the base's
+    &initial), each labelled by the attractor it reaches.  Variables (dims ('a1', 'adot1')):
+    ``attractor`` (0, 1, ...: points whose final Poincaré orbits agree within `tol` times the
+    largest |state| up to a cyclic shift share a label; -1: no period found),
+    ``attractor_period``, ``period`` (the steady-state test's), and the steady values;
+    ``attractor_orbit_<k>`` holds each attractor's Poincaré orbit."""
+    import xarray as xr
+    keywords = _observe_keywords(observe_keywords)
+    a1 = _axis_values("a1", a1)
+    adot1 = _axis_values("adot1", adot1)
+    base_config = _base_config(base)
+    base_groups = _base_dict(base_config)
+    n = base_config.n_modes
+    initial = base_groups.get("initial", {})
+    a0 = np.zeros(n)
+    adot0 = np.zeros(n)
+    a0[:] = np.resize(np.asarray(initial.get("a0", [0.0]), dtype=float), n) if "a0" in initial \
+        else 0.0
+    adot0[:] = np.resize(np.asarray(initial.get("adot0", [0.0]), dtype=float), n) \
+        if "adot0" in initial else 0.0
+    points = []
+    for x, v in itertools.product(a1, adot1):
+        start, rate = a0.copy(), adot0.copy()
+        start[0], rate[0] = float(x), float(v)
+        points.append({"initial.a0": start.tolist(), "initial.adot0": rate.tolist()})
+    configs = _validate(base_groups, points)
+    summaries = _run_points(base_groups, points, configs=configs, workers=workers, client=client,
+                            progress=progress, chunk=chunk, backend=backend, keywords=keywords,
+                            label="basin")
+    shape = (len(a1), len(adot1))
+    units, physical_units = _units(base_config)
+    data = _steady_variables(summaries, shape, ("a1", "adot1"), units, physical_units)
+    orbits = [s["orbit"] for s in summaries]
+    periods = [s["period"] for s in summaries]
+    scale = max(float(np.max(np.abs(o))) for o in orbits) or 1.0
+    labels, known = label_attractors(orbits, periods, tol * scale)
+    data["attractor"] = xr.Variable(("a1", "adot1"), labels.reshape(shape), attrs={
+        "long_name": "attractor label (-1: no period found)", "tolerance": tol * scale})
+    data["attractor_period"] = xr.Variable(("a1", "adot1"), np.array(
+        [len(known[k]) if k >= 0 else 0 for k in labels], dtype=np.int32).reshape(shape),
+        attrs={"long_name": "period of the attractor reached (0: none found)"})
+    for k, orbit in enumerate(known):
+        data[f"attractor_orbit_{k}"] = xr.Variable((f"orbit_{k}_point", "state"), orbit)
+    coords = {"a1": xr.Variable(("a1",), a1, attrs={"long_name": "a1(0)"}),
+              "adot1": xr.Variable(("adot1",), adot1, attrs={"long_name": "a1'(0)"})}
+    attrs = _attrs(base, "basin", keywords)
+    attrs.update(_failure_attrs(summaries))
+    attrs["attractors"] = len(known)
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+# --- Sweep files and the command line ------------------------------------------------------
+
+_FILE_KEYS = {"kind": str, "base": str, "key": str, "start": float, "stop": float, "count": int,
+              "values": list, "key2": str, "start2": float, "stop2": float, "count2": int,
+              "curve_key": str, "curve_values": list, "reverse": bool, "max_periods": int,
+              "p_max": int, "steady_tol": float, "steady_repeats": int, "harmonics": int,
+              "stop_at_steady": bool, "periods_kept": int, "tol": float,
+              "jump_threshold": float, "workers": int, "output": str, "method": str,
+              "rtol": float, "atol": float}
+_KINDS = ("grid", "approach", "frequency", "bifurcation", "basin")
+
+
+def read_sweep_file(path) -> dict:
+    """The &sweep group of a sweep file, checked: a dict of its keys (docs/sweeps.md)."""
+    import f90nml
+    path = Path(path)
+    if not path.is_file():
+        raise InputFileError(f"sweep file '{path}' not found")
+    try:
+        groups = f90nml.read(str(path))
+    except Exception as exc:
+        raise InputError(f"{path}: cannot parse namelist: {exc}") from exc
+    if "sweep" not in groups:
+        raise InputError(f"{path}: no &sweep group")
+    extra = [g for g in groups if g != "sweep"]
+    if extra:
+        raise InputError(f"{path}: unknown group(s) &{', &'.join(extra)} (a sweep file has &sweep)")
+    spec = dict(groups["sweep"])
+    for key, value in spec.items():
+        if key not in _FILE_KEYS:
+            raise InputError(f"{path}: &sweep {key}: unknown key (known: {', '.join(_FILE_KEYS)})")
+        kind = _FILE_KEYS[key]
+        if kind is list:
+            spec[key] = list(value) if isinstance(value, list) else [value]
+        elif kind is float and isinstance(value, int) and not isinstance(value, bool):
+            spec[key] = float(value)
+        elif not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+            raise InputError(f"{path}: &sweep {key} = {value!r}: must be a {kind.__name__}")
+    for key in ("kind", "base"):
+        if key not in spec:
+            raise InputError(f"{path}: &sweep {key}: missing (required)")
+    if spec["kind"] not in _KINDS:
+        raise InputError(f"{path}: &sweep kind = '{spec['kind']}': must be one of "
+                         f"{', '.join(_KINDS)}")
+    base = Path(spec["base"])
+    if not base.is_absolute() and (path.parent / base).is_file():
+        spec["base"] = str(path.parent / base)
+    spec["_file"] = str(path)
+    return spec
+
+
+def _axis_of(spec: dict, suffix: str = "") -> np.ndarray:
+    where = spec["_file"]
+    if suffix == "" and "values" in spec:
+        return np.asarray(spec["values"], dtype=float)
+    missing = [k + suffix for k in ("start", "stop", "count") if k + suffix not in spec]
+    if missing:
+        raise InputError(f"{where}: &sweep {', '.join(missing)}: missing (give start{suffix}, "
+                         f"stop{suffix}, count{suffix}" + (" or values)" if not suffix else ")"))
+    count = spec["count" + suffix]
+    if count < 1:
+        raise InputError(f"{where}: &sweep count{suffix} = {count}: must be at least 1")
+    return np.linspace(spec["start" + suffix], spec["stop" + suffix], count)
+
+
+def run_sweep_file(path, *, workers=None, client=None, progress=False):
+    """Run the sweep a file describes; return its Dataset."""
+    spec = read_sweep_file(path)
+    kind, base = spec["kind"], spec["base"]
+    solver = {k: spec[k] for k in ("method", "rtol", "atol") if k in spec}
+    if solver:
+        base = Config(base, solver=solver)
+    keywords = {k: spec[k] for k in OBSERVE_KEYWORDS if k in spec}
+    workers = workers if workers is not None else spec.get("workers")
+    common = dict(workers=workers, client=client, progress=progress)
+    curves = ({spec["curve_key"]: spec["curve_values"]} if "curve_key" in spec else None)
+    if kind == "grid":
+        axes = {spec.get("key", "scene.delta_hat"): _axis_of(spec)}
+        if "key2" in spec:
+            axes[spec["key2"]] = _axis_of(spec, "2")
+        return sweep(base, axes, **common, **keywords)
+    if kind == "approach":
+        return approach(base, _axis_of(spec), retract=spec.get("reverse", True), curves=curves,
+                        jump_threshold=spec.get("jump_threshold", 0.2), **common, **keywords)
+    if kind == "frequency":
+        return frequency_sweep(base, _axis_of(spec), reverse=spec.get("reverse", True),
+                               curves=curves, jump_threshold=spec.get("jump_threshold", 0.2),
+                               **common, **keywords)
+    if kind == "bifurcation":
+        if "key" not in spec:
+            raise InputError(f"{spec['_file']}: &sweep key: missing (required for bifurcation)")
+        extra = {k: spec[k] for k in ("periods_kept",) if k in spec}
+        return bifurcation(base, spec["key"], _axis_of(spec), **extra, **common, **keywords)
+    return basin(base, _axis_of(spec), _axis_of(spec, "2"), tol=spec.get("tol", 1e-3), **common,
+                 **keywords)
+
+
+def summarize(ds) -> dict:
+    """The facts docs/sweeps.md quotes, from a sweep Dataset: jump positions per curve and
+    direction, attractor counts, period counts, where the bifurcation points split."""
+    kind = ds.attrs.get("tmafm_kind")
+    out = {"kind": kind, "failures": int(ds.attrs.get("failures", 0)),
+           "periods_found": {str(int(k)): int((ds["period"].values == k).sum())
+                             for k in np.unique(ds["period"].values)}}
+    if kind in ("approach", "frequency_sweep"):
+        key = ds.attrs["swept_key"]
+        curve_dims = [d for d in ds["jump"].dims if d not in ("direction", key)]
+        stacked = ds.stack(curve=curve_dims) if curve_dims else ds.expand_dims(curve=[0])
+        out["jumps"] = []
+        for c in range(stacked.sizes["curve"]):
+            for direction in ds["direction"].values:
+                part = stacked.isel(curve=c).sel(direction=direction)
+                flags = part["jump"].values.astype(bool)
+                label = {d: float(part[d].values) for d in curve_dims}
+                out["jumps"].append(dict(label, direction=str(direction),
+                                         at=part[key].values[flags].tolist(),
+                                         amplitude_max=float(np.nanmax(part["amplitude"]))))
+    elif kind == "bifurcation":
+        key = ds.attrs["swept_key"]
+        vt = ds["vt"]
+        spread = ((vt.max("kept") - vt.min("kept")) / np.abs(vt).max("kept")).values
+        out["split_1e-6_at"] = ds[key].values[spread > 1e-6].tolist()
+        out["period"] = dict(zip(map(float, ds[key].values), map(int, ds["period"].values)))
+    elif kind == "basin":
+        labels = ds["attractor"].values
+        out["attractors"] = int(ds.attrs["attractors"])
+        out["points_per_label"] = {str(int(k)): int((labels == k).sum()) for k in
+                                   np.unique(labels)}
+    return out
+
+
+def main(argv=None) -> int:
+    """``python -m tmafm.sweeps FILE [-o OUT.nc] [--workers N] [--plot PNG] [--progress]``."""
+    parser = argparse.ArgumentParser(prog="python -m tmafm.sweeps",
+                                     description="Run the sweep described by a &sweep file.")
+    parser.add_argument("file", help="the sweep file (a &sweep namelist, docs/sweeps.md)")
+    parser.add_argument("-o", "--output", help="the NetCDF file to write (default: &sweep "
+                        "output, or FILE with .nc)")
+    parser.add_argument("--workers", type=int, default=None, help="local threads (default: all)")
+    parser.add_argument("--plot", default=None, help="the PNG to draw (default: OUTPUT.png)")
+    parser.add_argument("--no-plot", action="store_true", help="write no plot")
+    parser.add_argument("--progress", action="store_true", help="show a progress bar")
+    parser.add_argument("--summarize", action="store_true", help="FILE is a sweep NetCDF file: "
+                        "print its summary (jumps, attractors, periods) as JSON")
+    args = parser.parse_args(argv)
+    if args.summarize:
+        import json
+        import xarray as xr
+        with xr.open_dataset(args.file) as ds:
+            print(json.dumps(summarize(ds.load()), indent=1))
+        return 0
+    try:
+        spec = read_sweep_file(args.file)
+        out = Path(args.output or spec.get("output") or Path(args.file).with_suffix(".nc"))
+        ds = run_sweep_file(args.file, workers=args.workers, progress=args.progress)
+        write_dataset(ds, out)
+        print(f"wrote {out}")
+        if not args.no_plot:
+            from .sweepplots import plot
+            png = Path(args.plot) if args.plot else out.with_suffix(".png")
+            plot(ds, png)
+            print(f"wrote {png}")
+    except TmafmError as exc:
+        print(f"tmafm.sweeps: error: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+def write_dataset(ds, path) -> Path:
+    """Write a sweep Dataset to NetCDF (atomically: a temporary file, then a rename)."""
+    path = Path(path)
+    temporary = path.with_name(f".{path.name}.partial")
+    try:
+        ds.to_netcdf(temporary)
+        os.replace(temporary, path)
+    except OSError as exc:
+        if temporary.exists():
+            temporary.unlink()
+        raise InputFileError(f"cannot write '{path}': {exc}") from exc
+    return path
+
+
+if __name__ == "__main__":
+    sys.exit(main())

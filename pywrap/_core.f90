@@ -266,12 +266,14 @@ end subroutine energy_flow
 !> Observed runs of n_configs namelist texts (text(offsets(k)+1:offsets(k+1)) is input k, with
 !> n_modes(k) modes), run by the OpenMP batch on `threads` threads (0: OpenMP default) with the
 !> GIL released.  Per input k: values(k, period, column) (tmafm_observers columns), the
-!> harmonics (k, period, harmonic), Poincare points (k, 0:period, 1:2N), periods integrated,
+!> harmonics (k, period, harmonic), Poincare points (k, 0:period, 1:2N), the located max V_T
+!> (k, period) and modal extrema (k, period, mode, 1:4 = ext_* columns), periods integrated,
 !> the steady period found, the factors to SI-derived units and has_scales (1 for &physical).
 !> ierr(k) per input; errmsg is the message of the first input that failed.
 subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmonics, p_max, tol, &
                          repeats, stop_at_steady, threads, n_state_max, n_columns, values, &
-                         harmonic_amplitude, harmonic_phase, poincare, n_periods, period, factors, &
+                         harmonic_amplitude, harmonic_phase, poincare, max_gap, modal_extrema, &
+                         n_periods, period, factors, &
                          has_scales, ierr, errmsg)
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok, err_runtime
@@ -299,6 +301,8 @@ subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmoni
    real(dp), intent(out) :: harmonic_amplitude(n_configs, max_periods, harmonics)
    real(dp), intent(out) :: harmonic_phase(n_configs, max_periods, harmonics)
    real(dp), intent(out) :: poincare(n_configs, max_periods + 1, n_state_max)
+   real(dp), intent(out) :: max_gap(n_configs, max_periods)
+   real(dp), intent(out) :: modal_extrema(n_configs, max_periods, n_state_max/2, 4)
    integer, intent(out) :: n_periods(n_configs)
    integer, intent(out) :: period(n_configs)
    real(dp), intent(out) :: factors(n_configs, n_columns)
@@ -313,6 +317,7 @@ subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmoni
    integer :: k, m, s
 
    values = 0; harmonic_amplitude = 0; harmonic_phase = 0; poincare = 0; n_periods = 0
+   max_gap = 0; modal_extrema = 0
    period = 0; factors = 0; has_scales = 0; ierr = 0; errmsg = ''
    if (n_columns /= n_observables) then
       ierr = err_runtime
@@ -349,6 +354,8 @@ subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmoni
       harmonic_amplitude(k, 1:m, :) = observers(k)%harmonic_amplitude(1:m, :)
       harmonic_phase(k, 1:m, :) = observers(k)%harmonic_phase(1:m, :)
       poincare(k, 1:m + 1, 1:s) = transpose(observers(k)%poincare(:, 0:m))
+      max_gap(k, 1:m) = observers(k)%max_gap_values(1:m)
+      modal_extrema(k, 1:m, 1:s/2, :) = observers(k)%modal_extrema(1:m, :, :)
       scales = config_scales(configs(k))
       factors(k, :) = observable_factors(scales)
       has_scales(k) = merge(1, 0, scales%known)

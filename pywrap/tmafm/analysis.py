@@ -4,8 +4,8 @@ in and out of contact, per-period contact measures and dissipation, and the harm
 Everything works on a :class:`tmafm.Result`.  Array work is numpy; what needs the model
 (contact forces, powers, modal energy) comes from the Fortran core (``tmafm.Model``),
 so no physics is written here.  The per-period measures the core observes itself
-(``tmafm.observe``: contact time and count, min V_T, dissipation, lock-in amplitude and
-phase, harmonics) are taken from it, exact to the trajectory's accuracy: the run's own input
+(``tmafm.observe``: contact time and count, min and max V_T, each mode's max and min in and
+out of contact, dissipation, lock-in amplitude and phase, harmonics) are taken from it, exact to the trajectory's accuracy: the run's own input
 is integrated again over its whole drive periods, without samples (``observation``).  Only a
 Result the core cannot re-run (no input, a synthetic one, or ``rk4_event``) falls back to its
 samples.
@@ -34,7 +34,7 @@ from ._run import Config
 
 __all__ = ["observation", "drive_period", "sample_dtau_for", "poincare_sections", "section_distances",
            "default_tolerance", "state_scale",
-           "classify_sections", "classify_period", "steady_state", "modal_amplitudes",
+           "classify_sections", "classify_period", "steady_state", "modal_amplitudes", "vt_max",
            "energy_flow", "per_period", "energy_balance", "lockin", "harmonics", "summary",
            "POWER_NAMES"]
 
@@ -240,20 +240,55 @@ def energy_balance(result, tau0: float, tau1: float) -> dict:
     return {"energy_change": change, "work": work, "residual": change - sum(work.values())}
 
 
+def _observed_periods(result, since):
+    """The core's observation and the rows of its whole drive periods after `since` (the
+    window of per_period), or None when there is no observation or no such period."""
+    obs = observation(result)
+    if obs is None:
+        return None
+    k0 = int(math.ceil(since / drive_period(result) - 1e-9))
+    if k0 >= obs.periods:
+        return None
+    return obs, slice(k0, obs.periods)
+
+
 def modal_amplitudes(result, since: float = 0.0) -> dict:
-    """Per mode, over the samples in contact and out of contact after `since`:
-    max |a_j| and half peak-to-peak (max a_j - min a_j)/2."""
+    """Per mode, in contact and out of contact after `since`: max |a_j| and half peak-to-peak
+    (max a_j - min a_j)/2.  The extrema are the core's, located on the dense output between
+    the switches over the whole drive periods after `since` (``observation``); a Result the
+    core cannot re-run falls back to its samples after `since`.  ``samples`` counts the
+    samples of each phase after `since` either way."""
     keep = result.tau >= since
+    observed = _observed_periods(result, since)
     out = {}
     for label, mask in (("contact", keep & (result.contact == 1)), ("free", keep & (result.contact == 0))):
-        if not mask.any():
-            out[label] = None
-            continue
-        a = result.a[mask]
-        out[label] = {"max_abs": np.abs(a).max(axis=0).tolist(),
-                      "half_peak_to_peak": (0.5 * (a.max(axis=0) - a.min(axis=0))).tolist(),
+        if observed is not None:
+            obs, rows = observed
+            high = obs.per_period[f"modal_max_{label}"][rows]
+            low = obs.per_period[f"modal_min_{label}"][rows]
+            if np.all(np.isnan(high)):
+                out[label] = None
+                continue
+            high, low = np.nanmax(high, axis=0), np.nanmin(low, axis=0)
+        else:
+            if not mask.any():
+                out[label] = None
+                continue
+            high, low = result.a[mask].max(axis=0), result.a[mask].min(axis=0)
+        out[label] = {"max_abs": np.maximum(np.abs(high), np.abs(low)).tolist(),
+                      "half_peak_to_peak": (0.5 * (high - low)).tolist(),
                       "samples": int(mask.sum())}
     return out
+
+
+def vt_max(result, since: float = 0.0) -> float:
+    """The largest V_T after `since`: the core's located maximum over the whole drive periods
+    after `since` (``observation``), or the largest sample when the core cannot re-run it."""
+    observed = _observed_periods(result, since)
+    if observed is not None:
+        obs, rows = observed
+        return float(np.max(obs.per_period["max_gap"][rows]))
+    return float(result.vt[result.tau >= since].max())
 
 
 def per_period(result, since: float = 0.0) -> list[dict]:
@@ -369,7 +404,7 @@ def summary(result, since: float | None = None, tol: float | None = None) -> dic
             "contacts_per_period": float(np.mean([r["contacts"] for r in rows])),
             "vt_min": float(min(r["min_gap"] for r in rows) if rows
                             else result.vt[result.tau >= since].min()),
-            "vt_max": float(result.vt[result.tau >= since].max()),
+            "vt_max": vt_max(result, since),
             "max_indentation": float(max(r["max_indentation"] for r in rows)),
             "dissipated_per_period": float(np.mean([r["dissipated"] for r in rows])),
             "modal_amplitudes": amplitudes, "lockin": lockin(result, since),

@@ -43,7 +43,8 @@ CASES = {
 
 def simulate(inputs: Path | None, name: str, method: str, convention: str, periods: int, **extra):
     """One case, long enough for `periods` drive periods, 200 samples a period."""
-    base = Config(packaged.path(name) if inputs is None else inputs / f"{name}.nml")
+    path = packaged.path(name) if inputs is None else inputs / f"{name}.nml"
+    base = Config(path)
     period = 2 * math.pi / base.scene["omega"]
     tau_end = max(float(base.to_dict()["solver"]["tau_end"]), periods * period)
     tau_end = math.ceil(tau_end / period - 1e-9) * period
@@ -51,7 +52,9 @@ def simulate(inputs: Path | None, name: str, method: str, convention: str, perio
               "output": {"sample_dtau": period / 200}}
     for group, values in extra.items():
         groups.setdefault(group, {}).update(values)
-    return Config(base, **groups).run()
+    # From the file, not from `base`: a resolved Config pins `errata` (to the input's
+    # convention's default), so a convention override on it would keep the old errata.
+    return Config(path, **groups).run()
 
 
 def _jsonable(x):

@@ -2,7 +2,8 @@
 
 ``observe`` runs one input, ``observe_batch`` many (the core's OpenMP batch, GIL released).
 Each period T = 2 pi/Omega, from tau = 0, gives the lock-in amplitude and phase of V_T, its
-harmonics, the mean deflection, min V_T, the peak normal force, the contact time and count,
+harmonics, the mean deflection, min and max V_T, each mode's max and min in and out of
+contact, the peak normal force, the contact time and count,
 the energy dissipated (beam damping, contact damping, friction), the drive work, the virial
 and the Poincare point; the run may stop itself at a steady state.  docs/observables.md
 defines every quantity, its units and its signs.
@@ -37,14 +38,20 @@ UNITS = {
     "dissipated_contact_damping": _ENERGY, "dissipated_friction": _ENERGY,
     "drive_work": _ENERGY, "virial": "E1 I d/L^2", "contact_normal_work": _ENERGY,
     "harmonic_amplitude": "d", "harmonic_phase": "deg", "poincare": "(d, d/tau)",
+    "max_gap": "d", "modal_max_contact": "d", "modal_min_contact": "d", "modal_max_free": "d",
+    "modal_min_free": "d",
 }
+#: Located extrema of each mode per period (n_periods, N), in the core's ext_* column order.
+MODAL_EXTREMA = ("modal_max_contact", "modal_min_contact", "modal_max_free", "modal_min_free")
 #: SI-derived units of ``Observation.physical`` (inputs given in &physical).
 PHYSICAL_UNITS = {
     "amplitude": "nm", "phase": "deg", "mean_deflection": "nm", "min_gap": "nm",
     "peak_force": "nN", "contact_time": "us", "contacts_per_period": "1",
     "dissipated_energy": "aJ", "dissipated_beam": "aJ", "dissipated_contact_damping": "aJ",
     "dissipated_friction": "aJ", "drive_work": "aJ", "virial": "aJ", "contact_normal_work": "aJ",
-    "harmonic_amplitude": "nm", "harmonic_phase": "deg",
+    "harmonic_amplitude": "nm", "harmonic_phase": "deg", "max_gap": "nm",
+    "modal_max_contact": "nm", "modal_min_contact": "nm", "modal_max_free": "nm",
+    "modal_min_free": "nm",
 }
 
 
@@ -120,8 +127,8 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
     n_modes = np.array([c.n_modes for c in configs], dtype=np.int32)
     n_state = 2 * int(n_modes.max())
     h = opts["harmonics"]
-    (values, harm_amp, harm_phase, poincare, n_periods, found, factors, has_scales, ierr,
-     errmsg) = _core.observe_texts(
+    (values, harm_amp, harm_phase, poincare, max_gap, modal, n_periods, found, factors, has_scales,
+     ierr, errmsg) = _core.observe_texts(
         "".join(texts), offsets, n_modes, opts["max_periods"], h, opts["p_max"],
         opts["steady_tol"], opts["steady_repeats"], opts["stop_at_steady"],
         0 if threads is None else threads, n_state, len(OBSERVABLES), n_configs=len(configs))
@@ -137,11 +144,16 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
         per = {name: values[k, :m, j].copy() for j, name in enumerate(OBSERVABLES)}
         per["harmonic_amplitude"] = harm_amp[k, :m, :].copy()
         per["harmonic_phase"] = harm_phase[k, :m, :].copy()
+        per["max_gap"] = max_gap[k, :m].copy()
+        for j, name in enumerate(MODAL_EXTREMA):
+            per[name] = modal[k, :m, :n_modes[k], j].copy()
         physical = None
         if has_scales[k]:
             physical = {name: per[name] * factors[k, j] for j, name in enumerate(OBSERVABLES)}
             physical["harmonic_amplitude"] = per["harmonic_amplitude"] * factors[k, 0]
             physical["harmonic_phase"] = per["harmonic_phase"].copy()
+            for name in ("max_gap",) + MODAL_EXTREMA:
+                physical[name] = per[name] * factors[k, 0]
         points = poincare[k, :m + 1, :s].copy()
         out.append(Observation(periods=m, period=int(found[k]), steady=bool(found[k] > 0),
                                per_period=per, poincare=points, final_state=points[-1].copy(),

@@ -5,7 +5,8 @@
 !> Integrals (Fourier coefficients of V_T, mean deflection, the powers of model_t%energy_flow,
 !> the virial) use 8-point Gauss-Legendre on each piece (a step, or a flight cut into pieces of
 !> at most T/16; 3 points on a fixed rk4_paper step's cubic); contact times come from the located switches; min V_T and the peak normal
-!> force are located on the dense output by a golden-section search around the best node.
+!> force are located on the dense output by a golden-section search around the best node, and so
+!> are max V_T and each mode's max and min over the period's in-contact part and its free part.
 !> Every array is allocated in init; feeding steps allocates nothing.
 module tmafm_observers
    use tmafm_kinds, only: dp
@@ -18,6 +19,7 @@ module tmafm_observers
    use tmafm_quadrature, only: gauss_legendre
    use tmafm_units, only: scales_t
    use tmafm_interpolation, only: hermite_cubic
+   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
    implicit none
    private
 
@@ -25,13 +27,15 @@ module tmafm_observers
    public :: obs_amplitude, obs_phase, obs_mean_deflection, obs_min_gap, obs_peak_force, &
       obs_contact_time, obs_contacts, obs_dissipated, obs_dissipated_beam, &
       obs_dissipated_contact_damping, obs_dissipated_friction, obs_drive_work, obs_virial, &
-      obs_contact_normal_work
+      obs_contact_normal_work, ext_max_contact, ext_min_contact, ext_max_free, ext_min_free
 
    !> Columns of observer_t%values.
    integer, parameter :: obs_amplitude = 1, obs_phase = 2, obs_mean_deflection = 3, obs_min_gap = 4, &
       obs_peak_force = 5, obs_contact_time = 6, obs_contacts = 7, obs_dissipated = 8, &
       obs_dissipated_beam = 9, obs_dissipated_contact_damping = 10, obs_dissipated_friction = 11, &
       obs_drive_work = 12, obs_virial = 13, obs_contact_normal_work = 14, n_observables = 14
+   !> Last index of observer_t%modal_extrema: mode j's max and min in contact, and free.
+   integer, parameter :: ext_max_contact = 1, ext_min_contact = 2, ext_max_free = 3, ext_min_free = 4
    !> Names of the columns, as Python reports them.
    character(len=*), parameter :: observable_names(n_observables) = [character(len=26) :: &
       'amplitude', 'phase', 'mean_deflection', 'min_gap', 'peak_force', 'contact_time', &
@@ -77,7 +81,11 @@ module tmafm_observers
       real(dp), allocatable :: acc_sin(:), acc_cos(:)
       real(dp) :: acc_deflection = 0, acc_contact_time = 0, acc_virial = 0
       real(dp) :: acc_powers(n_powers) = 0
-      real(dp) :: min_gap = huge(1.0_dp), peak_force = -huge(1.0_dp)
+      real(dp) :: min_gap = huge(1.0_dp), peak_force = -huge(1.0_dp), max_gap = -huge(1.0_dp)
+      !> The current period's located extrema of each mode (mode, ext_* column).
+      real(dp), allocatable :: acc_modal(:, :)
+      !> Work array: each mode's a_j at a piece's nodes (node, mode).
+      real(dp), allocatable :: modal_nodes(:, :)
       integer :: contacts = 0
       !> Gauss-Legendre nodes and weights on [-1, 1]; state registers.
       real(dp) :: gl_x(gl_points) = 0, gl_w(gl_points) = 0
@@ -88,6 +96,9 @@ module tmafm_observers
       !> Results: values(period, column), the harmonics (period, k), Poincare points (2N, 0:periods).
       real(dp), allocatable :: values(:, :), harmonic_amplitude(:, :), harmonic_phase(:, :)
       real(dp), allocatable :: poincare(:, :)
+      !> Results: located max V_T (period), and modal extrema (period, mode, ext_*; NaN where
+      !> the period has no such part).
+      real(dp), allocatable :: max_gap_values(:), modal_extrema(:, :, :)
    contains
       !> Allocate everything for a run starting from y0 at tau = 0.
       procedure :: init => observer_init
@@ -140,6 +151,13 @@ contains
       allocate (self%cubic%y0(size(y0)), self%cubic%f0(size(y0)), self%cubic%y1(size(y0)), &
                 self%cubic%f1(size(y0)))
       if (allocated(self%acc_sin)) deallocate (self%acc_sin, self%acc_cos)
+      if (allocated(self%acc_modal)) deallocate (self%acc_modal, self%modal_nodes)
+      if (allocated(self%max_gap_values)) deallocate (self%max_gap_values, self%modal_extrema)
+      allocate (self%acc_modal(self%n_state/2, 4), self%modal_nodes(0:gl_points + 1, self%n_state/2))
+      allocate (self%max_gap_values(max_periods), &
+                self%modal_extrema(max_periods, self%n_state/2, 4))
+      self%max_gap_values = 0
+      self%modal_extrema = 0
       if (allocated(self%values)) deallocate (self%values, self%harmonic_amplitude, &
                                                self%harmonic_phase, self%poincare)
       allocate (self%y(self%n_state), self%acc_sin(harmonics), self%acc_cos(harmonics))
@@ -163,6 +181,9 @@ contains
       self%acc_powers = 0
       self%min_gap = huge(1.0_dp)
       self%peak_force = -huge(1.0_dp)
+      self%max_gap = -huge(1.0_dp)
+      self%acc_modal(:, [ext_max_contact, ext_max_free]) = -huge(1.0_dp)
+      self%acc_modal(:, [ext_min_contact, ext_min_free]) = huge(1.0_dp)
       self%contacts = 0
    end subroutine reset
 
@@ -240,10 +261,12 @@ contains
       end if
    end subroutine state_at
 
-   !> The function an extremum search minimises: V_T (kind 1) or minus the normal force (2).
-   subroutine target(model, kind, origin, h, t, y, value, pair, flight, cubic)
+   !> The function an extremum search minimises: V_T (kind 1), minus the normal force (2), or
+   !> mode -kind's a_j (kind < 0); times sign (+1 or -1, for a maximum).
+   subroutine target(model, kind, sign, origin, h, t, y, value, pair, flight, cubic)
       type(model_t), intent(in) :: model
       integer, intent(in) :: kind
+      real(dp), intent(in) :: sign
       real(dp), intent(in) :: origin
       real(dp), intent(in) :: h
       real(dp), intent(in) :: t
@@ -254,18 +277,21 @@ contains
       type(hermite_t), intent(in), optional :: cubic
       type(contact_brackets_t) :: state
       call state_at(model, origin, h, t, y, pair, flight, cubic)
-      if (kind == 1) then
-         value = model%tip_gap(t, y)
+      if (kind < 0) then
+         value = sign*y(-kind)
+      else if (kind == 1) then
+         value = sign*model%tip_gap(t, y)
       else
          state = model%contact(t, y(1:model%n_modes))
-         value = -model%kappa5*state%normal
+         value = -sign*model%kappa5*state%normal
       end if
    end subroutine target
 
-   !> Golden-section minimum of target(kind) on [lo, hi]; value at the best point found.
-   subroutine golden_minimum(model, kind, origin, h, lo_in, hi_in, best, y, pair, flight, cubic)
+   !> Golden-section minimum of target(kind, sign) on [lo, hi]; value at the best point found.
+   subroutine golden_minimum(model, kind, sign, origin, h, lo_in, hi_in, best, y, pair, flight, cubic)
       type(model_t), intent(in) :: model
       integer, intent(in) :: kind
+      real(dp), intent(in) :: sign
       real(dp), intent(in) :: origin
       real(dp), intent(in) :: h
       real(dp), intent(in) :: lo_in
@@ -282,21 +308,21 @@ contains
       hi = hi_in
       x1 = hi - g*(hi - lo)
       x2 = lo + g*(hi - lo)
-      call target(model, kind, origin, h, x1, y, f1, pair, flight, cubic)
-      call target(model, kind, origin, h, x2, y, f2, pair, flight, cubic)
+      call target(model, kind, sign, origin, h, x1, y, f1, pair, flight, cubic)
+      call target(model, kind, sign, origin, h, x2, y, f2, pair, flight, cubic)
       do k = 1, golden_iterations
          if (f1 <= f2) then
             hi = x2
             x2 = x1
             f2 = f1
             x1 = hi - g*(hi - lo)
-            call target(model, kind, origin, h, x1, y, f1, pair, flight, cubic)
+            call target(model, kind, sign, origin, h, x1, y, f1, pair, flight, cubic)
          else
             lo = x1
             x1 = x2
             f1 = f2
             x2 = lo + g*(hi - lo)
-            call target(model, kind, origin, h, x2, y, f2, pair, flight, cubic)
+            call target(model, kind, sign, origin, h, x2, y, f2, pair, flight, cubic)
          end if
          if (hi - lo <= 4*epsilon(1.0_dp)*max(abs(lo), abs(hi))) exit
       end do
@@ -367,6 +393,7 @@ contains
       do i = 0, m + 1
          call state_at(model, origin, h, t(i), self%y, pair, flight, cubic)
          gap(i) = model%tip_gap(t(i), self%y)
+         self%modal_nodes(i, :) = self%y(1:n)
          if (in_contact) then
             state = model%contact(t(i), self%y(1:n))
             force(i) = model%kappa5*state%normal
@@ -397,20 +424,50 @@ contains
       best = gap(i_best)
       if (best < self%min_gap) then
          if (i_best > 0 .and. i_best < m + 1) &
-            call golden_minimum(model, 1, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
+            call golden_minimum(model, 1, 1.0_dp, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
                                 pair, flight, cubic)
          self%min_gap = min(self%min_gap, best)
       end if
+      call locate_extremum(self%max_gap, gap(0:m + 1), 1, 1.0_dp)
+      do k = 1, n
+         if (in_contact) then
+            call locate_extremum(self%acc_modal(k, ext_max_contact), self%modal_nodes(0:m + 1, k), -k, 1.0_dp)
+            call locate_extremum(self%acc_modal(k, ext_min_contact), self%modal_nodes(0:m + 1, k), -k, -1.0_dp)
+         else
+            call locate_extremum(self%acc_modal(k, ext_max_free), self%modal_nodes(0:m + 1, k), -k, 1.0_dp)
+            call locate_extremum(self%acc_modal(k, ext_min_free), self%modal_nodes(0:m + 1, k), -k, -1.0_dp)
+         end if
+      end do
       if (in_contact) then
          i_best = maxloc(force(0:m + 1), 1) - 1
          best = -force(i_best)
          if (-best > self%peak_force) then
             if (i_best > 0 .and. i_best < m + 1) &
-               call golden_minimum(model, 2, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
+               call golden_minimum(model, 2, 1.0_dp, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
                                    pair, flight, cubic)
             self%peak_force = max(self%peak_force, -best)
          end if
       end if
+
+   contains
+
+      !> Raise the running maximum (direction 1; running minimum for -1) `extreme` of the
+      !> values at the nodes, located by a golden-section search around an interior best node.
+      subroutine locate_extremum(extreme, values, kind, direction)
+         real(dp), intent(inout) :: extreme
+         real(dp), intent(in) :: values(0:)
+         integer, intent(in) :: kind
+         real(dp), intent(in) :: direction
+         integer :: j
+         real(dp) :: found
+         j = maxloc(direction*values, 1) - 1
+         if (direction*values(j) <= direction*extreme) return
+         found = -direction*values(j)
+         if (j > 0 .and. j < m + 1) &
+            call golden_minimum(model, kind, -direction, origin, h, t(j - 1), t(j + 1), found, self%y, &
+                                pair, flight, cubic)
+         extreme = -direction*found
+      end subroutine locate_extremum
    end subroutine piece
 
    !> Close the current period: its observables, its end's Poincare point (in self%y), and the
@@ -445,6 +502,10 @@ contains
          v(obs_virial) = self%acc_virial/period
          v(obs_contact_normal_work) = self%acc_powers(power_contact_normal)
       end associate
+      self%max_gap_values(m) = self%max_gap
+      self%modal_extrema(m, :, :) = self%acc_modal
+      where (abs(self%acc_modal) >= huge(1.0_dp)) &
+         self%modal_extrema(m, :, :) = ieee_value(1.0_dp, ieee_quiet_nan)
       self%poincare(:, m) = self%y
       self%n_periods = m
       call reset(self)

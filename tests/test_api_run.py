@@ -208,3 +208,15 @@ def test_load_reads_the_executables_npz(tmp_path, exe):
     _same(loaded, config.run())
     assert loaded.resolved["solver"]["method"] == "dopri5"
     assert loaded.scene == config.scene
+
+
+def test_convention_override_on_a_resolved_config_is_refused_not_misread():
+    """A Config pins &model errata to its convention's list; overriding the convention alone
+    used to keep that list (a 'consistent' run with the printed equations)."""
+    base = tmafm.Config("fig2_n4")
+    with pytest.raises(tmafm.InputError, match=r"convention is overridden .* errata = 'none'"):
+        tmafm.Config(base, model={"convention": "consistent"})
+    followed = tmafm.Config(base, model={"convention": "consistent", "errata": "convention"})
+    direct = tmafm.Config("fig2_n4", model={"convention": "consistent"})
+    assert followed.to_dict()["model"] == direct.to_dict()["model"]
+    assert direct.to_dict()["model"]["errata"] == "E1,E2,E3,E4,E6,E7"

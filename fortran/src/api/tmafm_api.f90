@@ -7,7 +7,7 @@
 !> errmsg, and keeps no state between calls, so two threads may run two configurations at once.
 module tmafm_api
    use tmafm_kinds, only: dp, i8
-   use tmafm_errors, only: ok, errmsg_len
+   use tmafm_errors, only: ok, err_input, errmsg_len
    use tmafm_settings, only: sample_count
    use tmafm_config, only: config_t
    use tmafm_contact, only: contact_brackets_t
@@ -67,6 +67,34 @@ contains
       if (ierr /= ok) return
       call parse_namelist(override_text, '<overrides>', over, ierr, errmsg)
       if (ierr /= ok) return
+      ! A resolved input (a Config, an output file) pins &model errata to the list its
+      ! convention gave; overriding only the convention would keep that list and silently run
+      ! the old physics, so the combination is refused with a message saying what to add.
+      block
+         logical :: sets_convention, sets_errata
+         sets_convention = .false.
+         sets_errata = .false.
+         do g = 1, over%n_groups
+            if (over%groups(g)%name /= 'model') cycle
+            do k = 1, over%groups(g)%n_entries
+               if (over%groups(g)%entries(k)%key == 'convention') sets_convention = .true.
+               if (over%groups(g)%entries(k)%key == 'errata') sets_errata = .true.
+            end do
+         end do
+         if (sets_convention .and. .not. sets_errata) then
+            do g = 1, base%n_groups
+               if (base%groups(g)%name /= 'model') cycle
+               do k = 1, base%groups(g)%n_entries
+                  if (base%groups(g)%entries(k)%key /= 'errata') cycle
+                  ierr = err_input
+                  errmsg = source_label//': &model convention is overridden but the base input sets '// &
+                           entry_text(base%groups(g)%entries(k))//': override &model errata too '// &
+                           '(''convention'' follows the new convention)'
+                  return
+               end do
+            end do
+         end if
+      end block
       allocate (used(over%n_groups), source=.false.)
       merged = ''
       do g = 1, base%n_groups

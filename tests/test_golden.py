@@ -147,14 +147,7 @@ def test_mismatch_report_says_where():
 
 def _leaves(value, path=""):
     """(path, value) for every leaf (numbers and strings) of a nested analysis table."""
-    if isinstance(value, dict):
-        for key in sorted(value):
-            yield from _leaves(value[key], f"{path}.{key}")
-    elif isinstance(value, list):
-        for k, item in enumerate(value):
-            yield from _leaves(item, f"{path}[{k}]")
-    else:
-        yield path, value
+    return regenerate._leaves(value, path, numbers_only=False)
 
 
 def near_switch(result, vt_tol):

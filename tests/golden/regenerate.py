@@ -233,15 +233,16 @@ def under_blas(name: str) -> dict:
     return data
 
 
-def _leaves(value, path=""):
-    """(path, value) for every number of a nested analysis table."""
+def _leaves(value, path="", numbers_only=True):
+    """(path, value) for every number (or, with numbers_only=False, every leaf) of a nested
+    analysis table."""
     if isinstance(value, dict):
         for key in sorted(value):
-            yield from _leaves(value[key], f"{path}.{key}")
+            yield from _leaves(value[key], f"{path}.{key}", numbers_only)
     elif isinstance(value, list):
         for k, item in enumerate(value):
-            yield from _leaves(item, f"{path}[{k}]")
-    elif isinstance(value, (int, float)) and not isinstance(value, bool):
+            yield from _leaves(item, f"{path}[{k}]", numbers_only)
+    elif not numbers_only or (isinstance(value, (int, float)) and not isinstance(value, bool)):
         yield path, value
 
 

@@ -10,7 +10,7 @@ module tmafm_batch
       method_flight_exact, check_run_size
    use tmafm_trajectory, only: trajectory_t
    use tmafm_driver, only: run_trajectory
-   use tmafm_simulation, only: build_model, choose_mode_count
+   use tmafm_simulation, only: prepare_model
    use tmafm_observers, only: observer_t
    use tmafm_units, only: scales_t, scales_from_physical
    use tmafm_text, only: int_text, real_text
@@ -105,10 +105,7 @@ contains
                   'period (omega > 0)'
          return
       end if
-      chosen = config
-      call choose_mode_count(chosen, ierr, errmsg)
-      if (ierr /= ok) return
-      call build_model(chosen, model, ierr, errmsg)
+      call prepare_model(config, chosen, model, ierr, errmsg)
       if (ierr /= ok) return
       n = chosen%n_modes
       period = 2*acos(-1.0_dp)/model%scene%omega

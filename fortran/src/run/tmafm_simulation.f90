@@ -14,7 +14,7 @@ module tmafm_simulation
    implicit none
    private
 
-   public :: build_model, simulate, choose_mode_count, load_model
+   public :: build_model, prepare_model, simulate, choose_mode_count, load_model
 
    !> Tolerances of the runs that compare N and N+1.
    real(dp), parameter :: comparison_rtol = 1.0e-10_dp, comparison_atol = 1.0e-16_dp
@@ -116,6 +116,20 @@ contains
       end do
    end function last_nonzero
 
+   !> The configuration with N chosen (when &model n_modes = 0), and the model it describes:
+   !> the common first step of every run.
+   recursive subroutine prepare_model(config, chosen, model, ierr, errmsg)
+      type(config_t), intent(in) :: config
+      type(config_t), intent(out) :: chosen
+      type(model_t), intent(out) :: model
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      chosen = config
+      call choose_mode_count(chosen, ierr, errmsg)
+      if (ierr /= ok) return
+      call build_model(chosen, model, ierr, errmsg)
+   end subroutine prepare_model
+
    !> Run a configuration; `traj` holds the samples when ierr == ok.
    recursive subroutine simulate(config, traj, ierr, errmsg, progress_unit)
       type(config_t), intent(in) :: config
@@ -128,10 +142,7 @@ contains
       type(config_t) :: chosen
       integer :: n
 
-      chosen = config
-      call choose_mode_count(chosen, ierr, errmsg)
-      if (ierr /= ok) return
-      call build_model(chosen, model, ierr, errmsg)
+      call prepare_model(config, chosen, model, ierr, errmsg)
       if (ierr /= ok) return
       n = chosen%n_modes
       ! Every run (the comparison runs of an automatic N included) obeys the size limits.

@@ -4,7 +4,7 @@
 This is deliberately what a Python user would write, and it exists only to be measured
 against (benchmarks, work-precision chart).  Like the independent reference in
 ``tests/reference``, it is a second implementation on purpose: it takes the Galerkin
-constants from the core (``_core.model_data``) but writes the contact law and the
+constants from the core (``tmafm.Model``, in memory) but writes the contact law and the
 equations of motion (docs/model.md §6-7) again, in numpy.
 """
 
@@ -15,8 +15,7 @@ import time
 
 import numpy as np
 
-from . import _core
-from ._run import _NamelistFile, _resolve_source
+from ._model import Model
 
 __all__ = ["ScipyPeer"]
 
@@ -25,11 +24,11 @@ class ScipyPeer:
     """solve_ivp with events on a numpy right-hand side, for one namelist."""
 
     def __init__(self, nml, **overrides):
-        with _NamelistFile(nml, overrides) as source:
-            n, _, scene, resolved = _resolve_source(source)
-            (mass, eigen, axial, tip, slope, mass_point, moment_shape, integral, kappas, ierr,
-             errmsg) = _core.model_data(source.path, n)
-            source.check(ierr, errmsg)
+        model = Model(nml, **overrides)
+        n, scene, resolved = model.n_modes, model.scene, model.config.to_namelist()
+        mass, eigen, axial, tip, slope = model.mass, model.eigen, model.axial, model.tip, model.slope
+        mass_point, moment_shape, integral, kappas = (model.mass_point, model.moment_shape,
+                                                      model.integral, model.kappas)
         self.n = n
         self.scene = scene
         self.resolved = resolved

@@ -8,7 +8,6 @@ with f90nml only when ``.resolved`` is asked for.
 
 from __future__ import annotations
 
-import copy
 import os
 import tempfile
 from collections.abc import Mapping
@@ -315,47 +314,3 @@ def run(nml: NamelistLike, max_switches: int | None = None, **overrides) -> Resu
     and BlowUpError when the integration diverges.
     """
     return Config(nml, **overrides).run(max_switches)
-
-
-# --- The file-based path of the flat _core entry points (used by tmafm._peer) ---------------
-
-class _NamelistFile:
-    """The namelist as a file path for the flat ``_core`` entry points that take one."""
-
-    def __init__(self, nml: NamelistLike, overrides: Mapping | None):
-        self._temporary = None
-        self.label = "<dict input>"
-        if isinstance(nml, (str, os.PathLike)) and not overrides:
-            path = _input_path(nml)
-            self.label = self.path = str(path)
-            return
-        config = nml if isinstance(nml, Config) and not overrides else Config(
-            copy.deepcopy(nml) if isinstance(nml, Mapping) else nml, **(overrides or {}))
-        self.label = config.label
-        fd, self.path = tempfile.mkstemp(suffix=".nml")
-        try:
-            with os.fdopen(fd, "w") as handle:
-                handle.write(config.text)
-        except BaseException:
-            os.unlink(self.path)
-            raise
-        self._temporary = self.path
-
-    def check(self, ierr, errmsg) -> None:
-        """Raise for a core error, naming the user's input rather than a temporary file."""
-        if isinstance(errmsg, (bytes, bytearray)):
-            errmsg = errmsg.decode("utf-8", "replace")
-        raise_for(ierr, str(errmsg).strip().replace(self.path, self.label))
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        if self._temporary is not None:
-            os.unlink(self._temporary)
-
-
-def _resolve_source(source: _NamelistFile):
-    """(N, samples, scene, resolved namelist) of a namelist file, through the core."""
-    config = Config(source.path)
-    return config.n_modes, config.n_samples, config.scene, config.to_namelist()

@@ -15,6 +15,13 @@
 !> then refined by Brent.  The scan step comes from the same bound: the largest step whose
 !> error bound at mid-interval is half of what the gap (or its rise) would allow, so a
 !> flight takes a few tens of evaluations instead of a fixed step per fastest time scale.
+!>
+!> The output samples of a flight are equally spaced (dt = sample_dtau), so `sample` turns each
+!> term from one sample to the next by the fixed factor exp(lambda dt) (set once per run by
+!> `sample_step`) instead of calling exp: O(N^2) multiplications per sample and no libm.  The
+!> terms are taken afresh from exp(lambda s) at the first sample of a flight, every
+!> anchor_every samples, and whenever a sample is not dt past the previous one; between
+!> anchors the rounding drifts by a few ulp per sample (tests/test_sampling.py bounds it).
 module tmafm_flight
    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
    use tmafm_kinds, only: dp
@@ -61,6 +68,14 @@ module tmafm_flight
       real(dp) :: fourth_derivative_bound = 0
       !> Smallest scan step: 2^-10 of a quarter of the shortest time scale of the free system.
       real(dp) :: min_step = 0
+      !> Spacing of the samples (0 until sample_step is called), and exp(lambda dt) per term.
+      real(dp) :: sample_dt = 0
+      complex(dp), allocatable :: rotor(:)
+      !> multiplicity z exp(lambda s) per term at the last sample s_last, and the samples taken
+      !> since those terms were last computed with exp.
+      complex(dp), allocatable :: running(:)
+      real(dp) :: s_last = 0
+      integer :: since_anchor = huge(1)
    contains
       !> Decompose the free system of a model (once per run).
       procedure :: init => flight_init
@@ -68,6 +83,10 @@ module tmafm_flight
       procedure :: start => flight_start
       !> The state at tau0 + s.
       procedure :: state => flight_state
+      !> Set the spacing dt of the output samples (once per run).
+      procedure :: sample_step => flight_sample_step
+      !> The state at the output sample tau0 + s, given sin and cos of Omega (tau0 + s).
+      procedure :: sample => flight_sample
       !> V_T and dV_T/dtau at tau0 + s.
       procedure :: gap => flight_gap
       !> The first s in (0, s_max] with V_T <= 0, located to round-off; found = .false. if none.
@@ -78,6 +97,8 @@ module tmafm_flight
    integer, parameter :: max_halvings = 30
    !> Most evaluations of V_T one call of first_contact may take before it gives up.
    integer, parameter :: max_scan_evaluations = 10000000
+   !> Samples between two evaluations of exp(lambda s) in `sample`.
+   integer, parameter, public :: anchor_every = 32
 
 contains
 
@@ -183,7 +204,10 @@ contains
       end if
       k = self%n_terms
       allocate (self%eigenvalue(k), self%multiplicity(k), self%vectors(m, k), self%inverse(k, m), &
-                self%tip_of_vector(k), self%z(k), self%tip_weight(k), self%weight4(k))
+                self%tip_of_vector(k), self%z(k), self%tip_weight(k), self%weight4(k), self%rotor(k), &
+                self%running(k))
+      self%rotor = 1
+      self%sample_dt = 0
       do k = 1, self%n_terms
          j = keep(k)
          self%eigenvalue(k) = cmplx(wr(j), wi(j), dp)
@@ -214,7 +238,49 @@ contains
       self%weight4 = self%multiplicity*abs(self%tip_weight)*abs(self%eigenvalue)**4
       self%margin = switch_margin(model, tau, y)
       self%fourth_derivative_bound = sum(self%weight4) + self%harmonic_bound
+      self%since_anchor = anchor_every
    end subroutine flight_start
+
+   subroutine flight_sample_step(self, dt)
+      class(free_flight_t), intent(inout) :: self
+      real(dp), intent(in) :: dt
+      self%sample_dt = dt
+      self%rotor = exp(self%eigenvalue*dt)
+      self%since_anchor = anchor_every
+   end subroutine flight_sample_step
+
+   !> The same state as flight_state to round-off, for the output samples of a flight: if s
+   !> is sample_dt past the previous sample of this flight the terms are turned by the rotor,
+   !> else taken from exp.  sin_phase and cos_phase are those of Omega (tau0 + s) (the
+   !> trajectory carries them from sample to sample).
+   pure subroutine flight_sample(self, s, sin_phase, cos_phase, y)
+      class(free_flight_t), intent(inout) :: self
+      real(dp), intent(in) :: s
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      real(dp), intent(out) :: y(:)
+      complex(dp) :: term
+      integer :: k, i, m
+      m = self%n_state
+      if (self%since_anchor < anchor_every .and. &
+          abs(s - (self%s_last + self%sample_dt)) <= 16*epsilon(1.0_dp)*(abs(self%tau0) + abs(s))) then
+         self%running = self%running*self%rotor
+         self%since_anchor = self%since_anchor + 1
+      else
+         self%running = self%multiplicity*self%z*exp(self%eigenvalue*s)
+         self%since_anchor = 1
+      end if
+      self%s_last = s
+      do i = 1, m
+         y(i) = self%u(i)*sin_phase + self%v(i)*cos_phase
+      end do
+      do k = 1, self%n_terms
+         term = self%running(k)
+         do i = 1, m
+            y(i) = y(i) + (real(self%vectors(i, k), dp)*real(term, dp) - aimag(self%vectors(i, k))*aimag(term))
+         end do
+      end do
+   end subroutine flight_sample
 
    pure subroutine flight_state(self, model, s, y)
       class(free_flight_t), intent(in) :: self

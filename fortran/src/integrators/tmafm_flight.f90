@@ -68,12 +68,15 @@ module tmafm_flight
       real(dp) :: fourth_derivative_bound = 0
       !> Smallest scan step: 2^-10 of a quarter of the shortest time scale of the free system.
       real(dp) :: min_step = 0
-      !> Spacing of the samples (0 until sample_step is called), and exp(lambda dt) per term.
+      !> Real and imaginary parts of the eigenvectors (2N x n_terms), for the sample kernel.
+      real(dp), allocatable :: vectors_re(:, :), vectors_im(:, :)
+      !> Spacing of the samples (0 until sample_step is called), and exp(lambda dt) per term
+      !> (real and imaginary parts).
       real(dp) :: sample_dt = 0
-      complex(dp), allocatable :: rotor(:)
-      !> multiplicity z exp(lambda s) per term at the last sample s_last, and the samples taken
-      !> since those terms were last computed with exp.
-      complex(dp), allocatable :: running(:)
+      real(dp), allocatable :: rotor_re(:), rotor_im(:)
+      !> multiplicity z exp(lambda s) per term at the last sample s_last (real and imaginary
+      !> parts), and the samples taken since those terms were last computed with exp.
+      real(dp), allocatable :: running_re(:), running_im(:)
       real(dp) :: s_last = 0
       integer :: since_anchor = huge(1)
    contains
@@ -204,9 +207,11 @@ contains
       end if
       k = self%n_terms
       allocate (self%eigenvalue(k), self%multiplicity(k), self%vectors(m, k), self%inverse(k, m), &
-                self%tip_of_vector(k), self%z(k), self%tip_weight(k), self%weight4(k), self%rotor(k), &
-                self%running(k))
-      self%rotor = 1
+                self%tip_of_vector(k), self%z(k), self%tip_weight(k), self%weight4(k), &
+                self%vectors_re(m, k), self%vectors_im(m, k), self%rotor_re(k), self%rotor_im(k), &
+                self%running_re(k), self%running_im(k))
+      self%rotor_re = 1
+      self%rotor_im = 0
       self%sample_dt = 0
       do k = 1, self%n_terms
          j = keep(k)
@@ -216,6 +221,8 @@ contains
          self%inverse(k, :) = inverse(j, :)
          self%tip_of_vector(k) = sum(model%tip*vectors(1:n, j))
       end do
+      self%vectors_re = real(self%vectors, dp)
+      self%vectors_im = aimag(self%vectors)
       self%min_step = 0.25_dp/max(maxval(abs(self%eigenvalue)), omega, tiny(1.0_dp))/1024
    end subroutine flight_init
 
@@ -244,8 +251,11 @@ contains
    subroutine flight_sample_step(self, dt)
       class(free_flight_t), intent(inout) :: self
       real(dp), intent(in) :: dt
+      complex(dp) :: rotor(self%n_terms)
       self%sample_dt = dt
-      self%rotor = exp(self%eigenvalue*dt)
+      rotor = exp(self%eigenvalue*dt)
+      self%rotor_re = real(rotor, dp)
+      self%rotor_im = aimag(rotor)
       self%since_anchor = anchor_every
    end subroutine flight_sample_step
 
@@ -260,27 +270,57 @@ contains
       real(dp), intent(in) :: cos_phase
       real(dp), intent(out) :: y(:)
       complex(dp) :: term
-      integer :: k, i, m
-      m = self%n_state
+      integer :: k
       if (self%since_anchor < anchor_every .and. &
           abs(s - (self%s_last + self%sample_dt)) <= 16*epsilon(1.0_dp)*(abs(self%tau0) + abs(s))) then
-         self%running = self%running*self%rotor
+         call turn(self%n_terms, self%rotor_re, self%rotor_im, self%running_re, self%running_im)
          self%since_anchor = self%since_anchor + 1
       else
-         self%running = self%multiplicity*self%z*exp(self%eigenvalue*s)
+         do k = 1, self%n_terms
+            term = self%multiplicity(k)*self%z(k)*exp(self%eigenvalue(k)*s)
+            self%running_re(k) = real(term, dp)
+            self%running_im(k) = aimag(term)
+         end do
          self%since_anchor = 1
       end if
       self%s_last = s
-      do i = 1, m
-         y(i) = self%u(i)*sin_phase + self%v(i)*cos_phase
+      call sum_terms(self%n_state, self%n_terms, self%u, self%v, self%vectors_re, self%vectors_im, &
+                     self%running_re, self%running_im, sin_phase, cos_phase, y)
+   end subroutine flight_sample
+
+   !> running = running rotor, term by term (complex numbers as real and imaginary parts).
+   pure subroutine turn(n_terms, rotor_re, rotor_im, running_re, running_im)
+      integer, intent(in) :: n_terms
+      real(dp), intent(in) :: rotor_re(n_terms), rotor_im(n_terms)
+      real(dp), intent(inout) :: running_re(n_terms), running_im(n_terms)
+      real(dp) :: re
+      integer :: k
+      do k = 1, n_terms
+         re = running_re(k)*rotor_re(k) - running_im(k)*rotor_im(k)
+         running_im(k) = running_re(k)*rotor_im(k) + running_im(k)*rotor_re(k)
+         running_re(k) = re
       end do
-      do k = 1, self%n_terms
-         term = self%running(k)
+   end subroutine turn
+
+   !> y = u sin + v cos + sum_k Re(V(:, k) running_k): the state from the particular solution
+   !> and the turned terms (the multiplicity is in running).
+   pure subroutine sum_terms(m, n_terms, u, v, vectors_re, vectors_im, running_re, running_im, &
+                             sin_phase, cos_phase, y)
+      integer, intent(in) :: m, n_terms
+      real(dp), intent(in) :: u(m), v(m), vectors_re(m, n_terms), vectors_im(m, n_terms)
+      real(dp), intent(in) :: running_re(n_terms), running_im(n_terms)
+      real(dp), intent(in) :: sin_phase, cos_phase
+      real(dp), intent(out) :: y(m)
+      integer :: i, k
+      do i = 1, m
+         y(i) = u(i)*sin_phase + v(i)*cos_phase
+      end do
+      do k = 1, n_terms
          do i = 1, m
-            y(i) = y(i) + (real(self%vectors(i, k), dp)*real(term, dp) - aimag(self%vectors(i, k))*aimag(term))
+            y(i) = y(i) + (vectors_re(i, k)*running_re(k) - vectors_im(i, k)*running_im(k))
          end do
       end do
-   end subroutine flight_sample
+   end subroutine sum_terms
 
    pure subroutine flight_state(self, model, s, y)
       class(free_flight_t), intent(in) :: self

@@ -151,15 +151,11 @@ contains
       real(dp), intent(in) :: y(:)
       real(dp), intent(in) :: sin_phase
       real(dp), intent(in) :: cos_phase
-      integer :: n, k, j
+      integer :: k
       real(dp) :: vt, vtdot
-      n = model%n_modes
       k = self%next_sample
       if (k == 1) call model%phase(self%sample_dtau, self%step_sin, self%step_cos)
-      do j = 1, n
-         self%a(k, j) = y(j)
-         self%adot(k, j) = y(n + j)
-      end do
+      call put_row(model%n_modes, size(self%tau), k, y, self%a, self%adot)
       call model%gap_at_phase(y, sin_phase, cos_phase, vt, vtdot)
       self%vt(k) = vt
       self%vtdot(k) = vtdot
@@ -168,6 +164,18 @@ contains
       self%last_cos = cos_phase
       self%next_sample = k + 1
    end subroutine trajectory_store_at_phase
+
+   !> Row k of a and adot (rows x n) from the state y = (a, a').
+   pure subroutine put_row(n, rows, k, y, a, adot)
+      integer, intent(in) :: n, rows, k
+      real(dp), intent(in) :: y(2*n)
+      real(dp), intent(inout) :: a(rows, n), adot(rows, n)
+      integer :: j
+      do j = 1, n
+         a(k, j) = y(j)
+         adot(k, j) = y(n + j)
+      end do
+   end subroutine put_row
 
    !> step is the length of the step that found the switch (or the method's nominal step).
    pure subroutine trajectory_add_switch(self, tau, step, ierr, errmsg)

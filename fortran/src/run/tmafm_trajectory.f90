@@ -7,6 +7,7 @@ module tmafm_trajectory
    use tmafm_errors, only: ok, err_blowup, err_runtime
    use tmafm_model, only: model_t
    use tmafm_settings, only: run_settings_t, sample_count, method_rk4_paper, method_rk4_event
+   use tmafm_posix, only: prefault
    implicit none
    private
 
@@ -98,7 +99,16 @@ contains
       n = sample_count(settings)
       allocate (traj%tau(n), traj%vt(n), traj%vtdot(n), traj%contact(n), traj%a(n, n_modes), &
                 traj%adot(n, n_modes), traj%switch_tau(64))
-      traj%tau = [(real(k - 1, dp)*settings%sample_dtau, k = 1, n)]
+      ! Every sample is written once: map the pages in one call each, not a fault per page.
+      call prefault(traj%tau, 8*int(n, i8))
+      call prefault(traj%vt, 8*int(n, i8))
+      call prefault(traj%vtdot, 8*int(n, i8))
+      call prefault(traj%contact, storage_size(traj%contact, i8)/8*n)
+      call prefault(traj%a, 8*int(n, i8)*n_modes)
+      call prefault(traj%adot, 8*int(n, i8)*n_modes)
+      do k = 1, n
+         traj%tau(k) = real(k - 1, dp)*settings%sample_dtau
+      end do
       traj%sample_dtau = settings%sample_dtau
    end subroutine init_trajectory
 

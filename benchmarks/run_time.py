@@ -1,7 +1,7 @@
 """CPU time of the tmafm executable (whole process) on a 100-period Fig. 2 run.
 
     /opt/tmafm-venv/bin/python benchmarks/run_time.py [--periods 100] [--repeat 5]
-        [--baseline PATH] [--instructions] [--out benchmarks/run_time.json]
+        [--baseline PATH [--baseline-label TEXT]] [--instructions] [--out benchmarks/run_time.json]
 
 Runs inputs/fig2_n4.nml (N = 4) for `periods` drive periods at the input's sampling
 (sample_dtau = 0.01), with the paper's scheme (rk4_paper, as the input asks) and with
@@ -55,6 +55,8 @@ def main() -> None:
     parser.add_argument("--periods", type=int, default=100)
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--baseline", default=None, help="another tmafm executable to time alongside")
+    parser.add_argument("--baseline-label", default=None,
+                        help="what the baseline is (e.g. 'main at e9a82f9'), stored in the JSON")
     parser.add_argument("--instructions", action="store_true",
                         help="also count instructions under valgrind (one run per case)")
     parser.add_argument("--out", default=None, help="also write the JSON here")
@@ -71,7 +73,7 @@ def main() -> None:
               "tmafm": tmafm.__version__, "clock": "CPU time (user + sys) of the whole process",
               "executable": exes[""], "cases": {}}
     if args.baseline:
-        report["baseline"] = exes["baseline_"]
+        report["baseline"] = args.baseline_label or exes["baseline_"]
     times = {(prefix, case): [] for prefix in exes for case in CASES}
     with tempfile.TemporaryDirectory() as scratch:
         inputs = {}

@@ -376,3 +376,43 @@ subroutine steady_period_of(points, n_points, n_dim, p_max, tol, repeats, period
    integer, intent(out) :: period
    period = steady_period(transpose(points), p_max, tol, repeats)
 end subroutine steady_period_of
+
+!> One free flight of a namelist's model from y0 at tau0, sampled at tau0 + j dt (j = 0 ..
+!> n_samples - 1) twice: as the run loop samples it (flight%sample: each term turned by
+!> exp(lambda dt) from sample to sample) and by direct evaluation (flight%state: exp(lambda s)
+!> at every sample).  Columns are the states (a, a').  For tests of the sampling.
+subroutine flight_samples(path, n_modes, tau0, y0, dt, n_samples, recurrence, direct, ierr, errmsg)
+   use tmafm, only: model_t, load_model, ok
+   use tmafm_kinds, only: dp
+   use tmafm_flight, only: free_flight_t
+   implicit none
+   character(len=*), intent(in) :: path
+   integer, intent(in) :: n_modes
+   real(dp), intent(in) :: tau0
+   real(dp), intent(in) :: y0(2*n_modes)
+   real(dp), intent(in) :: dt
+   integer, intent(in) :: n_samples
+   real(dp), intent(out) :: recurrence(2*n_modes, n_samples)
+   real(dp), intent(out) :: direct(2*n_modes, n_samples)
+   integer, intent(out) :: ierr
+   character(len=512), intent(out) :: errmsg
+   type(model_t) :: model
+   type(free_flight_t) :: flight
+   real(dp) :: s, sin_phase, cos_phase
+   integer :: j
+
+   recurrence = 0
+   direct = 0
+   call load_model(path, n_modes, model, ierr, errmsg)
+   if (ierr /= ok) return
+   call flight%init(model, ierr, errmsg)
+   if (ierr /= ok) return
+   call flight%sample_step(dt)
+   call flight%start(model, tau0, y0)
+   do j = 1, n_samples
+      s = real(j - 1, dp)*dt
+      call model%phase(tau0 + s, sin_phase, cos_phase)
+      call flight%sample(s, sin_phase, cos_phase, recurrence(:, j))
+      call flight%state(model, s, direct(:, j))
+   end do
+end subroutine flight_samples

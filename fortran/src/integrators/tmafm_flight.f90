@@ -15,6 +15,13 @@
 !> then refined by Brent.  The scan step comes from the same bound: the largest step whose
 !> error bound at mid-interval is half of what the gap (or its rise) would allow, so a
 !> flight takes a few tens of evaluations instead of a fixed step per fastest time scale.
+!>
+!> The output samples of a flight are equally spaced (dt = sample_dtau), so `sample` turns each
+!> term from one sample to the next by the fixed factor exp(lambda dt) (set once per run by
+!> `sample_step`) instead of calling exp: O(N^2) multiplications per sample and no libm.  The
+!> terms are taken afresh from exp(lambda s) at the first sample of a flight, every
+!> anchor_every samples, and whenever a sample is not dt past the previous one; between
+!> anchors the rounding drifts by a few ulp per sample (tests/test_sampling.py bounds it).
 module tmafm_flight
    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
    use tmafm_kinds, only: dp
@@ -61,6 +68,17 @@ module tmafm_flight
       real(dp) :: fourth_derivative_bound = 0
       !> Smallest scan step: 2^-10 of a quarter of the shortest time scale of the free system.
       real(dp) :: min_step = 0
+      !> Real and imaginary parts of the eigenvectors (2N x n_terms), for the sample kernel.
+      real(dp), allocatable :: vectors_re(:, :), vectors_im(:, :)
+      !> Spacing of the samples (0 until sample_step is called), and exp(lambda dt) per term
+      !> (real and imaginary parts).
+      real(dp) :: sample_dt = 0
+      real(dp), allocatable :: rotor_re(:), rotor_im(:)
+      !> multiplicity z exp(lambda s) per term at the last sample s_last (real and imaginary
+      !> parts), and the samples taken since those terms were last computed with exp.
+      real(dp), allocatable :: running_re(:), running_im(:)
+      real(dp) :: s_last = 0
+      integer :: since_anchor = huge(1)
    contains
       !> Decompose the free system of a model (once per run).
       procedure :: init => flight_init
@@ -68,6 +86,10 @@ module tmafm_flight
       procedure :: start => flight_start
       !> The state at tau0 + s.
       procedure :: state => flight_state
+      !> Set the spacing dt of the output samples (once per run).
+      procedure :: sample_step => flight_sample_step
+      !> The state at the output sample tau0 + s, given sin and cos of Omega (tau0 + s).
+      procedure :: sample => flight_sample
       !> V_T and dV_T/dtau at tau0 + s.
       procedure :: gap => flight_gap
       !> The first s in (0, s_max] with V_T <= 0, located to round-off; found = .false. if none.
@@ -78,6 +100,8 @@ module tmafm_flight
    integer, parameter :: max_halvings = 30
    !> Most evaluations of V_T one call of first_contact may take before it gives up.
    integer, parameter :: max_scan_evaluations = 10000000
+   !> Samples between two evaluations of exp(lambda s) in `sample`.
+   integer, parameter, public :: anchor_every = 32
 
 contains
 
@@ -183,7 +207,12 @@ contains
       end if
       k = self%n_terms
       allocate (self%eigenvalue(k), self%multiplicity(k), self%vectors(m, k), self%inverse(k, m), &
-                self%tip_of_vector(k), self%z(k), self%tip_weight(k), self%weight4(k))
+                self%tip_of_vector(k), self%z(k), self%tip_weight(k), self%weight4(k), &
+                self%vectors_re(m, k), self%vectors_im(m, k), self%rotor_re(k), self%rotor_im(k), &
+                self%running_re(k), self%running_im(k))
+      self%rotor_re = 1
+      self%rotor_im = 0
+      self%sample_dt = 0
       do k = 1, self%n_terms
          j = keep(k)
          self%eigenvalue(k) = cmplx(wr(j), wi(j), dp)
@@ -192,6 +221,8 @@ contains
          self%inverse(k, :) = inverse(j, :)
          self%tip_of_vector(k) = sum(model%tip*vectors(1:n, j))
       end do
+      self%vectors_re = real(self%vectors, dp)
+      self%vectors_im = aimag(self%vectors)
       self%min_step = 0.25_dp/max(maxval(abs(self%eigenvalue)), omega, tiny(1.0_dp))/1024
    end subroutine flight_init
 
@@ -214,7 +245,82 @@ contains
       self%weight4 = self%multiplicity*abs(self%tip_weight)*abs(self%eigenvalue)**4
       self%margin = switch_margin(model, tau, y)
       self%fourth_derivative_bound = sum(self%weight4) + self%harmonic_bound
+      self%since_anchor = anchor_every
    end subroutine flight_start
+
+   subroutine flight_sample_step(self, dt)
+      class(free_flight_t), intent(inout) :: self
+      real(dp), intent(in) :: dt
+      complex(dp) :: rotor(self%n_terms)
+      self%sample_dt = dt
+      rotor = exp(self%eigenvalue*dt)
+      self%rotor_re = real(rotor, dp)
+      self%rotor_im = aimag(rotor)
+      self%since_anchor = anchor_every
+   end subroutine flight_sample_step
+
+   !> The same state as flight_state to round-off, for the output samples of a flight: if s
+   !> is sample_dt past the previous sample of this flight the terms are turned by the rotor,
+   !> else taken from exp.  sin_phase and cos_phase are those of Omega (tau0 + s) (the
+   !> trajectory carries them from sample to sample).
+   pure subroutine flight_sample(self, s, sin_phase, cos_phase, y)
+      class(free_flight_t), intent(inout) :: self
+      real(dp), intent(in) :: s
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      real(dp), intent(out) :: y(:)
+      complex(dp) :: term
+      integer :: k
+      if (self%since_anchor < anchor_every .and. &
+          abs(s - (self%s_last + self%sample_dt)) <= 16*epsilon(1.0_dp)*(abs(self%tau0) + abs(s))) then
+         call turn(self%n_terms, self%rotor_re, self%rotor_im, self%running_re, self%running_im)
+         self%since_anchor = self%since_anchor + 1
+      else
+         do k = 1, self%n_terms
+            term = self%multiplicity(k)*self%z(k)*exp(self%eigenvalue(k)*s)
+            self%running_re(k) = real(term, dp)
+            self%running_im(k) = aimag(term)
+         end do
+         self%since_anchor = 1
+      end if
+      self%s_last = s
+      call sum_terms(self%n_state, self%n_terms, self%u, self%v, self%vectors_re, self%vectors_im, &
+                     self%running_re, self%running_im, sin_phase, cos_phase, y)
+   end subroutine flight_sample
+
+   !> running = running rotor, term by term (complex numbers as real and imaginary parts).
+   pure subroutine turn(n_terms, rotor_re, rotor_im, running_re, running_im)
+      integer, intent(in) :: n_terms
+      real(dp), intent(in) :: rotor_re(n_terms), rotor_im(n_terms)
+      real(dp), intent(inout) :: running_re(n_terms), running_im(n_terms)
+      real(dp) :: re
+      integer :: k
+      do k = 1, n_terms
+         re = running_re(k)*rotor_re(k) - running_im(k)*rotor_im(k)
+         running_im(k) = running_re(k)*rotor_im(k) + running_im(k)*rotor_re(k)
+         running_re(k) = re
+      end do
+   end subroutine turn
+
+   !> y = u sin + v cos + sum_k Re(V(:, k) running_k): the state from the particular solution
+   !> and the turned terms (the multiplicity is in running).
+   pure subroutine sum_terms(m, n_terms, u, v, vectors_re, vectors_im, running_re, running_im, &
+                             sin_phase, cos_phase, y)
+      integer, intent(in) :: m, n_terms
+      real(dp), intent(in) :: u(m), v(m), vectors_re(m, n_terms), vectors_im(m, n_terms)
+      real(dp), intent(in) :: running_re(n_terms), running_im(n_terms)
+      real(dp), intent(in) :: sin_phase, cos_phase
+      real(dp), intent(out) :: y(m)
+      integer :: i, k
+      do i = 1, m
+         y(i) = u(i)*sin_phase + v(i)*cos_phase
+      end do
+      do k = 1, n_terms
+         do i = 1, m
+            y(i) = y(i) + (vectors_re(i, k)*running_re(k) - vectors_im(i, k)*running_im(k))
+         end do
+      end do
+   end subroutine sum_terms
 
    pure subroutine flight_state(self, model, s, y)
       class(free_flight_t), intent(in) :: self

@@ -37,12 +37,13 @@ contains
       type(free_flight_t) :: flight
       type(adaptive_state_t) :: contact
       real(dp), allocatable :: y_sample(:)
-      real(dp) :: s_contact, horizon
+      real(dp) :: s_contact, horizon, sin_phase, cos_phase
       logical :: found
       integer :: evaluations
 
       call flight%init(model, ierr, errmsg)
       if (ierr /= ok) return
+      call flight%sample_step(settings%sample_dtau)
       allocate (y_sample(size(y0)))
       call traj%store(model, y0)
       call contact%init(contact_pair, model, settings, 0.0_dp, y0)
@@ -66,8 +67,9 @@ contains
             call traj%charge(settings, tau, 1 + evaluations, ierr, errmsg)
             if (ierr /= ok) return
             do while (traj%next_time() <= tau + s_contact)
-               call flight%state(model, traj%next_time() - tau, y_sample)
-               call traj%store(model, y_sample)
+               call traj%next_phase(model, sin_phase, cos_phase)
+               call flight%sample(traj%next_time() - tau, sin_phase, cos_phase, y_sample)
+               call traj%store_at_phase(model, y_sample, sin_phase, cos_phase)
             end do
             if (present(observer)) call observer%flight_segment(model, flight, tau, s_contact)
             call flight%state(model, s_contact, y)

@@ -11,7 +11,8 @@ module tmafm_posix
              kind_symlink, kind_other
    public :: path_kind, create_temporary, open_device, check_descriptor, write_bytes, &
              write_text, sync_descriptor, close_descriptor, rename_path, remove_path, &
-             check_writable, error_text, crc32_table_size, crc32_table, crc32_update, crc32_text
+             check_writable, error_text, crc32_table_size, crc32_table, crc32_update, crc32_text, &
+             prefault
 
    !> Kinds of path (as tmafm_posix.c numbers them): nothing there, a regular file, ...
    integer, parameter :: kind_missing = 0, kind_regular = 1, kind_directory = 2, &
@@ -53,6 +54,13 @@ module tmafm_posix
          integer(c_int64_t), value :: n
          integer(c_int) :: status
       end function write_bytes
+      !> Map the memory of n bytes of a contiguous array now, in one call, rather than a page
+      !> fault per page at first touch (a hint: does nothing where the kernel cannot).
+      subroutine prefault(buf, n) bind(c, name='tmafm_prefault')
+         import :: c_int64_t
+         type(*), intent(in) :: buf(*)
+         integer(c_int64_t), value :: n
+      end subroutine prefault
       function c_write_text(fd, buf, n) result(status) bind(c, name='tmafm_write_all')
          import :: c_char, c_int, c_int64_t
          integer(c_int), value :: fd

@@ -100,6 +100,8 @@ module tmafm_model
       procedure :: tip_gap => model_tip_gap
       !> The tip gap rate dV_T/dtau = p.a' + alpha2 Omega cos(Omega tau).
       procedure :: tip_gap_rate => model_tip_gap_rate
+      !> V_T and dV_T/dtau, for callers that already hold sin(Omega tau) and cos(Omega tau).
+      procedure :: gap_at_phase => model_gap_at_phase
       !> The contact state (angle, radius, brackets) for displacements a at time tau.
       procedure :: contact => model_contact
       !> The explicit M, C, K, F of Eq. (15) at one state, for checks and analysis.
@@ -274,6 +276,25 @@ contains
       vtdot = dot_product(self%tip, y(n + 1:2*n)) &
               + self%scene%alpha2*self%scene%omega*cos(self%scene%omega*tau)
    end function model_tip_gap_rate
+
+   pure subroutine model_gap_at_phase(self, y, sin_phase, cos_phase, vt, vtdot)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: y(:)
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      real(dp), intent(out) :: vt
+      real(dp), intent(out) :: vtdot
+      integer :: n, j
+      n = self%n_modes
+      vt = 0
+      vtdot = 0
+      do j = 1, n
+         vt = vt + self%tip(j)*y(j)
+         vtdot = vtdot + self%tip(j)*y(n + j)
+      end do
+      vt = vt + self%scene%alpha2*sin_phase + self%scene%delta_hat
+      vtdot = vtdot + self%scene%alpha2*self%scene%omega*cos_phase
+   end subroutine model_gap_at_phase
 
    pure function model_contact(self, tau, a) result(state)
       class(model_t), intent(in) :: self

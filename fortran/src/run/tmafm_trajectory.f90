@@ -7,6 +7,7 @@ module tmafm_trajectory
    use tmafm_errors, only: ok, err_blowup, err_runtime
    use tmafm_model, only: model_t
    use tmafm_settings, only: run_settings_t, sample_count, method_rk4_paper, method_rk4_event
+   use tmafm_posix, only: prefault
    implicit none
    private
 
@@ -16,6 +17,12 @@ module tmafm_trajectory
    !> the run.  A real contact needs two switches, a grazing one inside a single step too, so
    !> a run with more than this many switches within one step length is not resolving them.
    integer, parameter :: chatter_switches = 16
+
+   !> The drive phase at the samples is carried by angle addition from one sample to the next
+   !> and taken afresh from sin and cos every this many samples: the drift of the rotation
+   !> (a few ulp per sample) stays below 32 x 4 eps, under the rounding of Omega tau itself
+   !> past tau ~ 100 (tests/test_sampling.py).
+   integer, parameter, public :: phase_anchor_every = 32
 
    !> The sampled trajectory and the work counters of one run.
    type :: trajectory_t
@@ -37,6 +44,13 @@ module tmafm_trajectory
       integer :: n_switches = 0
       !> Index of the next sample to fill.
       integer :: next_sample = 1
+      !> Sample spacing (settings%sample_dtau).
+      real(dp) :: sample_dtau = 0
+      !> sin and cos of Omega tau at the last sample filled.
+      real(dp) :: last_sin = 0, last_cos = 1
+      !> cos and sin of Omega sample_dtau: the rotation from one sample to the next (set at the
+      !> first sample, from the model the run uses).
+      real(dp) :: step_cos = 1, step_sin = 0
       !> Steps accepted, in all and in contact.
       integer(i8) :: steps = 0, contact_steps = 0
       !> Steps rejected by an error controller.
@@ -49,6 +63,10 @@ module tmafm_trajectory
    contains
       !> Store the state y at sample time tau in the next free sample.
       procedure :: store => trajectory_store
+      !> sin(Omega tau) and cos(Omega tau) at the next sample (what store_at_phase takes).
+      procedure :: next_phase => trajectory_next_phase
+      !> Store y in the next free sample, whose drive phase next_phase gave.
+      procedure :: store_at_phase => trajectory_store_at_phase
       !> The time of the next sample still to fill (huge when all are filled).
       procedure :: next_time => trajectory_next_time
       !> .true. once every sample is filled.
@@ -81,7 +99,17 @@ contains
       n = sample_count(settings)
       allocate (traj%tau(n), traj%vt(n), traj%vtdot(n), traj%contact(n), traj%a(n, n_modes), &
                 traj%adot(n, n_modes), traj%switch_tau(64))
-      traj%tau = [(real(k - 1, dp)*settings%sample_dtau, k = 1, n)]
+      ! Every sample is written once: map the pages in one call each, not a fault per page.
+      call prefault(traj%tau, 8*int(n, i8))
+      call prefault(traj%vt, 8*int(n, i8))
+      call prefault(traj%vtdot, 8*int(n, i8))
+      call prefault(traj%contact, storage_size(traj%contact, i8)/8*n)
+      call prefault(traj%a, 8*int(n, i8)*n_modes)
+      call prefault(traj%adot, 8*int(n, i8)*n_modes)
+      do k = 1, n
+         traj%tau(k) = real(k - 1, dp)*settings%sample_dtau
+      end do
+      traj%sample_dtau = settings%sample_dtau
    end subroutine init_trajectory
 
    pure function trajectory_next_time(self) result(tau)
@@ -104,18 +132,60 @@ contains
       class(trajectory_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: y(:)
-      integer :: n, k
-      real(dp) :: tau
-      n = model%n_modes
-      k = self%next_sample
-      tau = self%tau(k)
-      self%a(k, :) = y(1:n)
-      self%adot(k, :) = y(n + 1:2*n)
-      self%vt(k) = model%tip_gap(tau, y)
-      self%vtdot(k) = model%tip_gap_rate(tau, y)
-      self%contact(k) = merge(1, 0, self%vt(k) <= 0)
-      self%next_sample = k + 1
+      real(dp) :: sin_phase, cos_phase
+      call self%next_phase(model, sin_phase, cos_phase)
+      call self%store_at_phase(model, y, sin_phase, cos_phase)
    end subroutine trajectory_store
+
+   !> Samples are filled in order, so the phase of sample k is that of sample k - 1 turned
+   !> by Omega sample_dtau; every phase_anchor_every samples (the first included) it is
+   !> sin and cos of Omega tau_k.
+   pure subroutine trajectory_next_phase(self, model, sin_phase, cos_phase)
+      class(trajectory_t), intent(in) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(out) :: sin_phase
+      real(dp), intent(out) :: cos_phase
+      integer :: k
+      k = self%next_sample
+      if (mod(k - 1, phase_anchor_every) == 0) then
+         call model%phase(self%tau(k), sin_phase, cos_phase)
+      else
+         sin_phase = self%last_sin*self%step_cos + self%last_cos*self%step_sin
+         cos_phase = self%last_cos*self%step_cos - self%last_sin*self%step_sin
+      end if
+   end subroutine trajectory_next_phase
+
+   pure subroutine trajectory_store_at_phase(self, model, y, sin_phase, cos_phase)
+      class(trajectory_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: y(:)
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      integer :: k
+      real(dp) :: vt, vtdot
+      k = self%next_sample
+      if (k == 1) call model%phase(self%sample_dtau, self%step_sin, self%step_cos)
+      call put_row(model%n_modes, size(self%tau), k, y, self%a, self%adot)
+      call model%gap_at_phase(y, sin_phase, cos_phase, vt, vtdot)
+      self%vt(k) = vt
+      self%vtdot(k) = vtdot
+      self%contact(k) = merge(1, 0, vt <= 0)
+      self%last_sin = sin_phase
+      self%last_cos = cos_phase
+      self%next_sample = k + 1
+   end subroutine trajectory_store_at_phase
+
+   !> Row k of a and adot (rows x n) from the state y = (a, a').
+   pure subroutine put_row(n, rows, k, y, a, adot)
+      integer, intent(in) :: n, rows, k
+      real(dp), intent(in) :: y(2*n)
+      real(dp), intent(inout) :: a(rows, n), adot(rows, n)
+      integer :: j
+      do j = 1, n
+         a(k, j) = y(j)
+         adot(k, j) = y(n + j)
+      end do
+   end subroutine put_row
 
    !> step is the length of the step that found the switch (or the method's nominal step).
    pure subroutine trajectory_add_switch(self, tau, step, ierr, errmsg)

@@ -1,0 +1,151 @@
+"""Steps, rejections and right-hand sides per drive period of the adaptive methods, with the V_T
+error they buy, for two or more `tmafm` executables side by side (e.g. main and a branch).
+
+    python benchmarks/contact_steps.py --exe main=/path/build-main/tmafm --exe new=build-x/tmafm \
+        --out /tmp/cs [--periods 1000] [--repeats 3] [--methods flight_exact dop853 dopri5]
+
+Scenes: those of benchmarks/period_cost.py.  Counters: the `counters` of a run over `periods`
+drive periods with one output row per period (npz), divided by the periods; contacts per
+period = phase switches / 2.  Cost: CPU time (user + sys) of that whole process, the smallest
+of `repeats` runs, the executables interleaved run by run so that they share the machine's
+load; compare ratios within one run of this script.  Error: max |V_T - V_T_ref| over the first
+20 periods, sampled every 0.05, against the FIRST executable's flight_exact at rtol 1e-13,
+atol 1e-18.  Writes contact_steps.json and contact_steps.png into --out.
+"""
+
+import argparse
+import json
+import math
+import resource
+import subprocess
+import tempfile
+from pathlib import Path
+
+import f90nml
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+PERIOD = math.pi  # Omega = 2 in every scene here
+ERROR_PERIODS = 20
+#: name -> (input file, overrides): benchmarks/period_cost.py's scenes.
+SCENES = {
+    "tilted_hertz_3": ("fig2_n4.nml", {"model": {"n_modes": 3},
+                                       "scene": {"alpha2": 7e-4, "theta": 0.2},
+                                       "initial": {"a0": [2e-4, 0.0, 0.0]}}),
+    "fig2": ("fig2_n4.nml", {}),
+    "untilted_3": ("fig2_n4.nml", {"model": {"n_modes": 3},
+                                   "scene": {"alpha2": 7e-4, "theta": 0.0, "alpha4": 0.0},
+                                   "initial": {"a0": [2e-4, 0.0, 0.0]}}),
+    "dmt_fig7": ("fig7_dmt.nml", {}),
+}
+TOLERANCES = [(1e-7, 1e-10), (1e-10, 1e-14)]
+COUNTERS = ("steps", "contact_steps", "rejected_steps", "rhs_evaluations", "phase_switches")
+
+
+def namelist(scene, solver, periods, sample_dtau, out_file):
+    file, overrides = SCENES[scene]
+    nml = {g: dict(v) for g, v in f90nml.read(str(REPO / "inputs" / file)).items()}
+    for g, v in overrides.items():
+        nml.setdefault(g, {}).update(v)
+    nml["solver"] = {"method": solver["method"], "rtol": solver["rtol"], "atol": solver["atol"],
+                     "tau_end": periods * PERIOD}
+    nml["output"] = {"sample_dtau": sample_dtau, "file": str(out_file), "format": "npy"}
+    return nml
+
+
+def run(exe, nml, scratch):
+    """(CPU seconds of the whole process, the npz archive's arrays)."""
+    path = Path(scratch) / "run.nml"
+    f90nml.write(f90nml.Namelist(nml), str(path), force=True)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    subprocess.run([exe, "-q", str(path)], check=True, cwd=scratch)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    with np.load(nml["output"]["file"]) as z:
+        return cpu, {k: z[k] for k in z.files}
+
+
+def study(exes, periods, repeats, methods, progress=print):
+    report = {"periods": periods, "repeats": repeats, "executables": dict(exes),
+              "cost": "smallest CPU (user+sys) of the whole tmafm process over the repeats / periods",
+              "error": f"max |V_T - V_T_ref| over {ERROR_PERIODS} periods, samples every 0.05; "
+                       f"ref: {exes[0][0]} flight_exact rtol 1e-13 atol 1e-18",
+              "rows": []}
+    with tempfile.TemporaryDirectory() as scratch:
+        out = str(Path(scratch) / "out.npz")
+        for scene in SCENES:
+            ref_solver = {"method": "flight_exact", "rtol": 1e-13, "atol": 1e-18}
+            _, ref = run(exes[0][1], namelist(scene, ref_solver, ERROR_PERIODS, 0.05, out), scratch)
+            for method in methods:
+                for rtol, atol in TOLERANCES:
+                    solver = {"method": method, "rtol": rtol, "atol": atol}
+                    row = {"scene": scene, **solver}
+                    for name, exe in exes:
+                        _, arrays = run(exe, namelist(scene, solver, ERROR_PERIODS, 0.05, out), scratch)
+                        row[name] = {"vt_error": float(np.max(np.abs(arrays["vt"] - ref["vt"])))}
+                    long = namelist(scene, solver, periods, PERIOD, out)
+                    for _ in range(repeats):
+                        for name, exe in exes:
+                            cpu, arrays = run(exe, long, scratch)
+                            entry = row[name]
+                            entry["cpu_us_per_period"] = min(entry.get("cpu_us_per_period", math.inf),
+                                                             1e6 * cpu / periods)
+                            counts = dict(zip(COUNTERS, (int(c) for c in arrays["counters"])))
+                            entry.update({f"{k}_per_period": v / periods for k, v in counts.items()})
+                    report["rows"].append(row)
+                    progress(line(row, [n for n, _ in exes]))
+    return report
+
+
+def line(row, names):
+    parts = [f"{row['scene']:15s} {row['method']:12s} rtol {row['rtol']:.0e}"]
+    for n in names:
+        e = row[n]
+        parts.append(f"{n}: {e['steps_per_period']:6.1f} st {e['rejected_steps_per_period']:5.2f} rej "
+                     f"{e['rhs_evaluations_per_period']:6.0f} rhs {e['cpu_us_per_period']:6.1f} us "
+                     f"err {e['vt_error']:.2e}")
+    return " | ".join(parts)
+
+
+def plot(report, names, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    rows = report["rows"]
+    fig, ax = plt.subplots(figsize=(max(6, 0.6 * len(rows)), 4))
+    width = 0.8 / len(names)
+    for i, n in enumerate(names):
+        ax.bar([k + i * width for k in range(len(rows))],
+               [r[n]["rhs_evaluations_per_period"] for r in rows], width, label=n)
+    ax.set_xticks([k + 0.4 - width / 2 for k in range(len(rows))])
+    ax.set_xticklabels([f"{r['scene']}\n{r['method']}\nrtol {r['rtol']:.0e}" for r in rows],
+                       fontsize=6, rotation=90)
+    ax.set_ylabel("RHS evaluations per drive period")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--exe", action="append", required=True, help="NAME=PATH, two or more")
+    parser.add_argument("--periods", type=int, default=1000)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--methods", nargs="+", default=["flight_exact"])
+    parser.add_argument("--scenes", nargs="+", default=list(SCENES))
+    parser.add_argument("--out", type=Path, required=True)
+    args = parser.parse_args()
+    exes = [tuple(e.split("=", 1)) for e in args.exe]
+    exes = [(n, str(Path(p).resolve())) for n, p in exes]
+    for name in [s for s in SCENES if s not in args.scenes]:
+        del SCENES[name]
+    report = study(exes, args.periods, args.repeats, args.methods)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "contact_steps.json").write_text(json.dumps(report, indent=1))
+    plot(report, [n for n, _ in exes], args.out / "contact_steps.png")
+    print(f"wrote {args.out / 'contact_steps.json'} and {args.out / 'contact_steps.png'}")
+
+
+if __name__ == "__main__":
+    main()

@@ -25,12 +25,12 @@ module tmafm_method_adaptive
 
    public :: run_adaptive, adaptive_state_t, pair_dopri5, pair_dop853
 
-   !> Contact exit.  The contact force ~ (-V_T)^(3/2) has a kink where V_T reaches 0, and a
-   !> step across it fails the error test unless it is short and ends just past the kink.
-   !> From the step end, a quadratic in V_T, V_T' and V_T'' (from f_new) predicts the time t_e
-   !> left to the exit; the crossing step is t_e * exit_reach, taken only once t_e <= the
-   !> learned crossing length (x exit_cross_slack); before that, a step that would end
-   !> within the crossing length of the exit stops short of it.
+   !> Contact exit.  The contact force ~ (-V_T)^(3/2) has a kink where V_T reaches 0: a
+   !> step across it, or a long one that ends near it, fails the error test.  After each
+   !> contact step a quadratic in V_T, V_T' and V_T'' (from f_new) predicts the time t_e
+   !> left to the exit.  Once t_e <= exit_cross_slack x the crossing length (learned from the
+   !> last exit), the step t_e * exit_reach crosses it, just past the kink; before that, a
+   !> step ends at least exit_approach x its length short of it (a graded approach).
    real(dp), parameter :: exit_reach = 1.05_dp
    !> A predicted exit this multiple of the crossing length away is crossed in one step.
    real(dp), parameter :: exit_cross_slack = 1.5_dp

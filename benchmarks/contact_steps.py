@@ -2,7 +2,16 @@
 error they buy, for two or more `tmafm` executables side by side (e.g. main and a branch).
 
     python benchmarks/contact_steps.py --exe main=/path/build-main/tmafm --exe new=build-x/tmafm \
-        --out /tmp/cs [--periods 1000] [--repeats 3] [--methods flight_exact dop853 dopri5]
+        --out /tmp/cs [--periods 1000] [--repeats 3] [--methods flight_exact dop853 dopri5] \
+        [--instructions 100]
+    python benchmarks/contact_steps.py --table benchmarks/contact_steps.json
+
+The committed results compare the main branch before the `steps` work with it (quick
+builds: `git archive <commit> | tar -x -C /tmp/before && cd /tmp/before && meson setup
+build-main && ninja -C build-main tmafm`, and `meson setup build-x && ninja -C build-x tmafm`
+in this checkout), run as
+    /opt/tmafm-venv/bin/python benchmarks/contact_steps.py --exe main=/tmp/before/build-main/tmafm \
+        --exe steps=build-x/tmafm --instructions 100 --methods flight_exact dop853 dopri5 --out benchmarks
 
 Scenes: those of benchmarks/period_cost.py.  Counters: the `counters` of a run over `periods`
 drive periods with one output row per period (npz), divided by the periods; contacts per
@@ -10,12 +19,16 @@ period = phase switches / 2.  Cost: CPU time (user + sys) of that whole process,
 of `repeats` runs, the executables interleaved run by run so that they share the machine's
 load; compare ratios within one run of this script.  Error: max |V_T - V_T_ref| over the first
 20 periods, sampled every 0.05, against the FIRST executable's flight_exact at rtol 1e-13,
-atol 1e-18.  Writes contact_steps.json and contact_steps.png into --out.
+atol 1e-18, and its ratio to the per-step V_T tolerance atol + rtol S_V (S_V taken as the
+reference's largest |V_T|).  With --instructions N, also the instructions of a whole process
+over N periods under `valgrind --tool=callgrind` (CPU time on a shared machine is noisy;
+this count is not).  Writes contact_steps.json and contact_steps.png into --out.
 """
 
 import argparse
 import json
 import math
+import re
 import resource
 import subprocess
 import tempfile
@@ -65,8 +78,18 @@ def run(exe, nml, scratch):
         return cpu, {k: z[k] for k in z.files}
 
 
-def study(exes, periods, repeats, methods, progress=print):
+def instructions(exe, nml, scratch):
+    """Instructions of one whole tmafm process under callgrind."""
+    path = Path(scratch) / "run.nml"
+    f90nml.write(f90nml.Namelist(nml), str(path), force=True)
+    out = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", exe, "-q",
+                          str(path)], check=True, cwd=scratch, capture_output=True, text=True)
+    return int(re.search(r"Collected\s*:\s*(\d+)", out.stderr).group(1))
+
+
+def study(exes, periods, repeats, methods, instruction_periods=0, progress=print):
     report = {"periods": periods, "repeats": repeats, "executables": dict(exes),
+              "instruction_periods": instruction_periods,
               "cost": "smallest CPU (user+sys) of the whole tmafm process over the repeats / periods",
               "error": f"max |V_T - V_T_ref| over {ERROR_PERIODS} periods, samples every 0.05; "
                        f"ref: {exes[0][0]} flight_exact rtol 1e-13 atol 1e-18",
@@ -79,10 +102,13 @@ def study(exes, periods, repeats, methods, progress=print):
             for method in methods:
                 for rtol, atol in TOLERANCES:
                     solver = {"method": method, "rtol": rtol, "atol": atol}
-                    row = {"scene": scene, **solver}
+                    # The per-step V_T tolerance (tmafm_error_scale), S_V ~ the largest |V_T|.
+                    tolerance = atol + rtol * float(np.max(np.abs(ref["vt"])))
+                    row = {"scene": scene, **solver, "vt_tolerance": tolerance}
                     for name, exe in exes:
                         _, arrays = run(exe, namelist(scene, solver, ERROR_PERIODS, 0.05, out), scratch)
-                        row[name] = {"vt_error": float(np.max(np.abs(arrays["vt"] - ref["vt"])))}
+                        error = float(np.max(np.abs(arrays["vt"] - ref["vt"])))
+                        row[name] = {"vt_error": error, "vt_error_over_tolerance": error / tolerance}
                     long = namelist(scene, solver, periods, PERIOD, out)
                     for _ in range(repeats):
                         for name, exe in exes:
@@ -92,6 +118,11 @@ def study(exes, periods, repeats, methods, progress=print):
                                                              1e6 * cpu / periods)
                             counts = dict(zip(COUNTERS, (int(c) for c in arrays["counters"])))
                             entry.update({f"{k}_per_period": v / periods for k, v in counts.items()})
+                    if instruction_periods:
+                        short = namelist(scene, solver, instruction_periods, PERIOD, out)
+                        for name, exe in exes:
+                            row[name]["instructions_per_period"] = \
+                                instructions(exe, short, scratch) / instruction_periods
                     report["rows"].append(row)
                     progress(line(row, [n for n, _ in exes]))
     return report
@@ -103,7 +134,8 @@ def line(row, names):
         e = row[n]
         parts.append(f"{n}: {e['steps_per_period']:6.1f} st {e['rejected_steps_per_period']:5.2f} rej "
                      f"{e['rhs_evaluations_per_period']:6.0f} rhs {e['cpu_us_per_period']:6.1f} us "
-                     f"err {e['vt_error']:.2e}")
+                     f"err {e['vt_error']:.2e}"
+                     + (f" {e['instructions_per_period'] / 1e3:.0f}k ins" if "instructions_per_period" in e else ""))
     return " | ".join(parts)
 
 
@@ -127,20 +159,48 @@ def plot(report, names, path):
     plt.close(fig)
 
 
+def table(report):
+    """The markdown table of docs/performance.md: the first two executables, before -> after."""
+    a, b = list(report["executables"])[:2]
+    lines = [f"| scene | method | rtol, atol | steps | rejected | RHS | instructions {b}/{a} | "
+             f"CPU {b}/{a} | V_T error | error / tolerance |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in report["rows"]:
+        x, y = r[a], r[b]
+        ins = (f"{y['instructions_per_period'] / x['instructions_per_period']:.3f}"
+               if "instructions_per_period" in x else "")
+        lines.append(
+            f"| {r['scene']} | `{r['method']}` | {r['rtol']:g}, {r['atol']:g} "
+            f"| {x['steps_per_period']:.1f} → {y['steps_per_period']:.1f} "
+            f"| {x['rejected_steps_per_period']:.2f} → {y['rejected_steps_per_period']:.2f} "
+            f"| {x['rhs_evaluations_per_period']:.0f} → {y['rhs_evaluations_per_period']:.0f} | {ins} "
+            f"| {y['cpu_us_per_period'] / x['cpu_us_per_period']:.2f} "
+            f"| {x['vt_error']:.2e} → {y['vt_error']:.2e} "
+            f"| {x['vt_error_over_tolerance']:.1f} → {y['vt_error_over_tolerance']:.1f} |")
+    return "\n".join(lines)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--exe", action="append", required=True, help="NAME=PATH, two or more")
+    parser.add_argument("--exe", action="append", help="NAME=PATH, two or more")
+    parser.add_argument("--table", type=Path, help="print the markdown table of a JSON and stop")
     parser.add_argument("--periods", type=int, default=1000)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--methods", nargs="+", default=["flight_exact"])
     parser.add_argument("--scenes", nargs="+", default=list(SCENES))
-    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--instructions", type=int, default=0, metavar="N",
+                        help="also count instructions over N periods under callgrind")
+    parser.add_argument("--out", type=Path)
     args = parser.parse_args()
+    if args.table:
+        print(table(json.loads(args.table.read_text())))
+        return
+    if not args.exe or len(args.exe) < 2 or args.out is None:
+        parser.error("--exe NAME=PATH twice or more, and --out, are required")
     exes = [tuple(e.split("=", 1)) for e in args.exe]
     exes = [(n, str(Path(p).resolve())) for n, p in exes]
     for name in [s for s in SCENES if s not in args.scenes]:
         del SCENES[name]
-    report = study(exes, args.periods, args.repeats, args.methods)
+    report = study(exes, args.periods, args.repeats, args.methods, args.instructions)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "contact_steps.json").write_text(json.dumps(report, indent=1))
     plot(report, [n for n, _ in exes], args.out / "contact_steps.png")

@@ -4,7 +4,7 @@ error they buy, for two or more `tmafm` executables side by side (e.g. main and 
     python benchmarks/contact_steps.py --exe main=/path/build-main/tmafm --exe new=build-x/tmafm \
         --out /tmp/cs [--periods 1000] [--repeats 3] [--methods flight_exact dop853 dopri5] \
         [--instructions 100]
-    python benchmarks/contact_steps.py --table benchmarks/contact_steps.json
+    python benchmarks/contact_steps.py --table benchmarks/contact_steps.json [--out DIR]   # DIR: redraw the chart
 
 The committed results compare the main branch before the `steps` work with it (quick
 builds: `git archive <commit> | tar -x -C /tmp/before && cd /tmp/before && meson setup
@@ -140,19 +140,27 @@ def line(row, names):
 
 
 def plot(report, names, path):
+    """Per row, the ratio of each later executable to the first: RHS evaluations and (if
+    counted) instructions per period."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     rows = report["rows"]
-    fig, ax = plt.subplots(figsize=(max(6, 0.6 * len(rows)), 4))
-    width = 0.8 / len(names)
-    for i, n in enumerate(names):
-        ax.bar([k + i * width for k in range(len(rows))],
-               [r[n]["rhs_evaluations_per_period"] for r in rows], width, label=n)
+    base, others = names[0], names[1:]
+    series = [(f"RHS {n}/{base}", n, "rhs_evaluations_per_period") for n in others]
+    series += [(f"instructions {n}/{base}", n, "instructions_per_period") for n in others
+               if "instructions_per_period" in rows[0][n]]
+    fig, ax = plt.subplots(figsize=(max(6, 0.5 * len(rows)), 4.5))
+    width = 0.8 / len(series)
+    for i, (label, n, key) in enumerate(series):
+        ax.bar([k + i * width for k in range(len(rows))], [r[n][key] / r[base][key] for r in rows],
+               width, label=label)
+    ax.axhline(1.0, color="0.3", lw=0.8)
+    ax.set_ylim(0.8, 1.1)
     ax.set_xticks([k + 0.4 - width / 2 for k in range(len(rows))])
     ax.set_xticklabels([f"{r['scene']}\n{r['method']}\nrtol {r['rtol']:.0e}" for r in rows],
                        fontsize=6, rotation=90)
-    ax.set_ylabel("RHS evaluations per drive period")
+    ax.set_ylabel(f"per drive period, relative to {base}")
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -192,7 +200,10 @@ def main():
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
     if args.table:
-        print(table(json.loads(args.table.read_text())))
+        report = json.loads(args.table.read_text())
+        print(table(report))
+        if args.out:
+            plot(report, list(report["executables"]), args.out / "contact_steps.png")
         return
     if not args.exe or len(args.exe) < 2 or args.out is None:
         parser.error("--exe NAME=PATH twice or more, and --out, are required")

@@ -6,10 +6,10 @@
 !> when asked (a sample or a switch in the step), so steps that need none skip that work.
 !> Registers are allocated once by `init`; a step allocates nothing.
 !>
-!> The controller turns an error norm into the next step, h_new = h * clamp(safety *
-!> norm^(-1/(q+1))), q the order of the error estimate.  No real-exponent power is taken:
-!> each pair computes its own norm^(-1/(q+1)) (dop853: three square roots for 1/8; dopri5:
-!> one log and one exp for 1/5), see `growth`.
+!> The controller turns an error norm (and, once a phase had a rejection, the last accepted
+!> one) into the next step from norm^(-1/(q+1)), q the order of the error estimate; each
+!> pair computes its own norm^(-1/(q+1)) (dop853: three square roots for 1/8; dopri5: one
+!> log and one exp for 1/5), see `growth`.
 module tmafm_embedded_pair
    use tmafm_kinds, only: dp
    use tmafm_model, only: model_t
@@ -101,17 +101,34 @@ module tmafm_embedded_pair
       end subroutine pair_dense
    end interface
 
-   !> The classical step-size controller (Hairer, Norsett and Wanner I, Sec. II.4).
+   !> The step-size controller: classical (Hairer's DOP853/DOPRI5: safety 0.9, the pair's
+   !> growth and shrink limits, no growth after a rejection) until the first rejection of a
+   !> phase, then PI (Gustafsson; Hairer and Wanner II, Sec. IV.2).  With r(x) = safety
+   !> x^(-1/k), k = q + 1, the classical factor of an accepted step is r(norm) and the PI
+   !> factor r(norm)^i_gain / r(norm_prev)^p_gain, norm_prev the last accepted step's.  In a
+   !> steady state both are 1 at the same norm (safety^k), but the PI factor damps the
+   !> accept/reject cycle of a step held at the stability boundary (a stiff contact, a high
+   !> mode), where the classical law rejects every few steps; used from the start it would
+   !> slow the ramp after a contact entry, whose norms are tiny.  A rejection uses r(norm).
    type :: step_controller_t
       !> Safety factor on the optimal step.
       real(dp) :: safety = 0.9_dp
+      !> Integral and proportional gains, in units of 1/k.
+      real(dp) :: i_gain = 0.7_dp, p_gain = 0.4_dp
       !> Smallest step before the run fails (relative to max(1, tau)).
       real(dp) :: h_min_relative = 1.0e-14_dp
       !> .true. after a rejection: the next step may not grow (Hairer's DOPRI5/DOP853).
       logical :: after_rejection = .false.
+      !> .true. once a step of this phase was rejected: the PI gains apply from then on.
+      logical :: rejected_in_phase = .false.
+      !> The norm of the last accepted step in this phase (floored at 1e-4, as Hairer's
+      !> facold); 0 at a phase start.
+      real(dp) :: norm_prev = 0
    contains
       !> The next step after an attempt of length h with error norm `norm` by `pair`.
       procedure :: next_step => controller_next_step
+      !> Forget the history (a new phase: the last norm says nothing about the next step).
+      procedure :: restart => controller_restart
    end type step_controller_t
 
 contains
@@ -127,10 +144,23 @@ contains
       if (norm <= 0) then
          factor = grow
       else
-         factor = min(grow, max(pair%shrink_limit, self%safety*pair%growth(norm)))
+         ! pair%growth(x) = x^(-1/k).
+         factor = self%safety*pair%growth(norm)
+         if (norm <= 1 .and. self%norm_prev > 0 .and. self%rejected_in_phase) &
+            factor = factor**self%i_gain/(self%safety*pair%growth(self%norm_prev))**self%p_gain
+         factor = min(grow, max(pair%shrink_limit, factor))
       end if
+      if (norm <= 1) self%norm_prev = max(norm, 1.0e-4_dp)
       self%after_rejection = .not. (norm <= 1)
+      if (self%after_rejection) self%rejected_in_phase = .true.
       h_next = h*factor
    end function controller_next_step
+
+   pure subroutine controller_restart(self)
+      class(step_controller_t), intent(inout) :: self
+      self%norm_prev = 0
+      self%after_rejection = .false.
+      self%rejected_in_phase = .false.
+   end subroutine controller_restart
 
 end module tmafm_embedded_pair

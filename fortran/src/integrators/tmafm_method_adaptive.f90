@@ -25,9 +25,21 @@ module tmafm_method_adaptive
 
    public :: run_adaptive, adaptive_state_t, pair_dopri5, pair_dop853
 
-   !> In contact, the next step ends at most this multiple of the linear estimate of the time
-   !> left to the exit (V_T = 0): just past the kink of the contact force, not far across it.
-   real(dp), parameter :: exit_reach = 1.1_dp
+   !> Contact exit.  The contact force ~ (-V_T)^(3/2) has a kink where V_T reaches 0: a
+   !> step across it, or a long one that ends near it, fails the error test.  After each
+   !> contact step a quadratic in V_T, V_T' and V_T'' (from f_new) predicts the time t_e
+   !> left to the exit.  Once t_e <= exit_cross_slack x the crossing length (learned from the
+   !> last exit), the step t_e * exit_reach crosses it, just past the kink; before that, a
+   !> step ends at least exit_approach x its length short of it (a graded approach).
+   real(dp), parameter :: exit_reach = 1.05_dp
+   !> A predicted exit this multiple of the crossing length away is crossed in one step.
+   real(dp), parameter :: exit_cross_slack = 1.5_dp
+   !> Before the crossing step, a step must end at least this multiple of its own length
+   !> before the predicted exit (the derivatives of the force grow as the kink nears: the
+   !> approach is graded, as the ramp after an entry).
+   real(dp), parameter :: exit_approach = 0.5_dp
+   !> The error norm a crossing step aims at (the crossing length is learned from it).
+   real(dp), parameter :: exit_target = 0.25_dp
 
    !> Which embedded pair an adaptive state uses.
    integer, parameter :: pair_dopri5 = 1, pair_dop853 = 2
@@ -46,6 +58,9 @@ module tmafm_method_adaptive
       !> at the next start of that phase (a contact begins with V_T^(3/2) forces, whose
       !> steps the controller would otherwise relearn by rejections at every contact).
       real(dp) :: h_phase_start(2) = 0
+      !> The length of the step that crosses a contact exit (learned from each exit; 0: not
+      !> yet known, then a quarter of the controller's step).
+      real(dp) :: h_exit_cross = 0
       !> The embedded pair and its registers.
       class(embedded_pair_t), allocatable :: pair
       !> The step-size controller.
@@ -110,14 +125,15 @@ contains
    end subroutine adaptive_init
 
    !> V_T, dV_T/dtau and the switch margin (tmafm_events) at a state, with one sin and one cos.
-   pure subroutine gap_state(model, tau, y, vt, rate, margin)
+   pure subroutine gap_state(model, tau, y, vt, rate, margin, drive)
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: y(:)
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: rate
       real(dp), intent(out) :: margin
-      real(dp) :: drive
+      !> The drive term alpha2 sin(Omega tau) of V_T.
+      real(dp), intent(out) :: drive
       integer :: n
       n = model%n_modes
       associate (s => model%scene)
@@ -143,7 +159,7 @@ contains
       type(observer_t), intent(inout), optional :: observer
 
       type(bracketed_root_t) :: root
-      real(dp) :: h, norm, side, s_test, theta, step_taken
+      real(dp) :: h, norm, side, s_test, theta, step_taken, drive, drive1
       ! V_T, its rate and the margin at the step start (0) and end (1); G = side V_T + margin0.
       real(dp) :: vt0, rate0, margin0, vt1, rate1, margin1, vt_test, rate_test, margin_test
       logical :: have_f0, dense_ready, phase_start
@@ -162,8 +178,9 @@ contains
                traj%rhs_evaluations = traj%rhs_evaluations + 1
                have_f0 = .true.
                side = phase_sign(self%in_contact)
-               call gap_state(model, tau, y, vt0, rate0, margin0)
+               call gap_state(model, tau, y, vt0, rate0, margin0, drive)
                phase_start = .true.
+               call controller%restart()
                if (self%h_phase_start(phase_index(self%in_contact)) > 0) &
                   self%h = self%h_phase_start(phase_index(self%in_contact))
             end if
@@ -188,14 +205,14 @@ contains
             if (phase_start) self%h_phase_start(phase_index(self%in_contact)) = h
             phase_start = .false.
 
-            call gap_state(model, tau + h, y_new, vt1, rate1, margin1)
+            call gap_state(model, tau + h, y_new, vt1, rate1, margin1, drive1)
             call step_event_test(side*vt0 + margin0, side*rate0, side*vt1 + margin0, side*rate1, h, &
                                  self%in_contact, status, s_test)
             if (status == event_candidate) then
                ! Is the dip of the interpolant real?  Check the dense output there.
                call build_dense(self, model, traj, h, dense_ready)
                call pair%dense(s_test/h, y_sample)
-               call gap_state(model, tau + s_test, y_sample, vt_test, rate_test, margin_test)
+               call gap_state(model, tau + s_test, y_sample, vt_test, rate_test, margin_test, drive)
                if (side*vt_test + margin0 > 0) status = no_event
             end if
             step_taken = h
@@ -237,17 +254,18 @@ contains
             call self%scale%update(y)
             call progress%update(tau, settings%tau_end)
             if (status == no_event) then
-               ! In contact the force has a kink where V_T crosses zero: a trial step far
-               ! across it fails the error test again and again.  Aim the next step just past
-               ! the crossing that G and its rate predict.
-               if (self%in_contact .and. side*rate1 < 0) &
-                  self%h = min(self%h, exit_reach*(side*vt1 + margin0)/(-side*rate1))
+               if (self%in_contact) call aim_at_exit(self, side*vt1 + margin0, side*rate1, &
+                                                     side*gap_acceleration(model, f_new, drive1))
                ! The step end is the next start: carry f, V_T, its rate and the margin.
                f0 = f_new
                vt0 = vt1
                rate0 = rate1
                margin0 = margin1
             else
+               ! A contact exit: learn the crossing length from this crossing's error.
+               if (self%in_contact) self%h_exit_cross = &
+                  h/exit_reach*min(2.0_dp, max(0.5_dp, &
+                  (exit_target/max(norm, 1.0e-12_dp))**(1.0_dp/3)))
                self%in_contact = .not. self%in_contact
                call traj%add_switch(tau, h, ierr, errmsg)
                if (ierr /= ok) return
@@ -260,6 +278,52 @@ contains
       end associate
 
    end subroutine adaptive_advance
+
+   !> V_T'' from the derivative f = (a', a'') and the drive term of V_T (Omega the drive's).
+   pure function gap_acceleration(model, f, drive) result(accel)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: f(:)
+      real(dp), intent(in) :: drive
+      real(dp) :: accel
+      integer :: n
+      n = model%n_modes
+      accel = dot_product(model%tip, f(n + 1:2*n)) - model%scene%omega**2*drive
+   end function gap_acceleration
+
+   !> In contact, after an accepted step that ends with G = g, G' = rate, G'' = accel (G =
+   !> -V_T + margin > 0): limit the next step self%h so that it crosses the exit only as a
+   !> short step just past it, and before that ends well short of it.
+   pure subroutine aim_at_exit(self, g, rate, accel)
+      type(adaptive_state_t), intent(inout) :: self
+      real(dp), intent(in) :: g
+      real(dp), intent(in) :: rate
+      real(dp), intent(in) :: accel
+      real(dp) :: t_exit, cross
+      t_exit = first_root(g, rate, accel)
+      if (t_exit >= huge(1.0_dp)) return
+      cross = self%h_exit_cross
+      if (cross <= 0) cross = self%h/4
+      if (t_exit <= exit_cross_slack*cross) then
+         self%h = min(self%h, exit_reach*t_exit)
+      else
+         self%h = min(self%h, t_exit/(1 + exit_approach))
+      end if
+   end subroutine aim_at_exit
+
+   !> The first positive root of g + rate s + accel s^2/2 (g > 0), or huge if there is none.
+   pure function first_root(g, rate, accel) result(s)
+      real(dp), intent(in) :: g
+      real(dp), intent(in) :: rate
+      real(dp), intent(in) :: accel
+      real(dp) :: s, disc, q
+      s = huge(1.0_dp)
+      disc = rate*rate - 2*accel*g
+      if (disc < 0) return
+      ! The roots are 2g/(-rate -+ sqrt(disc)) (no cancellation); with g > 0 the first
+      ! positive one is 2g/(-rate + sqrt(disc)) when its denominator is positive.
+      q = -rate + sqrt(disc)
+      if (q > 0) s = 2*g/q
+   end function first_root
 
    !> 1 for the free phase, 2 for contact.
    elemental function phase_index(in_contact) result(k)

@@ -226,7 +226,7 @@ def test_label_attractors_up_to_cyclic_shift():
 def test_basin_tells_the_two_branches_of_the_bistable_scene_apart():
     scene = dict(BISTABLE, scene=dict(BISTABLE["scene"], delta_hat=3e-3))
     ds = tmafm.basin(scene, a1=[-3e-3, 0.0, 1e-3], adot1=[-5e-3, 0.0], workers=2,
-                     max_periods=300, steady_tol=1e-4, tol=1e-2)
+                     max_periods=300, steady_tol=1e-4, tol=1e-2, observables=["amplitude"])
     labels = ds["attractor"].values.ravel()
     amplitude = ds["amplitude"].values.ravel()
     assert ds.attrs["attractors"] == 2 and set(labels.tolist()) == {0, 1}

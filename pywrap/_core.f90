@@ -373,8 +373,9 @@ end subroutine observe_texts
 !> initial states (states(k, :) = [a0, adot0] of run k), by the OpenMP batch on `threads`
 !> threads with the GIL released; the input is read and its model built once (a basin map).
 !> Known attractors: orbit j is attractor_points(:, attractor_first(j):attractor_first(j+1)-1)
-!> (n_first - 1 orbits; none when n_first < 2); `confirm` Poincare points in a row within tol
-!> of one label the run with it (attractor(k) = j, 0: none) and stop it.  Per run k: the steady
+!> (n_first - 1 orbits; none when n_first < 2); `confirm` Poincare points in a row within
+!> capture (relative to the orbit's size) of one, each closer than the one before, label the
+!> run with it (attractor(k) = j, 0: none) and stop it.  Per run k: the steady
 !> values (steady(k, column): the mean over the last max(period, 1) periods, NaN for a group
 !> not computed; the same for the harmonics), the last p_max Poincare points (orbit(k, p_max, :)
 !> is the final state; NaN before the first), periods run, the steady period, the attractor.
@@ -382,7 +383,7 @@ end subroutine observe_texts
 !> failure is run_ierr(k), and errmsg is then the first such message.
 subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_periods, harmonics, &
                                p_max, tol, repeats, stop_at_steady, groups, attractor_points, &
-                               n_attractor_points, attractor_first, n_first, confirm, threads, &
+                               n_attractor_points, attractor_first, n_first, confirm, capture, threads, &
                                n_columns, steady, steady_harmonic_amplitude, steady_harmonic_phase, &
                                orbit, n_periods, period, attractor, factors, has_scales, run_ierr, &
                                ierr, errmsg)
@@ -413,6 +414,7 @@ subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_per
    integer, intent(in) :: n_first
    integer, intent(in) :: attractor_first(n_first)
    integer, intent(in) :: confirm
+   real(dp), intent(in) :: capture
    integer, intent(in) :: threads
    integer, intent(in) :: n_columns
    real(dp), intent(out) :: steady(n_points, n_columns)
@@ -456,6 +458,7 @@ subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_per
    options%stop_at_steady = stop_at_steady
    options%groups = groups
    options%confirm = confirm
+   options%capture = capture
    if (n_first >= 2) then
       options%attractor_points = attractor_points
       options%attractor_first = attractor_first

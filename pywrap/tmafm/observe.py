@@ -263,12 +263,14 @@ class StatesObservation:
 def observe_states(config, states, *, threads: int | None = None, max_periods: int = 100,
                    p_max: int = 8, steady_tol: float = 1e-6, steady_repeats: int = 3,
                    harmonics: int = 3, stop_at_steady: bool = True, observables=None,
-                   attractors: Sequence = (), confirm: int | None = None) -> StatesObservation:
+                   attractors: Sequence = (), confirm: int | None = None,
+                   capture: float | None = None) -> StatesObservation:
     """Observe one input from many initial states (rows of ``states``: [a0, adot0], 2N each)
     with the core's OpenMP batch; the input is read and its model built once.  ``attractors``
     (orbits, each p x 2N, points in order): a run whose Poincare points come within
-    steady_tol (relative to the orbit's size) of orbit k's points, in order, ``confirm``
-    times in a row (default steady_repeats) is labelled k and stopped (docs/sweeps.md).
+    ``capture`` (default steady_tol; relative to the orbit's size) of orbit k's points, in
+    order, each closer than the one before, ``confirm`` times in a row (default
+    steady_repeats) is labelled k and stopped (docs/sweeps.md).
     A run that fails (SolverError) is marked ``failed`` (NaN values); a bad input, option or
     state raises InputError before any run."""
     from . import _core
@@ -282,6 +284,10 @@ def observe_states(config, states, *, threads: int | None = None, max_periods: i
     confirm = opts["steady_repeats"] if confirm is None else confirm
     if isinstance(confirm, bool) or not isinstance(confirm, (int, np.integer)) or confirm < 1:
         raise InputTypeError(f"observe_states confirm = {confirm!r}: must be a positive integer")
+    capture = opts["steady_tol"] if capture is None else capture
+    if isinstance(capture, bool) or not isinstance(capture, (int, float, np.floating)) \
+            or not 0 < capture < 1:
+        raise InputError(f"observe_states capture = {capture!r}: must be a number > 0 and < 1")
     orbits = [np.asarray(o, dtype=float).reshape(-1, 2 * n) for o in attractors]
     if orbits:
         points = np.asfortranarray(np.concatenate(orbits).T)
@@ -296,7 +302,8 @@ def observe_states(config, states, *, threads: int | None = None, max_periods: i
      run_ierr, ierr, errmsg) = _core.observe_states_text(
         config.text, n, np.asfortranarray(states), opts["max_periods"], opts["harmonics"],
         opts["p_max"], opts["steady_tol"], opts["steady_repeats"], opts["stop_at_steady"],
-        _group_bits(groups), points, first, int(confirm), 0 if threads is None else threads,
+        _group_bits(groups), points, first, int(confirm), float(capture),
+        0 if threads is None else threads,
         len(OBSERVABLES))
     message = errmsg.decode("utf-8", "replace") if isinstance(errmsg, bytes) else str(errmsg)
     if ierr:

@@ -703,17 +703,29 @@ def label_attractors(orbits: Sequence[np.ndarray], periods: Sequence[int],
     within `tol` up to a cyclic shift share a label 0, 1, ... (in the order of first
     appearance); no period found gives -1."""
     labels = np.full(len(orbits), -1, dtype=np.int32)
-    cut: dict[int, list] = {}          # minimal period -> [(point, orbit), ...] in point order
-    for i, (orbit, period) in enumerate(zip(orbits, periods)):
-        if period <= 0:
-            continue
-        orbit = minimal_orbit(np.asarray(orbit)[-period:], tol)
-        cut.setdefault(orbit.shape[0], []).append((i, orbit))
+    periods = np.asarray(periods, dtype=int)
+    cut: dict[int, list] = {}          # minimal period -> [(points, orbits), ...]
+    for p in np.unique(periods[periods > 0]):
+        index = np.flatnonzero(periods == p)
+        stack = np.stack([np.asarray(orbits[i])[-p:] for i in index])
+        # minimal_orbit for every point at once: the smallest q | p whose shift repeats within tol.
+        minimal = np.full(len(index), p)
+        for q in range(p - 1, 0, -1):
+            if p % q == 0:
+                repeats = np.max(np.abs(stack - np.roll(stack, q, axis=1)), axis=(1, 2)) <= tol
+                minimal[repeats] = q
+        for q in np.unique(minimal):
+            take = minimal == q
+            cut.setdefault(int(q), []).append((index[take], stack[take, :q]))
     # The first point not yet labelled founds the next label; every later point of the same
     # minimal period within tol of it (up to a shift) takes it: the same labels as comparing
     # each point in turn with the representatives found so far, with numpy doing the points.
-    groups = {q: (np.array([i for i, _ in members]), np.stack([o for _, o in members]))
-              for q, members in cut.items()}
+    groups = {}
+    for q, parts in cut.items():
+        index = np.concatenate([i for i, _ in parts])
+        stack = np.concatenate([o for _, o in parts])
+        order = np.argsort(index, kind="stable")
+        groups[q] = (index[order], stack[order])
     free = {q: np.ones(len(index), dtype=bool) for q, (index, _) in groups.items()}
     known: list[np.ndarray] = []
     while True:
@@ -780,7 +792,7 @@ def _new_attractors(chunk: dict, known: list, tol: float, run_config, keywords: 
                           tol * size) for o in known + found):
             continue
         refine = dict(keywords, observables=(), stop_at_steady=False,
-                      max_periods=max(REFINE_PERIODS, p))
+                      max_periods=max(REFINE_PERIODS, p), capture=None)
         further = _observe_api().observe_states(run_config, orbit[-1:], threads=1, **refine)
         if further.failed[0] or further.period[0] != p:
             continue  # not a clean period-p orbit once followed further: use it for no run
@@ -790,7 +802,7 @@ def _new_attractors(chunk: dict, known: list, tol: float, run_config, keywords: 
 
 def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=False, chunk=None,
           backend="batch", observables=(), known_attractors=True, coarse=None, confirm=None,
-          **observe_keywords):
+          capture=None, **observe_keywords):
     """A basin map: a grid of initial states a1(0) x a1'(0) (other modes from the base's
     &initial), each labelled by the attractor it reaches.  Variables (dims ('a1', 'adot1')):
     ``attractor`` (0, 1, ...: points whose final Poincaré orbits agree within `tol` times the
@@ -845,7 +857,9 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
     size = chunk if chunk is not None else 2048
     if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1:
         raise InputTypeError(f"chunk = {chunk!r}: must be a positive integer")
-    observe_kw = dict(keywords, confirm=confirm)
+    if capture is None:
+        capture = tol  # the labels' own resolution (docs/sweeps.md)
+    observe_kw = dict(keywords, confirm=confirm, capture=capture)
     results: dict = {}
     known: list = []
     bar = _progress(states.shape[0], progress, "basin")

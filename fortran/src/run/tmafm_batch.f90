@@ -43,10 +43,12 @@ module tmafm_batch
       integer :: groups = group_all
       !> Known attractors (none when unallocated or size(attractor_first) < 2): orbit k is
       !> attractor_points(:, attractor_first(k):attractor_first(k+1)-1), one column per
-      !> Poincare point (2N rows); `confirm` points in a row within tol of one label the run.
+      !> Poincare point (2N rows); `confirm` points in a row within capture (relative to the
+      !> orbit's size) of one, each closer than the one before, label the run.
       real(dp), allocatable :: attractor_points(:, :)
       integer, allocatable :: attractor_first(:)
       integer :: confirm = 3
+      real(dp) :: capture = 1.0e-6_dp
    end type observe_options_t
 
 contains
@@ -74,6 +76,8 @@ contains
          errmsg = 'observe groups = '//int_text(options%groups)//': must be 0 to '//int_text(group_all)
       else if (options%confirm < 1 .or. options%confirm > max_observed_periods) then
          errmsg = 'observe confirm = '//int_text(options%confirm)//': must be >= 1'
+      else if (.not. (options%capture > 0 .and. options%capture < 1)) then
+         errmsg = 'observe capture = '//real_text(options%capture)//': must be > 0 and < 1'
       else if (.not. attractors_valid(options)) then
          errmsg = 'observe attractors: attractor_first must rise from 1 to the number of points + 1, '// &
                   'and every point must be finite'
@@ -191,7 +195,8 @@ contains
                         ' components, the run''s state has '//int_text(2*n)
                return
             end if
-            call observer%set_attractors(options%attractor_points, options%attractor_first, options%confirm)
+            call observer%set_attractors(options%attractor_points, options%attractor_first, options%confirm, &
+                                         options%capture)
          end if
       end if
       call run_trajectory(model, settings, y0(1:n), y0(n + 1:2*n), traj, ierr, errmsg, &

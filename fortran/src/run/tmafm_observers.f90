@@ -87,13 +87,17 @@ module tmafm_observers
       integer :: groups = group_all
       logical :: do_lockin = .true., do_extrema = .true., do_force = .true., do_energy = .true.
       !> Known attractors: orbit k's points are attractor_points(:, first(k):first(k+1)-1), its
-      !> size (largest |component|) attractor_size(k); `confirm` points in a row within tol*size
-      !> of orbit k's points, in the orbit's order, label the run with k and may stop it.
+      !> size (largest |component|) attractor_size(k); `confirm` points in a row within
+      !> capture*size of orbit k's points, in the orbit's order, each closer than the one before,
+      !> label the run with k and may stop it.
       real(dp), allocatable :: attractor_points(:, :), attractor_size(:)
       integer, allocatable :: attractor_first(:)
       integer :: n_attractors = 0, confirm = 3
-      !> The matching in progress: attractor, orbit point and how many points in a row.
+      real(dp) :: capture = 1.0e-6_dp
+      !> The matching in progress: attractor, orbit point, how many points in a row, and the
+      !> last point's distance (relative to the orbit's size).
       integer :: match_attractor = 0, match_point = 0, match_streak = 0
+      real(dp) :: match_distance = huge(1.0_dp)
       !> The known attractor the run was matched to (0: none).
       integer :: attractor = 0
       !> Drive frequency Omega and period T = 2 pi/Omega.
@@ -188,6 +192,7 @@ contains
       self%match_attractor = 0
       self%match_point = 0
       self%match_streak = 0
+      self%match_distance = huge(1.0_dp)
       self%attractor = 0
       self%n_state = size(y0)
       self%max_periods = max_periods
@@ -230,15 +235,18 @@ contains
 
    !> Known attractors for this run: orbit k is points(:, first(k):first(k+1)-1) (its points in
    !> order, size(first) = number of orbits + 1); `confirm` Poincare points in a row within
-   !> tol*size of orbit k (in its order) label the run with k, and stop it if stop_at_steady.
-   subroutine observer_set_attractors(self, points, first, confirm)
+   !> capture*size of orbit k (in its order), each closer than the one before, label the run
+   !> with k, and stop it if stop_at_steady.
+   subroutine observer_set_attractors(self, points, first, confirm, capture)
       class(observer_t), intent(inout) :: self
       real(dp), intent(in) :: points(:, :)
       integer, intent(in) :: first(:)
       integer, intent(in) :: confirm
+      real(dp), intent(in) :: capture
       integer :: k
       self%n_attractors = size(first) - 1
       self%confirm = max(confirm, 1)
+      self%capture = capture
       if (allocated(self%attractor_points)) deallocate (self%attractor_points, self%attractor_size, &
                                                          self%attractor_first)
       allocate (self%attractor_points, source=points)
@@ -641,9 +649,10 @@ contains
       if (m == self%max_periods) self%done = .true.
    end subroutine finish_period
 
-   !> Follow the newest Poincare point on the known attractors: a point within tol*size of
-   !> orbit k's point q continues a match in progress when it is the same orbit and q is the
-   !> point after the previous one (cyclically); `confirm` points in a row set self%attractor.
+   !> Follow the newest Poincare point on the known attractors: a point within capture*size of
+   !> orbit k's point q continues a match in progress when it is the same orbit, q is the point
+   !> after the previous one (cyclically) and it is closer than the previous point (the run
+   !> approaches the orbit); `confirm` points in a row set self%attractor.
    subroutine match_attractors(self)
       class(observer_t), intent(inout) :: self
       integer :: k, q, p, expected, found_k, found_q
@@ -655,7 +664,7 @@ contains
          do k = 1, self%n_attractors
             do q = self%attractor_first(k), self%attractor_first(k + 1) - 1
                distance = maxval(abs(point - self%attractor_points(:, q)))/self%attractor_size(k)
-               if (distance <= self%tol .and. distance < best) then
+               if (distance <= self%capture .and. distance < best) then
                   best = distance
                   found_k = k
                   found_q = q
@@ -670,7 +679,7 @@ contains
             p = self%attractor_first(found_k + 1) - self%attractor_first(found_k)
             expected = self%attractor_first(found_k) + &
                        mod(self%match_point - self%attractor_first(found_k) + 1, p)
-            if (found_q == expected) then
+            if (found_q == expected .and. best < self%match_distance) then
                self%match_streak = self%match_streak + 1
             else
                self%match_streak = 1
@@ -680,6 +689,7 @@ contains
          end if
          self%match_attractor = found_k
          self%match_point = found_q
+         self%match_distance = best
       end if
       if (self%match_streak >= self%confirm) self%attractor = self%match_attractor
    end subroutine match_attractors

@@ -757,10 +757,14 @@ def _coarse_stride(shape: tuple, coarse) -> int:
     return int(coarse)
 
 
-def _basin_chunk(text_config, states, threads, keywords, attractors):
-    """One chunk of basin runs (observe_states); a dict of arrays (picklable)."""
+def _basin_chunk(config, states, threads, keywords, attractors):
+    """One chunk of basin runs (observe_states); a dict of arrays (picklable).  `config` is a
+    Config in this process, or its dict of groups for another process (a Config holds a
+    handle into this process's Fortran memory and must not be pickled)."""
     observe = _observe_api()
-    out = observe.observe_states(text_config, states, threads=threads, attractors=attractors,
+    if not isinstance(config, Config):
+        config = Config(config)
+    out = observe.observe_states(config, states, threads=threads, attractors=attractors,
                                  **keywords)
     return {"steady": out.steady, "physical": out.physical, "orbit": out.orbit,
             "periods": out.periods, "period": out.period, "attractor": out.attractor,
@@ -846,7 +850,8 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
         raise InputTypeError(f"known_attractors = {known_attractors!r}: must be True or False")
     stride = _coarse_stride(shape, coarse)
     # One resolved text for every run: the base with its N fixed (an automatic N is chosen once).
-    run_config = Config(dict(base_groups, model=dict(base_groups.get("model", {}), n_modes=n)))
+    run_groups = dict(base_groups, model=dict(base_groups.get("model", {}), n_modes=n))
+    run_config = Config(run_groups)
     order = np.arange(states.shape[0]).reshape(shape)
     if known_attractors and keywords.get("stop_at_steady", True):
         first = order[::stride, ::stride].ravel()
@@ -863,11 +868,14 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
     results: dict = {}
     known: list = []
     bar = _progress(states.shape[0], progress, "basin")
+    # Local batches run chunk after chunk, each stopping at what the ones before found;
+    # processes and Dask run a pass's chunks at once, with what the first pass found.
+    incremental = client is None and backend == "batch"
 
     def run_pass(indices, attractors):
         pieces = [indices[i:i + size] for i in range(0, len(indices), size)]
         if client is not None:
-            futures = [client.submit(_basin_chunk, run_config, states[p], 1, observe_kw,
+            futures = [client.submit(_basin_chunk, run_groups, states[p], 1, observe_kw,
                                      attractors, pure=False) for p in pieces]
             outs = [f.result() for f in futures]
         elif backend == "processes":
@@ -876,7 +884,7 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
             context = multiprocessing.get_context("spawn")
             with ProcessPoolExecutor(max_workers=n_workers, mp_context=context) as pool:
                 outs = list(pool.map(_basin_chunk_processes,
-                                     [(run_config, states[p], 1, observe_kw, attractors)
+                                     [(run_groups, states[p], 1, observe_kw, attractors)
                                       for p in pieces]))
         elif backend == "batch":
             outs = []
@@ -890,7 +898,7 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
                     bar.update(len(p))
         else:
             raise InputTypeError(f"backend = {backend!r}: must be 'batch' or 'processes'")
-        if bar is not None and backend != "batch":
+        if bar is not None and not incremental:
             bar.update(len(indices))
         for p, out in zip(pieces, outs):
             results[tuple(p[:1])] = (p, out)
@@ -899,7 +907,7 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
     try:
         known = run_pass(first, [])
         if known_attractors and rest.size:
-            if backend != "batch":
+            if not incremental:  # the chunks ran at once: collect what the first pass found
                 for p, out in list(results.values()):
                     known = known + _new_attractors(out, known, tol, run_config, observe_kw)
             run_pass(rest, known)

@@ -749,9 +749,12 @@ def label_attractors(orbits: Sequence[np.ndarray], periods: Sequence[int],
 
 
 def _coarse_stride(shape: tuple, coarse) -> int:
-    """The stride of the basin's first pass: about 256 points (every point of a small map)."""
+    """The stride of the first pass of a basin map: about 256 points, at least every 2nd point
+    of both axes when both have 4 points or more (otherwise every point)."""
     if coarse is None:
-        return max(1, int(round(math.sqrt(shape[0] * shape[1] / 256))))
+        if min(shape) < 4:
+            return 1
+        return max(2, int(round(math.sqrt(shape[0] * shape[1] / 256))))
     if isinstance(coarse, bool) or not isinstance(coarse, (int, np.integer)) or coarse < 1:
         raise InputTypeError(f"coarse = {coarse!r}: must be a positive integer or None")
     return int(coarse)

@@ -10,6 +10,10 @@
    against a 100x tighter rtol (1e-10), on every 10th point of the benchmark's 200 x 200 Fig. 4
    grid and on a bistable map (inputs/sweeps/bistable_n2.nml's scene at delta_hat = 3e-3).
 3. Labels with known-attractor stops against labels of full runs, on the same maps.
+4. The 3 points of the 200 x 200 benchmark map where full runs find no period within 100
+   periods (label -1; the known-attractor stops label them 0): how close they stay to the
+   attractor, how much their Poincare points still jitter, and whether a 100x tighter rtol
+   finds their period.
 
     python benchmarks/basin_labels.py --json benchmarks/basin_labels.json
 """
@@ -63,6 +67,38 @@ def budget(points: int, tol: float) -> dict:
                 "median": float(np.median(spread)), "max": float(np.max(spread))}}
 
 
+#: The benchmark map's points (a1(0), a1'(0)) without a period in 100 periods (--no-known).
+NO_PERIOD = [(0.0006281407035175881, 1.0050251256281569e-05),
+             (0.0006281407035175881, 3.0150753768844272e-05),
+             (0.0006281407035175881, 5.0251256281406975e-05)]
+
+
+def floor(tight: float) -> list:
+    out = []
+    fig4 = tmafm.Config("fig4a", solver={"method": "flight_exact", "rtol": 1e-8})
+    attractor = observe_module.observe_states(fig4, np.zeros((1, 6)), observables=(),
+                                              stop_at_steady=False, max_periods=80).orbit[0, -1]
+    size = np.max(np.abs(attractor))
+    for a1, adot1 in NO_PERIOD:
+        row = {"a1": a1, "adot1": adot1}
+        for rtol in (1e-8, tight):
+            config = tmafm.Config(fig4, solver={"method": "flight_exact", "rtol": rtol},
+                                  initial={"a0": [a1, 0.0, 0.0], "adot0": [adot1, 0.0, 0.0]})
+            run = tmafm.observe(config, max_periods=300, stop_at_steady=False, observables=())
+            points_ = run.poincare
+            distance = np.max(np.abs(points_ - attractor), axis=1) / size
+            step = np.max(np.abs(np.diff(points_, axis=0)), axis=1) / size
+            found = next((m for m in range(4, 301)
+                          if observe_module.steady_period(points_[:m + 1], 8, 1e-6, 3) > 0), 0)
+            row[f"rtol_{rtol:g}"] = {
+                "first_period_the_test_finds_a_period": found,
+                "max_distance_to_attractor_periods_30_300": float(distance[30:].max()),
+                "max_step_periods_30_300": float(step[29:].max())}
+        out.append(row)
+        print(row, flush=True)
+    return out
+
+
 def maps(tight: float) -> dict:
     out = {}
     scenes = {
@@ -103,7 +139,8 @@ def main():
     parser.add_argument("--json", default=str(REPO / "benchmarks" / "basin_labels.json"))
     parser.add_argument("--points", type=int, default=60)
     args = parser.parse_args()
-    report = {"budget": budget(args.points, 1e-6), "maps": maps(1e-10),
+    report = {"budget": budget(args.points, 1e-6), "no_period_points": floor(1e-10),
+              "maps": maps(1e-10),
               "command": "python benchmarks/basin_labels.py --json benchmarks/basin_labels.json"}
     print(json.dumps(report["budget"], indent=1))
     Path(args.json).write_text(json.dumps(report, indent=1))

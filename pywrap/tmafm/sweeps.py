@@ -965,6 +965,8 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
     attrs["attractors"] = len(reps)
     attrs["known_attractors"] = int(bool(known_attractors))
     attrs["coarse_stride"] = stride
+    attrs["capture"] = float(capture)
+    attrs["confirm"] = int(confirm if confirm is not None else keywords.get("steady_repeats", 3))
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 

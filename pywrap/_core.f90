@@ -269,9 +269,10 @@ end subroutine energy_flow
 !> harmonics (k, period, harmonic), Poincare points (k, 0:period, 1:2N), the located max V_T
 !> (k, period) and modal extrema (k, period, mode, 1:4 = ext_* columns), periods integrated,
 !> the steady period found, the factors to SI-derived units and has_scales (1 for &physical).
+!> `groups` selects the observable groups (tmafm_observers group_* bits; the others are NaN).
 !> ierr(k) per input; errmsg is the message of the first input that failed.
 subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmonics, p_max, tol, &
-                         repeats, stop_at_steady, threads, n_state_max, n_columns, values, &
+                         repeats, stop_at_steady, groups, threads, n_state_max, n_columns, values, &
                          harmonic_amplitude, harmonic_phase, poincare, max_gap, modal_extrema, &
                          n_periods, period, factors, &
                          has_scales, ierr, errmsg)
@@ -294,6 +295,7 @@ subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmoni
    real(dp), intent(in) :: tol
    integer, intent(in) :: repeats
    logical, intent(in) :: stop_at_steady
+   integer, intent(in) :: groups
    integer, intent(in) :: threads
    integer, intent(in) :: n_state_max
    integer, intent(in) :: n_columns
@@ -338,8 +340,13 @@ subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmoni
          messages(k) = 'internal: n_state_max is smaller than 2 n_modes'
       end if
    end do
-   options = observe_options_t(max_periods=max_periods, p_max=p_max, tol=tol, repeats=repeats, &
-                               harmonics=harmonics, stop_at_steady=stop_at_steady)
+   options%max_periods = max_periods
+   options%p_max = p_max
+   options%tol = tol
+   options%repeats = repeats
+   options%harmonics = harmonics
+   options%stop_at_steady = stop_at_steady
+   options%groups = groups
    if (all(ierr == ok)) call observe_batch(configs, options, observers, ierr, messages, threads)
    do k = 1, n_configs
       if (ierr(k) /= ok) then
@@ -361,6 +368,132 @@ subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmoni
       has_scales(k) = merge(1, 0, scales%known)
    end do
 end subroutine observe_texts
+
+!> Observed runs of one namelist text (with n_modes modes, N already chosen) from n_points
+!> initial states (states(k, :) = [a0, adot0] of run k), by the OpenMP batch on `threads`
+!> threads with the GIL released; the input is read and its model built once (a basin map).
+!> Known attractors: orbit j is attractor_points(:, attractor_first(j):attractor_first(j+1)-1)
+!> (n_first - 1 orbits; none when n_first < 2); `confirm` Poincare points in a row within
+!> capture (relative to the orbit's size) of one, each closer than the one before, label the
+!> run with it (attractor(k) = j, 0: none) and stop it.  Per run k: the steady
+!> values (steady(k, column): the mean over the last max(period, 1) periods, NaN for a group
+!> not computed; the same for the harmonics), the last p_max Poincare points (orbit(k, p_max, :)
+!> is the final state; NaN before the first), periods run, the steady period, the attractor.
+!> ierr: err_input for a bad input, options or state (nothing runs), with errmsg; run k's own
+!> failure is run_ierr(k), and errmsg is then the first such message.
+subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_periods, harmonics, &
+                               p_max, tol, repeats, stop_at_steady, groups, attractor_points, &
+                               n_attractor_points, attractor_first, n_first, confirm, capture, threads, &
+                               n_columns, steady, steady_harmonic_amplitude, steady_harmonic_phase, &
+                               orbit, n_periods, period, attractor, factors, has_scales, run_ierr, &
+                               ierr, errmsg)
+   use tmafm_kinds, only: dp
+   use tmafm_errors, only: ok, err_runtime
+   use tmafm_config, only: config_t
+   use tmafm_namelist, only: read_config_text
+   use tmafm_observers, only: observer_t, n_observables, observable_factors
+   use tmafm_batch, only: observe_options_t, observe_states, config_scales
+   use tmafm_units, only: scales_t
+   use ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+   implicit none
+   !f2py threadsafe
+   character(len=*), intent(in) :: text
+   integer, intent(in) :: n_modes
+   integer, intent(in) :: n_points
+   integer, intent(in) :: n_state
+   real(dp), intent(in) :: states(n_points, n_state)
+   integer, intent(in) :: max_periods
+   integer, intent(in) :: harmonics
+   integer, intent(in) :: p_max
+   real(dp), intent(in) :: tol
+   integer, intent(in) :: repeats
+   logical, intent(in) :: stop_at_steady
+   integer, intent(in) :: groups
+   integer, intent(in) :: n_attractor_points
+   real(dp), intent(in) :: attractor_points(n_state, n_attractor_points)
+   integer, intent(in) :: n_first
+   integer, intent(in) :: attractor_first(n_first)
+   integer, intent(in) :: confirm
+   real(dp), intent(in) :: capture
+   integer, intent(in) :: threads
+   integer, intent(in) :: n_columns
+   real(dp), intent(out) :: steady(n_points, n_columns)
+   real(dp), intent(out) :: steady_harmonic_amplitude(n_points, harmonics)
+   real(dp), intent(out) :: steady_harmonic_phase(n_points, harmonics)
+   real(dp), intent(out) :: orbit(n_points, p_max, n_state)
+   integer, intent(out) :: n_periods(n_points)
+   integer, intent(out) :: period(n_points)
+   integer, intent(out) :: attractor(n_points)
+   real(dp), intent(out) :: factors(n_columns)
+   integer, intent(out) :: has_scales
+   integer, intent(out) :: run_ierr(n_points)
+   integer, intent(out) :: ierr
+   character(len=512), intent(out) :: errmsg
+   type(config_t) :: config
+   type(observer_t), allocatable :: observers(:)
+   type(observe_options_t) :: options
+   type(scales_t) :: scales
+   character(len=512), allocatable :: messages(:)
+   integer :: k, m, last, kept
+
+   steady = 0; steady_harmonic_amplitude = 0; steady_harmonic_phase = 0
+   orbit = ieee_value(1.0_dp, ieee_quiet_nan)
+   n_periods = 0; period = 0; attractor = 0; factors = 0; has_scales = 0; run_ierr = 0
+   ierr = 0; errmsg = ''
+   if (n_columns /= n_observables) then
+      ierr = err_runtime
+      write (errmsg, '(a,i0)') 'internal: observe_states_text n_columns must be ', n_observables
+      return
+   end if
+   call read_config_text(text, 'observe input', config, ierr, errmsg)
+   if (ierr /= ok) return
+   ! The caller already chose N for an automatic n_modes: reuse its choice.
+   config%auto_modes = .false.
+   config%n_modes = n_modes
+   options%max_periods = max_periods
+   options%p_max = p_max
+   options%tol = tol
+   options%repeats = repeats
+   options%harmonics = harmonics
+   options%stop_at_steady = stop_at_steady
+   options%groups = groups
+   options%confirm = confirm
+   options%capture = capture
+   if (n_first >= 2) then
+      options%attractor_points = attractor_points
+      options%attractor_first = attractor_first
+   end if
+   allocate (observers(n_points), messages(n_points))
+   call observe_states(config, transpose(states), options, observers, ierr, errmsg, run_ierr, messages, &
+                       threads)
+   if (ierr /= ok) return
+   do k = 1, n_points
+      if (run_ierr(k) /= ok) then
+         if (len_trim(errmsg) == 0) errmsg = messages(k)
+         steady(k, :) = ieee_value(1.0_dp, ieee_quiet_nan)
+         steady_harmonic_amplitude(k, :) = ieee_value(1.0_dp, ieee_quiet_nan)
+         steady_harmonic_phase(k, :) = ieee_value(1.0_dp, ieee_quiet_nan)
+         cycle
+      end if
+      associate (o => observers(k))
+         m = o%n_periods
+         n_periods(k) = m
+         period(k) = o%found_period
+         attractor(k) = o%attractor
+         last = min(max(o%found_period, 1), m)
+         if (last > 0) then
+            steady(k, :) = sum(o%values(m - last + 1:m, :), 1)/last
+            steady_harmonic_amplitude(k, :) = sum(o%harmonic_amplitude(m - last + 1:m, :), 1)/last
+            steady_harmonic_phase(k, :) = sum(o%harmonic_phase(m - last + 1:m, :), 1)/last
+         end if
+         kept = min(p_max, m + 1)
+         orbit(k, p_max - kept + 1:p_max, :) = transpose(o%poincare(:, m - kept + 1:m))
+      end associate
+   end do
+   scales = config_scales(config)
+   factors = observable_factors(scales)
+   has_scales = merge(1, 0, scales%known)
+end subroutine observe_states_text
 
 !> The classifier of tmafm_steady_state on a sequence of points (n_points x n_dim), for tests.
 subroutine steady_period_of(points, n_points, n_dim, p_max, tol, repeats, period)

@@ -321,3 +321,114 @@ def test_bad_arguments_raise_typed_errors():
     with pytest.raises(tmafm.InputTypeError):
         tmafm.observe_batch("fig3")
     assert tmafm.observe_batch([]) == []
+
+
+# --- Observable groups (observables=) and runs from many states (observe_states) -----------
+
+import importlib  # noqa: E402
+
+observe_module = importlib.import_module("tmafm.observe")
+FIG4 = tmafm.Config("fig4a", solver={"method": "flight_exact", "rtol": 1e-8})
+
+
+@pytest.mark.parametrize("method", ["dop853", "flight_exact", "rk4_paper"])
+def test_each_group_alone_gives_the_full_runs_values(method):
+    solver = {"method": method} if method != "rk4_paper" else {"method": method, "dtau": 4e-3}
+    full = tmafm.observe("fig3", solver=solver, max_periods=6, stop_at_steady=False)
+    none = tmafm.observe("fig3", solver=solver, max_periods=6, stop_at_steady=False,
+                         observables=())
+    # The Poincare points and the always-computed columns do not depend on the groups.
+    np.testing.assert_array_equal(none.poincare, full.poincare)
+    assert set(none.per_period) == {"contact_time", "contacts_per_period"}
+    for name in none.per_period:
+        np.testing.assert_array_equal(none.per_period[name], full.per_period[name])
+    for group, members in observe_module.OBSERVABLE_GROUPS.items():
+        alone = tmafm.observe("fig3", solver=solver, max_periods=6, stop_at_steady=False,
+                              observables=[group])
+        np.testing.assert_array_equal(alone.poincare, full.poincare)
+        assert set(alone.per_period) == set(members) | {"contact_time", "contacts_per_period"}
+        for name in members:
+            assert np.all(np.isfinite(alone.per_period[name])) or name.startswith("modal_")
+            np.testing.assert_array_equal(alone.per_period[name], full.per_period[name])
+
+
+def test_an_observable_name_selects_its_group_and_bad_names_are_refused():
+    assert observe_module.observable_groups(["amplitude", "virial"]) == ("lockin", "energy")
+    assert observe_module.observable_groups(None) == tuple(observe_module.OBSERVABLE_GROUPS)
+    assert observe_module.observable_groups(["poincare", "contact_time"]) == ()
+    with pytest.raises(tmafm.InputError, match="amplitud"):
+        tmafm.observe("fig3", solver={"method": "dop853"}, max_periods=2, observables=["amplitud"])
+    with pytest.raises(tmafm.InputTypeError):
+        tmafm.observe("fig3", solver={"method": "dop853"}, max_periods=2, observables=[3])
+
+
+def _states(n=5):
+    rng = np.random.default_rng(7)
+    states = np.zeros((n, 6))
+    states[:, 0] = rng.uniform(-1e-3, 1e-3, n)
+    states[:, 3] = rng.uniform(-2e-3, 2e-3, n)
+    return states
+
+
+def test_observe_states_equals_observe_batch_on_the_same_inputs():
+    states = _states()
+    out = observe_module.observe_states(FIG4, states, threads=2)
+    configs = [tmafm.Config(FIG4, initial={"a0": s[:3].tolist(), "adot0": s[3:].tolist()})
+               for s in states]
+    batch = tmafm.observe_batch(configs, threads=1)
+    for k, obs in enumerate(batch):
+        assert out.periods[k] == obs.periods and out.period[k] == obs.period
+        np.testing.assert_array_equal(out.orbit[k, -1], obs.final_state)
+        steady = obs.steady_values()
+        for name in OBSERVABLES:
+            assert out.steady[name][k] == pytest.approx(steady[name], rel=1e-14, abs=1e-300)
+    assert np.all(out.attractor == -1) and not out.failed.any()
+
+
+def test_observe_states_stops_at_a_known_attractor_and_only_there():
+    states = _states()
+    free = observe_module.observe_states(FIG4, states, threads=2, observables=())
+    # The attractor: one run followed 60 periods.
+    long = observe_module.observe_states(FIG4, states[:1], observables=(), max_periods=60,
+                                         stop_at_steady=False)
+    orbit = long.orbit[0, -1:]
+    size = np.max(np.abs(orbit))
+    known = observe_module.observe_states(FIG4, states, threads=2, observables=(),
+                                          attractors=[orbit], capture=1e-3)
+    assert np.all(known.attractor == 0) and np.all(known.period == 1)
+    assert np.all(known.periods < free.periods)
+    # Stopped only once the last `confirm` (= steady_repeats = 3) points were within the
+    # capture radius of the orbit: each run's final point is.
+    assert np.all(np.max(np.abs(known.orbit[:, -1] - orbit), axis=1) <= 1e-3 * size)
+    # The same runs, period by period: the points before the stop are those of the free runs.
+    for k in range(len(states)):
+        m = known.periods[k]
+        np.testing.assert_allclose(known.orbit[k, -1], _point(states[k], m), rtol=0,
+                                   atol=1e-9 * size)
+    # An orbit far from every run's attractor stops none of them.
+    far = observe_module.observe_states(FIG4, states, threads=2, observables=(),
+                                        attractors=[orbit * 1.5], capture=1e-3)
+    assert np.all(far.attractor == -1)
+    np.testing.assert_array_equal(far.periods, free.periods)
+    np.testing.assert_array_equal(far.orbit, free.orbit)
+
+
+def _point(state, m):
+    """The Poincare point after m periods of a run from `state` that never stops early."""
+    run = observe_module.observe_states(FIG4, state[None, :], observables=(), max_periods=int(m),
+                                        stop_at_steady=False)
+    return run.orbit[0, -1]
+
+
+def test_observe_states_refuses_bad_states_and_options_before_any_run():
+    states = _states(2)
+    bad = states.copy()
+    bad[1, 0] = 1.5
+    with pytest.raises(tmafm.InputError, match="state 2 component 1"):
+        observe_module.observe_states(FIG4, bad)
+    with pytest.raises(tmafm.InputError, match="shape"):
+        observe_module.observe_states(FIG4, states[:, :4])
+    with pytest.raises(tmafm.InputError, match="capture"):
+        observe_module.observe_states(FIG4, states, attractors=[states[:1]], capture=2.0)
+    with pytest.raises(tmafm.InputTypeError, match="confirm"):
+        observe_module.observe_states(FIG4, states, attractors=[states[:1]], confirm=0)

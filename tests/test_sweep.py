@@ -226,7 +226,7 @@ def test_label_attractors_up_to_cyclic_shift():
 def test_basin_tells_the_two_branches_of_the_bistable_scene_apart():
     scene = dict(BISTABLE, scene=dict(BISTABLE["scene"], delta_hat=3e-3))
     ds = tmafm.basin(scene, a1=[-3e-3, 0.0, 1e-3], adot1=[-5e-3, 0.0], workers=2,
-                     max_periods=300, steady_tol=1e-4, tol=1e-2)
+                     max_periods=300, steady_tol=1e-4, tol=1e-2, observables=["amplitude"])
     labels = ds["attractor"].values.ravel()
     amplitude = ds["amplitude"].values.ravel()
     assert ds.attrs["attractors"] == 2 and set(labels.tolist()) == {0, 1}
@@ -323,3 +323,79 @@ def test_continuation_dataset_round_trips_through_netcdf(hysteresis, tmp_path):
     with xr.open_dataset(path) as back:
         xr.testing.assert_identical(ds, back.load())
         assert back["direction"].values.tolist() == ["approach", "retract"]
+
+
+# --- Basin maps stopped at known attractors; selected observables ---------------------------
+
+BISTABLE_BASIN = dict(BISTABLE, scene=dict(BISTABLE["scene"], delta_hat=3e-3))
+
+
+@pytest.mark.parametrize("scene, axes, options", [
+    # Two attractors (the free oscillation and tapping): docs/sweeps.md.
+    (BISTABLE_BASIN, (np.linspace(-4e-3, 2e-3, 7), np.linspace(-8e-3, 8e-3, 7)),
+     dict(max_periods=300, steady_tol=1e-4, tol=1e-2)),
+    # The paper's Fig. 4 scene at the benchmark's settings: one attractor.
+    (FIG4, (np.linspace(-1e-3, 1e-3, 6), np.linspace(-2e-3, 2e-3, 6)), dict(max_periods=100)),
+])
+def test_basin_labels_with_known_attractor_stops_equal_full_runs(scene, axes, options):
+    full = tmafm.basin(scene, a1=axes[0], adot1=axes[1], workers=2, known_attractors=False,
+                       **options)
+    fast = tmafm.basin(scene, a1=axes[0], adot1=axes[1], workers=2, coarse=3, chunk=8,
+                       **options)
+    assert full.attrs["attractors"] == fast.attrs["attractors"]
+    np.testing.assert_array_equal(fast["attractor"].values, full["attractor"].values)
+    np.testing.assert_array_equal(fast["attractor_period"].values,
+                                  full["attractor_period"].values)
+    # The first pass (every 3rd point) begins with no attractor known: its first chunk runs
+    # to its own steady state.  Most other points stop early; those that do not are the same
+    # runs as without the stops.
+    first = np.zeros(full["attractor"].shape, dtype=bool)
+    first[::3, ::3] = True
+    stopped = fast["stopped_known"].values.astype(bool)
+    assert not stopped[first].ravel()[:8].any() and stopped[~first].mean() > 0.5
+    np.testing.assert_array_equal(fast["periods"].values[~stopped],
+                                  full["periods"].values[~stopped])
+    assert np.all(fast["periods"].values[stopped] < full["periods"].values[stopped])
+    assert fast["periods"].sum() < 0.8 * full["periods"].sum()
+    if scene is BISTABLE_BASIN:
+        assert full.attrs["attractors"] == 2
+
+
+def test_basin_computes_only_the_observables_asked_for():
+    ds = tmafm.basin(FIG4, a1=[0.0, 3e-4], adot1=[0.0], workers=1, max_periods=100)
+    assert "amplitude" not in ds and "peak_force" not in ds and "contact_time" in ds
+    ds = tmafm.basin(FIG4, a1=[0.0, 3e-4], adot1=[0.0], workers=1, max_periods=100,
+                     observables=["lockin"])
+    obs = tmafm.observe(FIG4, initial={"a0": [3e-4, 0.0, 0.0]}, max_periods=100)
+    assert ds["amplitude"].values[1, 0] == pytest.approx(obs.steady_values()["amplitude"],
+                                                         rel=1e-12)
+    assert ds.attrs["observe_observables"] == "lockin"
+
+
+def test_sweep_observables_keeps_the_asked_variables_and_continuation_keeps_lockin():
+    ds = tmafm.sweep(BASE, {"scene.delta_hat": [0.0, 1e-3]}, workers=1,
+                     observables=["peak_force"], **QUICK)
+    full = tmafm.sweep(BASE, {"scene.delta_hat": [0.0, 1e-3]}, workers=1, **QUICK)
+    assert "peak_force" in ds and "amplitude" not in ds and "dissipated_energy" not in ds
+    np.testing.assert_array_equal(ds["peak_force"].values, full["peak_force"].values)
+    curve = tmafm.approach(BASE, delta_hat=[2e-3, 1e-3], retract=False, workers=1,
+                           observables=(), **QUICK)
+    assert "amplitude" in curve and "phase" in curve and "peak_force" not in curve
+    with pytest.raises(tmafm.InputError, match="unknown name"):
+        tmafm.sweep(BASE, {"scene.delta_hat": [0.0]}, workers=1, observables=["nope"], **QUICK)
+
+
+def test_basin_backends_give_the_same_labels():
+    axes = dict(a1=np.linspace(-1e-3, 1e-3, 4), adot1=np.linspace(-2e-3, 2e-3, 3))
+    local = tmafm.basin(FIG4, workers=2, coarse=2, chunk=4, max_periods=100, **axes)
+    pooled = tmafm.basin(FIG4, workers=2, coarse=2, chunk=4, max_periods=100,
+                         backend="processes", **axes)
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        on_dask = tmafm.basin(FIG4, client=client, coarse=2, chunk=4, max_periods=100, **axes)
+    for other in (pooled, on_dask):
+        np.testing.assert_array_equal(other["attractor"].values, local["attractor"].values)
+        assert other.attrs["attractors"] == local.attrs["attractors"] == 1
+        assert other["stopped_known"].values.sum() > 0

@@ -7,6 +7,11 @@ contact, the peak normal force, the contact time and count,
 the energy dissipated (beam damping, contact damping, friction), the drive work, the virial
 and the Poincare point; the run may stop itself at a steady state.  docs/observables.md
 defines every quantity, its units and its signs.
+
+``observables=`` picks what a run computes (``OBSERVABLE_GROUPS``; all by default): a basin
+map needs only the Poincare points, which are always computed, as are the contact time and
+count.  ``observe_states`` runs one input from many initial states (a basin map) and may
+stop each run at a known attractor.
 """
 
 from __future__ import annotations
@@ -20,8 +25,9 @@ import numpy as np
 from ._run import Config
 from .errors import InputError, InputTypeError, raise_for
 
-__all__ = ["Observation", "observe", "observe_batch", "OBSERVABLES", "UNITS", "PHYSICAL_UNITS",
-           "steady_period"]
+__all__ = ["Observation", "observe", "observe_batch", "observe_states", "StatesObservation",
+           "OBSERVABLES", "OBSERVABLE_GROUPS", "UNITS", "PHYSICAL_UNITS", "steady_period",
+           "observable_groups"]
 
 #: The per-period scalar observables, in the core's column order (tmafm_observers).
 OBSERVABLES = ("amplitude", "phase", "mean_deflection", "min_gap", "peak_force", "contact_time",
@@ -43,6 +49,19 @@ UNITS = {
 }
 #: Located extrema of each mode per period (n_periods, N), in the core's ext_* column order.
 MODAL_EXTREMA = ("modal_max_contact", "modal_min_contact", "modal_max_free", "modal_min_free")
+#: The groups of observables a run may compute (``observables=``), with their core bit
+#: (tmafm_observers group_*).  contact_time, contacts_per_period and the Poincare points are
+#: always computed.
+OBSERVABLE_GROUPS = {
+    "lockin": ("amplitude", "phase", "mean_deflection", "harmonic_amplitude", "harmonic_phase"),
+    "extrema": ("min_gap", "max_gap") + MODAL_EXTREMA,
+    "peak_force": ("peak_force",),
+    "energy": ("dissipated_energy", "dissipated_beam", "dissipated_contact_damping",
+               "dissipated_friction", "drive_work", "virial", "contact_normal_work"),
+}
+_GROUP_BITS = {"lockin": 1, "extrema": 2, "peak_force": 4, "energy": 8}
+#: Always computed, whatever ``observables`` asks.
+ALWAYS = ("contact_time", "contacts_per_period")
 #: SI-derived units of ``Observation.physical`` (inputs given in &physical).
 PHYSICAL_UNITS = {
     "amplitude": "nm", "phase": "deg", "mean_deflection": "nm", "min_gap": "nm",
@@ -86,6 +105,46 @@ class Observation:
         return out
 
 
+def observable_groups(observables) -> tuple[str, ...]:
+    """The groups (OBSERVABLE_GROUPS keys, in their order) that compute ``observables``: None
+    for all; otherwise group names or observable names (a name selects its whole group; the
+    always-computed ones and 'poincare' select none).  InputError for an unknown name."""
+    if observables is None:
+        return tuple(OBSERVABLE_GROUPS)
+    if isinstance(observables, str):
+        observables = (observables,)
+    try:
+        names = list(observables)
+    except TypeError:
+        raise InputTypeError(f"observables = {observables!r}: must be None or a sequence of "
+                             f"names") from None
+    chosen = set()
+    for name in names:
+        if not isinstance(name, str):
+            raise InputTypeError(f"observables: {name!r} is not a name")
+        if name in OBSERVABLE_GROUPS:
+            chosen.add(name)
+            continue
+        owner = [g for g, members in OBSERVABLE_GROUPS.items() if name in members]
+        if owner:
+            chosen.add(owner[0])
+        elif name not in ALWAYS + ("poincare",):
+            raise InputError(f"observables: unknown name {name!r} (groups: "
+                             f"{', '.join(OBSERVABLE_GROUPS)}; or an observable: "
+                             f"{', '.join(OBSERVABLES)})")
+    return tuple(g for g in OBSERVABLE_GROUPS if g in chosen)
+
+
+def _group_bits(groups) -> int:
+    return sum(_GROUP_BITS[g] for g in groups)
+
+
+def computed_names(groups) -> tuple[str, ...]:
+    """The scalar observables (OBSERVABLES order) that the groups compute."""
+    members = set(ALWAYS).union(*(OBSERVABLE_GROUPS[g] for g in groups))
+    return tuple(name for name in OBSERVABLES if name in members)
+
+
 def _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_steady):
     checked = {}
     for name, value in (("max_periods", max_periods), ("p_max", p_max),
@@ -108,12 +167,16 @@ def _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_
 
 def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods: int = 100,
                   p_max: int = 8, steady_tol: float = 1e-6, steady_repeats: int = 3,
-                  harmonics: int = 3, stop_at_steady: bool = True) -> list[Observation]:
+                  harmonics: int = 3, stop_at_steady: bool = True,
+                  observables=None) -> list[Observation]:
     """Observe every input of ``configs`` (paths, packaged names, dicts or tmafm.Config) with the
     core's OpenMP batch, the GIL released; ``threads=None`` takes the OpenMP default.
-    Results do not depend on the number of threads."""
+    ``observables`` (None: all) selects the groups computed (OBSERVABLE_GROUPS); per_period
+    then holds only the observables computed.  Results do not depend on the number of
+    threads."""
     from . import _core
     opts = _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_steady)
+    groups = observable_groups(observables)
     if isinstance(configs, (str, os.PathLike, Mapping, Config)):
         raise InputTypeError("observe_batch takes a list of inputs; use tmafm.observe for one")
     configs = [c if isinstance(c, Config) else Config(c) for c in configs]
@@ -130,7 +193,7 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
     (values, harm_amp, harm_phase, poincare, max_gap, modal, n_periods, found, factors, has_scales,
      ierr, errmsg) = _core.observe_texts(
         "".join(texts), offsets, n_modes, opts["max_periods"], h, opts["p_max"],
-        opts["steady_tol"], opts["steady_repeats"], opts["stop_at_steady"],
+        opts["steady_tol"], opts["steady_repeats"], opts["stop_at_steady"], _group_bits(groups),
         0 if threads is None else threads, n_state, len(OBSERVABLES), n_configs=len(configs))
     bad = np.flatnonzero(ierr)
     if bad.size:
@@ -138,22 +201,27 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
         message = errmsg.decode("utf-8", "replace") if isinstance(errmsg, bytes) else str(errmsg)
         raise_for(int(ierr[k]), f"{configs[k].label}: {message.strip()}")
     out = []
+    columns = [(j, name) for j, name in enumerate(OBSERVABLES) if name in computed_names(groups)]
     for k, config in enumerate(configs):
         m = int(n_periods[k])
         s = 2 * int(n_modes[k])
-        per = {name: values[k, :m, j].copy() for j, name in enumerate(OBSERVABLES)}
-        per["harmonic_amplitude"] = harm_amp[k, :m, :].copy()
-        per["harmonic_phase"] = harm_phase[k, :m, :].copy()
-        per["max_gap"] = max_gap[k, :m].copy()
-        for j, name in enumerate(MODAL_EXTREMA):
-            per[name] = modal[k, :m, :n_modes[k], j].copy()
+        per = {name: values[k, :m, j].copy() for j, name in columns}
+        if "lockin" in groups:
+            per["harmonic_amplitude"] = harm_amp[k, :m, :].copy()
+            per["harmonic_phase"] = harm_phase[k, :m, :].copy()
+        if "extrema" in groups:
+            per["max_gap"] = max_gap[k, :m].copy()
+            for j, name in enumerate(MODAL_EXTREMA):
+                per[name] = modal[k, :m, :n_modes[k], j].copy()
         physical = None
         if has_scales[k]:
-            physical = {name: per[name] * factors[k, j] for j, name in enumerate(OBSERVABLES)}
-            physical["harmonic_amplitude"] = per["harmonic_amplitude"] * factors[k, 0]
-            physical["harmonic_phase"] = per["harmonic_phase"].copy()
+            physical = {name: per[name] * factors[k, j] for j, name in columns}
+            if "lockin" in groups:
+                physical["harmonic_amplitude"] = per["harmonic_amplitude"] * factors[k, 0]
+                physical["harmonic_phase"] = per["harmonic_phase"].copy()
             for name in ("max_gap",) + MODAL_EXTREMA:
-                physical[name] = per[name] * factors[k, 0]
+                if name in per:
+                    physical[name] = per[name] * factors[k, 0]
         points = poincare[k, :m + 1, :s].copy()
         out.append(Observation(periods=m, period=int(found[k]), steady=bool(found[k] > 0),
                                per_period=per, poincare=points, final_state=points[-1].copy(),
@@ -163,13 +231,97 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
 
 def observe(nml, *, max_periods: int = 100, p_max: int = 8, steady_tol: float = 1e-6,
             steady_repeats: int = 3, harmonics: int = 3, stop_at_steady: bool = True,
-            **overrides) -> Observation:
+            observables=None, **overrides) -> Observation:
     """Observe one input (a path, a packaged name, a dict or a tmafm.Config, plus ``overrides``
     of groups as in tmafm.run); see observe_batch."""
     config = nml if isinstance(nml, Config) and not overrides else Config(nml, **overrides)
     return observe_batch([config], threads=1, max_periods=max_periods, p_max=p_max,
                          steady_tol=steady_tol, steady_repeats=steady_repeats,
-                         harmonics=harmonics, stop_at_steady=stop_at_steady)[0]
+                         harmonics=harmonics, stop_at_steady=stop_at_steady,
+                         observables=observables)[0]
+
+
+@dataclass
+class StatesObservation:
+    """The runs of ``observe_states``, one row per initial state: ``steady`` ({name: (n,)}
+    steady values of the observables computed; ``harmonic_amplitude``/``harmonic_phase``
+    (n, harmonics) with lockin), ``orbit`` (n, p_max, 2N: the last p_max Poincare points, the
+    final state last, NaN before the first), ``periods``, ``period`` (0: none found),
+    ``attractor`` (the known attractor matched, 0-based; -1: none), ``failed`` (bool) and the
+    first failure's message."""
+
+    steady: dict
+    orbit: np.ndarray
+    periods: np.ndarray
+    period: np.ndarray
+    attractor: np.ndarray
+    failed: np.ndarray
+    first_failure: str = ""
+    physical: dict | None = None
+
+
+def observe_states(config, states, *, threads: int | None = None, max_periods: int = 100,
+                   p_max: int = 8, steady_tol: float = 1e-6, steady_repeats: int = 3,
+                   harmonics: int = 3, stop_at_steady: bool = True, observables=None,
+                   attractors: Sequence = (), confirm: int | None = None,
+                   capture: float | None = None) -> StatesObservation:
+    """Observe one input from many initial states (rows of ``states``: [a0, adot0], 2N each)
+    with the core's OpenMP batch; the input is read and its model built once.  ``attractors``
+    (orbits, each p x 2N, points in order): a run whose Poincare points come within
+    ``capture`` (default steady_tol; relative to the orbit's size) of orbit k's points, in
+    order, each closer than the one before, ``confirm`` times in a row (default
+    steady_repeats) is labelled k and stopped (docs/sweeps.md).
+    A run that fails (SolverError) is marked ``failed`` (NaN values); a bad input, option or
+    state raises InputError before any run."""
+    from . import _core
+    opts = _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_steady)
+    groups = observable_groups(observables)
+    config = config if isinstance(config, Config) else Config(config)
+    n = config.n_modes
+    states = np.asarray(states, dtype=float)
+    if states.ndim != 2 or states.shape[1] != 2 * n:
+        raise InputError(f"observe_states states: shape {states.shape}, must be (points, {2 * n})")
+    confirm = opts["steady_repeats"] if confirm is None else confirm
+    if isinstance(confirm, bool) or not isinstance(confirm, (int, np.integer)) or confirm < 1:
+        raise InputTypeError(f"observe_states confirm = {confirm!r}: must be a positive integer")
+    capture = opts["steady_tol"] if capture is None else capture
+    if isinstance(capture, bool) or not isinstance(capture, (int, float, np.floating)) \
+            or not 0 < capture < 1:
+        raise InputError(f"observe_states capture = {capture!r}: must be a number > 0 and < 1")
+    orbits = [np.asarray(o, dtype=float).reshape(-1, 2 * n) for o in attractors]
+    if orbits:
+        points = np.asfortranarray(np.concatenate(orbits).T)
+        first = np.cumsum([1] + [len(o) for o in orbits]).astype(np.int32)
+    else:
+        points = np.zeros((2 * n, 1), order="F")
+        first = np.ones(1, dtype=np.int32)
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int)
+                                or threads < 1):
+        raise InputError(f"observe_states threads = {threads!r}: must be a positive integer or None")
+    (steady, harm_amp, harm_phase, orbit, n_periods, found, matched, factors, has_scales,
+     run_ierr, ierr, errmsg) = _core.observe_states_text(
+        config.text, n, np.asfortranarray(states), opts["max_periods"], opts["harmonics"],
+        opts["p_max"], opts["steady_tol"], opts["steady_repeats"], opts["stop_at_steady"],
+        _group_bits(groups), points, first, int(confirm), float(capture),
+        0 if threads is None else threads,
+        len(OBSERVABLES))
+    message = errmsg.decode("utf-8", "replace") if isinstance(errmsg, bytes) else str(errmsg)
+    if ierr:
+        raise_for(int(ierr), f"{config.label}: {message.strip()}")
+    failed = run_ierr != 0
+    names = computed_names(groups)
+    values = {name: steady[:, j] for j, name in enumerate(OBSERVABLES) if name in names}
+    if "lockin" in groups:
+        values["harmonic_amplitude"] = harm_amp
+        values["harmonic_phase"] = harm_phase
+    physical = None
+    if has_scales:
+        physical = {name: steady[:, j] * factors[j] for j, name in enumerate(OBSERVABLES)
+                    if name in names}
+    return StatesObservation(steady=values, orbit=orbit, periods=n_periods, period=found,
+                             attractor=matched.astype(np.int32) - 1, failed=failed,
+                             first_failure=message.strip() if failed.any() else "",
+                             physical=physical)
 
 
 def steady_period(points, p_max: int = 8, tol: float = 1e-6, repeats: int = 3) -> int:

@@ -70,11 +70,13 @@ def _continuation_panels(ds, path, names):
 
 def plot_approach(ds, path):
     """Amplitude, phase, peak force and indentation (-min_gap when < 0) against delta_hat, both
-    branches, jumps marked by squares."""
+    branches, jumps marked by squares (the panels of the observables the sweep computed)."""
     ds = ds.copy()
-    ds["indentation"] = (-ds["min_gap"]).clip(min=0)
-    ds["indentation"].attrs["units"] = ds["min_gap"].attrs.get("units", "")
-    return _continuation_panels(ds, path, ["amplitude", "phase", "peak_force", "indentation"])
+    if "min_gap" in ds:
+        ds["indentation"] = (-ds["min_gap"]).clip(min=0)
+        ds["indentation"].attrs["units"] = ds["min_gap"].attrs.get("units", "")
+    return _continuation_panels(ds, path, [name for name in ("amplitude", "phase", "peak_force",
+                                                             "indentation") if name in ds])
 
 
 def plot_frequency(ds, path):
@@ -128,9 +130,11 @@ def plot_basin(ds, path):
 
 
 def plot_grid(ds, path, names=("amplitude", "phase", "peak_force", "min_gap")):
-    """A grid sweep: lines against its one key, or maps over its two keys."""
+    """A grid sweep: lines against its one key, or maps over its two keys (the `names` the
+    sweep computed; its steady period when it computed none of them)."""
     plt = _pyplot()
-    dims = ds["amplitude"].dims
+    names = [name for name in names if name in ds] or ["period"]
+    dims = ds["period"].dims
     fig, axes = plt.subplots(len(names), 1, figsize=(6.4, 2.1 * len(names)), squeeze=False)
     for ax, name in zip(axes[:, 0], names):
         data = ds[name]

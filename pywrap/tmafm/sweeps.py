@@ -43,7 +43,7 @@ STEADY_NAMES = ("amplitude", "phase", "mean_deflection", "min_gap", "peak_force"
                 "dissipated_contact_damping", "dissipated_friction", "drive_work", "virial")
 #: The keywords of tmafm.observe that a sweep passes on.
 OBSERVE_KEYWORDS = ("max_periods", "p_max", "steady_tol", "steady_repeats", "harmonics",
-                    "stop_at_steady")
+                    "stop_at_steady", "observables")
 
 
 # --- Keys, values and validation -----------------------------------------------------------
@@ -174,7 +174,11 @@ def _observe_keywords(keywords: Mapping) -> dict:
     if unknown:
         raise InputTypeError(f"unknown keyword(s) {', '.join(sorted(unknown))} (a sweep passes "
                              f"on: {', '.join(OBSERVE_KEYWORDS)})")
-    return dict(keywords)
+    out = dict(keywords)
+    if out.get("observables") is not None:
+        # Checked now (before any run), and kept as the tuple of groups it selects.
+        out["observables"] = _observe_api().observable_groups(out["observables"])
+    return out
 
 
 # --- Running points ------------------------------------------------------------------------
@@ -185,16 +189,20 @@ def _observe_api():
     return importlib.import_module("tmafm.observe")
 
 
-def _names() -> tuple:
-    """The steady observables a dataset carries: the core's list (tmafm.observe.OBSERVABLES)."""
-    return tuple(getattr(_observe_api(), "OBSERVABLES", STEADY_NAMES))
+def _names(keywords: Mapping | None = None) -> tuple:
+    """The steady observables a dataset carries: the core's list (tmafm.observe.OBSERVABLES),
+    cut to those the keywords' ``observables`` compute."""
+    observe = _observe_api()
+    selected = (keywords or {}).get("observables")
+    return observe.computed_names(observe.observable_groups(selected))
 
 
 def _summary(obs, keep: int = 0) -> dict:
     """The picklable part of an Observation a sweep keeps: steady values, period, states."""
     steady = obs.steady_values()
+    names = [name for name in _names() if name in steady]
     out = {"steady": bool(obs.steady), "period": int(obs.period), "periods": int(obs.periods),
-           "values": {name: float(steady[name]) for name in _names()},
+           "values": {name: float(steady[name]) for name in names},
            "final_state": np.asarray(obs.final_state, dtype=float).copy()}
     for name in ("harmonic_amplitude", "harmonic_phase"):
         if name in steady:
@@ -207,7 +215,7 @@ def _summary(obs, keep: int = 0) -> dict:
     out["physical"] = {}
     if getattr(obs, "physical", None) is not None:
         physical = obs.steady_values(physical=True)
-        out["physical"] = {name: float(physical[name]) for name in _names() if name in physical}
+        out["physical"] = {name: float(physical[name]) for name in names if name in physical}
     return out
 
 
@@ -232,13 +240,13 @@ def _observe_one(observe, config: Config, keywords: Mapping, keep: int = 0) -> d
     try:
         return _summary(observe.observe_batch([config], threads=1, **keywords)[0], keep)
     except SolverError as exc:
-        return _failed_summary(str(exc), 2 * config.n_modes, keep)
+        return _failed_summary(str(exc), 2 * config.n_modes, keep, _names(keywords))
 
 
-def _failed_summary(message: str, n_state: int, keep: int = 0) -> dict:
+def _failed_summary(message: str, n_state: int, keep: int = 0, names=()) -> dict:
     """A point whose run failed (SolverError, BlowUpError): NaN values, period 0."""
     out = {"steady": False, "period": 0, "periods": 0, "error": message,
-           "values": {name: np.nan for name in _names()}, "physical": None,
+           "values": {name: np.nan for name in names}, "physical": None,
            "final_state": np.full(n_state, np.nan), "orbit": np.full((1, n_state), np.nan)}
     if keep:
         out["poincare"] = np.full((keep, n_state), np.nan)
@@ -329,41 +337,59 @@ def _units(base_config: Config) -> tuple[dict, dict]:
 
 def _steady_variables(summaries: list[dict], shape: tuple, dims: tuple, units: dict,
                       physical_units: dict) -> dict:
+    """The steady variables of a list of summaries (one per point, in grid order)."""
+    good = [s for s in summaries if "error" not in s]
+    names = [name for name in _names() if any(name in s["values"] for s in summaries)]
+    columns = {name: np.array([s["values"].get(name, np.nan) for s in summaries], dtype=float)
+               for name in names}
+    physical = {}
+    for name in names:
+        if good and all(name in s["physical"] for s in good):
+            physical[name] = np.array([s["physical"][name] if "error" not in s else np.nan
+                                       for s in summaries], dtype=float)
+    for name in ("harmonic_amplitude", "harmonic_phase"):
+        if good and all(name in s for s in good):
+            size = len(good[0][name])
+            columns[name] = np.array([s[name] if "error" not in s else np.full(size, np.nan)
+                                      for s in summaries], dtype=float)
+    return _steady_columns(columns, physical, np.array([s["period"] for s in summaries]),
+                           np.array([s["steady"] for s in summaries]),
+                           np.array(["error" in s for s in summaries]),
+                           np.array([s["periods"] for s in summaries]), shape, dims, units,
+                           physical_units)
+
+
+def _steady_columns(columns: dict, physical: dict, period, steady, failed, periods,
+                    shape: tuple, dims: tuple, units: dict, physical_units: dict) -> dict:
+    """The steady variables from arrays over the points (grid order): ``columns`` {name: (n,)
+    or (n, harmonics)}, ``physical`` {name: (n,)}, and period, steady, failed, periods (n,)."""
     import xarray as xr
     data = {}
     for name in _names():
-        values = np.array([s["values"][name] for s in summaries], dtype=float).reshape(shape)
-        data[name] = xr.Variable(dims, values, attrs={"units": units.get(name, "1"),
-                                                      "long_name": f"steady {name}"})
-        good = [s for s in summaries if "error" not in s]
-        if good and all(name in s["physical"] for s in good):
+        if name not in columns:
+            continue
+        data[name] = xr.Variable(dims, columns[name].reshape(shape),
+                                 attrs={"units": units.get(name, "1"),
+                                        "long_name": f"steady {name}"})
+        if name in physical:
             unit = physical_units.get(name, "")
-            physical = np.array([s["physical"][name] if "error" not in s else np.nan
-                                 for s in summaries]).reshape(shape)
             data[f"{name}_{unit}" if unit else f"{name}_physical"] = xr.Variable(
-                dims, physical, attrs={"units": unit, "long_name": f"steady {name} ({unit})"})
+                dims, physical[name].reshape(shape),
+                attrs={"units": unit, "long_name": f"steady {name} ({unit})"})
     for name in ("harmonic_amplitude", "harmonic_phase"):
-        good = [s for s in summaries if "error" not in s]
-        if good and all(name in s for s in good):
-            size = len(good[0][name])
-            values = np.array([s[name] if "error" not in s else np.full(size, np.nan)
-                               for s in summaries], dtype=float)
-            data[name] = xr.Variable((*dims, "harmonic"), values.reshape(*shape, -1),
+        if name in columns:
+            data[name] = xr.Variable((*dims, "harmonic"), columns[name].reshape(*shape, -1),
                                      attrs={"units": units.get(name, ""),
                                             "long_name": f"steady {name} (harmonics 1, 2, ...)"})
-    data["period"] = xr.Variable(dims, np.array([s["period"] for s in summaries],
-                                                dtype=np.int32).reshape(shape),
+    data["period"] = xr.Variable(dims, np.asarray(period, dtype=np.int32).reshape(shape),
                                  attrs={"units": "drive periods",
                                         "long_name": "period of the steady motion (0: none found)"})
-    data["steady"] = xr.Variable(dims, np.array([s["steady"] for s in summaries],
-                                                dtype=np.int8).reshape(shape),
+    data["steady"] = xr.Variable(dims, np.asarray(steady, dtype=np.int8).reshape(shape),
                                  attrs={"long_name": "1 where steady state was reached"})
-    data["failed"] = xr.Variable(dims, np.array(["error" in s for s in summaries],
-                                                dtype=np.int8).reshape(shape),
+    data["failed"] = xr.Variable(dims, np.asarray(failed, dtype=np.int8).reshape(shape),
                                  attrs={"long_name": "1 where the run failed (SolverError); "
                                                      "its values are NaN"})
-    data["periods"] = xr.Variable(dims, np.array([s["periods"] for s in summaries],
-                                                 dtype=np.int32).reshape(shape),
+    data["periods"] = xr.Variable(dims, np.asarray(periods, dtype=np.int32).reshape(shape),
                                   attrs={"units": "drive periods", "long_name": "periods run"})
     return data
 
@@ -374,6 +400,8 @@ def _attrs(base, kind: str, keywords: dict) -> dict:
              "base": base.label if isinstance(base, Config) else str(base)
              if isinstance(base, (str, os.PathLike)) else "<dict input>"}
     for key, value in keywords.items():
+        if key == "observables":  # a list of groups: NetCDF attributes want one text
+            value = "all" if value is None else ",".join(value)
         attrs[f"observe_{key}"] = int(value) if isinstance(value, bool) else value
     return attrs
 
@@ -490,6 +518,10 @@ def _continuation(base, key: str, values, *, directions: tuple[str, str], revers
                   curves, workers, client, progress, jump_threshold, kind, keywords):
     import xarray as xr
     keywords = _observe_keywords(keywords)
+    if keywords.get("observables") is not None and "lockin" not in keywords["observables"]:
+        # The jumps are found on amplitude and phase: the lock-in group is always computed.
+        keywords["observables"] = _observe_api().observable_groups(
+            ("lockin",) + tuple(keywords["observables"]))
     _split_key(key)
     values = _axis_values(key, values)
     curves = _check_axes(curves) if curves else {}
@@ -602,13 +634,15 @@ def _tip_displacement(config: Config, states: np.ndarray) -> np.ndarray:
 
 def bifurcation(base, key, values, *, periods_kept=32, workers=None, client=None,
                 progress=False, chunk=None, backend="batch", max_periods=200,
-                stop_at_steady=False, **observe_keywords):
+                stop_at_steady=False, observables=(), **observe_keywords):
     """Poincaré points against a swept key: the last `periods_kept` section points of each run.
 
     Variables (dims (key, 'kept')): ``a1`` and ``adot1`` (first mode), ``tip`` = p^T a (the
     tip's modal displacement at the section, where the drive phase is 0), ``vt`` = V_T there;
-    plus the steady values and ``period``.  Runs go max_periods periods (200) and do not stop
-    at steady state unless asked, so the last points sample the attractor.
+    plus ``period`` and the steady values of ``observables`` (none by default: the section
+    points need none; e.g. ``observables=["lockin"]`` adds amplitude and phase).  Runs go
+    max_periods periods (200) and do not stop at steady state unless asked, so the last points
+    sample the attractor.
     """
     import xarray as xr
     _split_key(key)
@@ -616,7 +650,7 @@ def bifurcation(base, key, values, *, periods_kept=32, workers=None, client=None
     if not isinstance(periods_kept, (int, np.integer)) or periods_kept < 1:
         raise InputTypeError(f"periods_kept = {periods_kept!r}: must be a positive integer")
     keywords = _observe_keywords(dict(observe_keywords, max_periods=max_periods,
-                                      stop_at_steady=stop_at_steady))
+                                      stop_at_steady=stop_at_steady, observables=observables))
     if periods_kept > max_periods:
         raise InputError(f"periods_kept = {periods_kept} is more than max_periods = {max_periods}")
     base_config = _base_config(base)
@@ -666,33 +700,132 @@ def minimal_orbit(orbit: np.ndarray, tol: float) -> np.ndarray:
 def label_attractors(orbits: Sequence[np.ndarray], periods: Sequence[int],
                      tol: float) -> tuple[np.ndarray, list[np.ndarray]]:
     """(labels, representative orbits): points whose orbits (cut to their minimal period) agree
-    within `tol` up to a cyclic shift share a label 0, 1, ...; no period found gives -1."""
+    within `tol` up to a cyclic shift share a label 0, 1, ... (in the order of first
+    appearance); no period found gives -1."""
     labels = np.full(len(orbits), -1, dtype=np.int32)
+    periods = np.asarray(periods, dtype=int)
+    cut: dict[int, list] = {}          # minimal period -> [(points, orbits), ...]
+    for p in np.unique(periods[periods > 0]):
+        index = np.flatnonzero(periods == p)
+        stack = np.stack([np.asarray(orbits[i])[-p:] for i in index])
+        # minimal_orbit for every point at once: the smallest q | p whose shift repeats within tol.
+        minimal = np.full(len(index), p)
+        for q in range(p - 1, 0, -1):
+            if p % q == 0:
+                repeats = np.max(np.abs(stack - np.roll(stack, q, axis=1)), axis=(1, 2)) <= tol
+                minimal[repeats] = q
+        for q in np.unique(minimal):
+            take = minimal == q
+            cut.setdefault(int(q), []).append((index[take], stack[take, :q]))
+    # The first point not yet labelled founds the next label; every later point of the same
+    # minimal period within tol of it (up to a shift) takes it: the same labels as comparing
+    # each point in turn with the representatives found so far, with numpy doing the points.
+    groups = {}
+    for q, parts in cut.items():
+        index = np.concatenate([i for i, _ in parts])
+        stack = np.concatenate([o for _, o in parts])
+        order = np.argsort(index, kind="stable")
+        groups[q] = (index[order], stack[order])
+    free = {q: np.ones(len(index), dtype=bool) for q, (index, _) in groups.items()}
     known: list[np.ndarray] = []
-    for i, (orbit, period) in enumerate(zip(orbits, periods)):
-        if period <= 0:
-            continue
-        orbit = minimal_orbit(np.asarray(orbit)[-period:], tol)
-        for k, representative in enumerate(known):
-            if same_orbit(orbit, representative, tol):
-                labels[i] = k
-                break
-        else:
-            labels[i] = len(known)
-            known.append(orbit)
+    while True:
+        firsts = [(groups[q][0][free[q]][0], q) for q in groups if free[q].any()]
+        if not firsts:
+            break
+        i, q = min(firsts)
+        index, stack = groups[q]
+        representative = stack[np.searchsorted(index, i)]
+        distance = np.full(len(index), np.inf)
+        for shift in range(q):
+            rolled = np.roll(stack, shift, axis=1)
+            distance = np.minimum(distance, np.max(np.abs(rolled - representative),
+                                                   axis=(1, 2)))
+        take = free[q] & (distance <= tol)
+        take[np.searchsorted(index, i)] = True
+        labels[index[take]] = len(known)
+        free[q] &= ~take
+        known.append(representative)
     return labels, known
 
 
+def _coarse_stride(shape: tuple, coarse) -> int:
+    """The stride of the first pass of a basin map: about 256 points, at least every 2nd point
+    of both axes when both have 4 points or more (otherwise every point)."""
+    if coarse is None:
+        if min(shape) < 4:
+            return 1
+        return max(2, int(round(math.sqrt(shape[0] * shape[1] / 256))))
+    if isinstance(coarse, bool) or not isinstance(coarse, (int, np.integer)) or coarse < 1:
+        raise InputTypeError(f"coarse = {coarse!r}: must be a positive integer or None")
+    return int(coarse)
+
+
+def _basin_chunk(config, states, threads, keywords, attractors):
+    """One chunk of basin runs (observe_states); a dict of arrays (picklable).  `config` is a
+    Config in this process, or its dict of groups for another process (a Config holds a
+    handle into this process's Fortran memory and must not be pickled)."""
+    observe = _observe_api()
+    if not isinstance(config, Config):
+        config = Config(config)
+    out = observe.observe_states(config, states, threads=threads, attractors=attractors,
+                                 **keywords)
+    return {"steady": out.steady, "physical": out.physical, "orbit": out.orbit,
+            "periods": out.periods, "period": out.period, "attractor": out.attractor,
+            "failed": out.failed, "first_failure": out.first_failure}
+
+
+def _basin_chunk_processes(args):
+    return _basin_chunk(*args)
+
+
+#: Periods a new attractor's orbit is followed further before runs may stop at it.
+REFINE_PERIODS = 32
+
+
+def _new_attractors(chunk: dict, known: list, tol: float, run_config, keywords: Mapping) -> list:
+    """The orbits (p Poincaré points, in order) of the attractors a chunk's runs found by the
+    steady-state test that match none of `known` (within tol times their size).  Each orbit is
+    followed REFINE_PERIODS more periods from the run's final state, so that it lies on the
+    attractor well within the steady tolerance (the test stops a run while its points still
+    approach the orbit by about steady_tol per period)."""
+    found = []
+    for k in np.flatnonzero((chunk["period"] > 0) & (chunk["attractor"] < 0)):
+        p = int(chunk["period"][k])
+        orbit = chunk["orbit"][k, -p:]
+        if not np.all(np.isfinite(orbit)):
+            continue
+        size = float(np.max(np.abs(orbit))) or 1.0
+        if any(same_orbit(minimal_orbit(orbit, tol * size), minimal_orbit(o, tol * size),
+                          tol * size) for o in known + found):
+            continue
+        refine = dict(keywords, observables=(), stop_at_steady=False,
+                      max_periods=max(REFINE_PERIODS, p), capture=None)
+        further = _observe_api().observe_states(run_config, orbit[-1:], threads=1, **refine)
+        if further.failed[0] or further.period[0] != p:
+            continue  # not a clean period-p orbit once followed further: use it for no run
+        found.append(further.orbit[0, -p:].copy())
+    return found
+
+
 def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=False, chunk=None,
-          backend="batch", **observe_keywords):
+          backend="batch", observables=(), known_attractors=True, coarse=None, confirm=None,
+          capture=None, **observe_keywords):
     """A basin map: a grid of initial states a1(0) x a1'(0) (other modes from the base's
     &initial), each labelled by the attractor it reaches.  Variables (dims ('a1', 'adot1')):
     ``attractor`` (0, 1, ...: points whose final Poincaré orbits agree within `tol` times the
     largest |state| up to a cyclic shift share a label; -1: no period found),
-    ``attractor_period``, ``period`` (the steady-state test's), and the steady values;
-    ``attractor_orbit_<k>`` holds each attractor's Poincaré orbit."""
+    ``attractor_period``, ``period`` (the steady-state test's), ``periods``, ``stopped_known``
+    (1 where the run stopped at a known attractor) and the steady values of ``observables``
+    (none by default; e.g. ``["lockin"]`` adds amplitude and phase);
+    ``attractor_orbit_<k>`` holds each attractor's Poincaré orbit.
+
+    With ``known_attractors`` (the default) a first pass runs every `coarse`-th point of both
+    axes (about 256 points); the other points then run in chunks, each run stopped as soon
+    as its Poincaré points repeat an attractor already found (docs/sweeps.md, "Stopping at a
+    known attractor").  The input is read and its model built once per chunk, and each run
+    starts from its state in memory (tmafm.observe.observe_states)."""
     import xarray as xr
-    keywords = _observe_keywords(observe_keywords)
+    keywords = _observe_keywords(dict(observe_keywords, observables=observables))
     a1 = _axis_values("a1", a1)
     adot1 = _axis_values("adot1", adot1)
     base_config = _base_config(base)
@@ -705,34 +838,135 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
         else 0.0
     adot0[:] = np.resize(np.asarray(initial.get("adot0", [0.0]), dtype=float), n) \
         if "adot0" in initial else 0.0
-    points = []
-    for x, v in itertools.product(a1, adot1):
-        start, rate = a0.copy(), adot0.copy()
-        start[0], rate[0] = float(x), float(v)
-        points.append({"initial.a0": start.tolist(), "initial.adot0": rate.tolist()})
-    configs = _validate(base_groups, points)
-    summaries = _run_points(base_groups, points, configs=configs, workers=workers, client=client,
-                            progress=progress, chunk=chunk, backend=backend, keywords=keywords,
-                            label="basin")
     shape = (len(a1), len(adot1))
+    states = np.empty((shape[0], shape[1], 2 * n))
+    states[:] = np.concatenate([a0, adot0])
+    states[..., 0] = np.asarray(a1, dtype=float)[:, None]
+    states[..., n] = np.asarray(adot1, dtype=float)[None, :]
+    states = states.reshape(-1, 2 * n)
+    bad = np.flatnonzero(~np.all(np.isfinite(states) & (np.abs(states) <= 1.0), axis=1))
+    if bad.size:
+        i, j = np.unravel_index(int(bad[0]), shape)
+        raise InputError(f"basin point a1 = {_short(a1[i])}, adot1 = {_short(adot1[j])}: "
+                         f"&initial values must be finite with |value| <= 1 (gap units)")
+    if not isinstance(known_attractors, (bool, np.bool_)):
+        raise InputTypeError(f"known_attractors = {known_attractors!r}: must be True or False")
+    stride = _coarse_stride(shape, coarse)
+    # One resolved text for every run: the base with its N fixed (an automatic N is chosen once).
+    run_groups = dict(base_groups, model=dict(base_groups.get("model", {}), n_modes=n))
+    run_config = Config(run_groups)
+    order = np.arange(states.shape[0]).reshape(shape)
+    if known_attractors and keywords.get("stop_at_steady", True):
+        first = order[::stride, ::stride].ravel()
+        rest = np.setdiff1d(order.ravel(), first)
+    else:
+        first, rest = order.ravel(), np.zeros(0, dtype=int)
+    n_workers = _workers(workers)
+    size = chunk if chunk is not None else 2048
+    if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1:
+        raise InputTypeError(f"chunk = {chunk!r}: must be a positive integer")
+    if capture is None:
+        capture = tol  # the labels' own resolution (docs/sweeps.md)
+    observe_kw = dict(keywords, confirm=confirm, capture=capture)
+    results: dict = {}
+    known: list = []
+    bar = _progress(states.shape[0], progress, "basin")
+    # Local batches run chunk after chunk, each stopping at what the ones before found;
+    # processes and Dask run a pass's chunks at once, with what the first pass found.
+    incremental = client is None and backend == "batch"
+
+    def run_pass(indices, attractors):
+        pieces = [indices[i:i + size] for i in range(0, len(indices), size)]
+        if client is not None:
+            futures = [client.submit(_basin_chunk, run_groups, states[p], 1, observe_kw,
+                                     attractors, pure=False) for p in pieces]
+            outs = [f.result() for f in futures]
+        elif backend == "processes":
+            from concurrent.futures import ProcessPoolExecutor
+            import multiprocessing
+            context = multiprocessing.get_context("spawn")
+            with ProcessPoolExecutor(max_workers=n_workers, mp_context=context) as pool:
+                outs = list(pool.map(_basin_chunk_processes,
+                                     [(run_groups, states[p], 1, observe_kw, attractors)
+                                      for p in pieces]))
+        elif backend == "batch":
+            outs = []
+            for p in pieces:
+                outs.append(_basin_chunk(run_config, states[p], n_workers, observe_kw,
+                                         attractors))
+                if known_attractors:  # later chunks may stop at what this one found
+                    attractors = attractors + _new_attractors(outs[-1], attractors, tol,
+                                                              run_config, observe_kw)
+                if bar is not None:
+                    bar.update(len(p))
+        else:
+            raise InputTypeError(f"backend = {backend!r}: must be 'batch' or 'processes'")
+        if bar is not None and not incremental:
+            bar.update(len(indices))
+        for p, out in zip(pieces, outs):
+            results[tuple(p[:1])] = (p, out)
+        return attractors
+
+    try:
+        known = run_pass(first, [])
+        if known_attractors and rest.size:
+            if not incremental:  # the chunks ran at once: collect what the first pass found
+                for p, out in list(results.values()):
+                    known = known + _new_attractors(out, known, tol, run_config, observe_kw)
+            run_pass(rest, known)
+    finally:
+        if bar is not None:
+            bar.close()
+
+    total = states.shape[0]
+    merged: dict = {}
+    failures = []
+    for p, out in sorted(results.values(), key=lambda item: item[0][0]):
+        for name in ("orbit", "periods", "period", "attractor", "failed"):
+            merged.setdefault(name, np.empty((total, *out[name].shape[1:]),
+                                             dtype=out[name].dtype))[p] = out[name]
+        for group in ("steady", "physical"):
+            for name, values in (out[group] or {}).items():
+                merged.setdefault(f"{group}:{name}", np.empty((total, *values.shape[1:])))[p] = \
+                    values
+        if out["first_failure"]:
+            failures.append((p[0], out["first_failure"]))
+    period = merged["period"]
+    failed = merged["failed"]
+    p_max = merged["orbit"].shape[1]
+    orbits = [merged["orbit"][k, p_max - max(int(period[k]), 1):] for k in range(total)]
+    finite = [np.all(np.isfinite(o)) for o in orbits]
+    scale = max((float(np.max(np.abs(o))) for o, ok in zip(orbits, finite) if ok), default=0.0) \
+        or 1.0
+    labels, reps = label_attractors(orbits, [int(q) if ok else 0 for q, ok in zip(period, finite)],
+                                    tol * scale)
     units, physical_units = _units(base_config)
-    data = _steady_variables(summaries, shape, ("a1", "adot1"), units, physical_units)
-    orbits = [s["orbit"] for s in summaries]
-    periods = [s["period"] for s in summaries]
-    scale = max(float(np.max(np.abs(o))) for o in orbits) or 1.0
-    labels, known = label_attractors(orbits, periods, tol * scale)
+    columns = {name.split(":", 1)[1]: v for name, v in merged.items() if name.startswith("steady:")}
+    physical = {name.split(":", 1)[1]: v for name, v in merged.items()
+                if name.startswith("physical:")}
+    data = _steady_columns(columns, physical, period, period > 0, failed, merged["periods"],
+                           shape, ("a1", "adot1"), units, physical_units)
     data["attractor"] = xr.Variable(("a1", "adot1"), labels.reshape(shape), attrs={
         "long_name": "attractor label (-1: no period found)", "tolerance": tol * scale})
     data["attractor_period"] = xr.Variable(("a1", "adot1"), np.array(
-        [len(known[k]) if k >= 0 else 0 for k in labels], dtype=np.int32).reshape(shape),
+        [len(reps[k]) if k >= 0 else 0 for k in labels], dtype=np.int32).reshape(shape),
         attrs={"long_name": "period of the attractor reached (0: none found)"})
-    for k, orbit in enumerate(known):
+    data["stopped_known"] = xr.Variable(("a1", "adot1"), (merged["attractor"] >= 0).astype(
+        np.int8).reshape(shape), attrs={"long_name": "1 where the run stopped at an attractor "
+                                                     "found before (docs/sweeps.md)"})
+    for k, orbit in enumerate(reps):
         data[f"attractor_orbit_{k}"] = xr.Variable((f"orbit_{k}_point", "state"), orbit)
     coords = {"a1": xr.Variable(("a1",), a1, attrs={"long_name": "a1(0)"}),
               "adot1": xr.Variable(("adot1",), adot1, attrs={"long_name": "a1'(0)"})}
     attrs = _attrs(base, "basin", keywords)
-    attrs.update(_failure_attrs(summaries))
-    attrs["attractors"] = len(known)
+    failures.sort()
+    attrs.update({"failures": int(failed.sum()),
+                  "first_failure": failures[0][1] if failures else ""})
+    attrs["attractors"] = len(reps)
+    attrs["known_attractors"] = int(bool(known_attractors))
+    attrs["coarse_stride"] = stride
+    attrs["capture"] = float(capture)
+    attrs["confirm"] = int(confirm if confirm is not None else keywords.get("steady_repeats", 3))
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
@@ -744,7 +978,8 @@ _FILE_KEYS = {"kind": str, "base": str, "key": str, "start": float, "stop": floa
               "p_max": int, "steady_tol": float, "steady_repeats": int, "harmonics": int,
               "stop_at_steady": bool, "periods_kept": int, "tol": float,
               "jump_threshold": float, "workers": int, "output": str, "method": str,
-              "rtol": float, "atol": float}
+              "rtol": float, "atol": float, "observables": list, "known_attractors": bool,
+              "coarse": int}
 _KINDS = ("grid", "approach", "frequency", "bifurcation", "basin")
 
 
@@ -829,8 +1064,9 @@ def run_sweep_file(path, *, workers=None, client=None, progress=False):
             raise InputError(f"{spec['_file']}: &sweep key: missing (required for bifurcation)")
         extra = {k: spec[k] for k in ("periods_kept",) if k in spec}
         return bifurcation(base, spec["key"], _axis_of(spec), **extra, **common, **keywords)
-    return basin(base, _axis_of(spec), _axis_of(spec, "2"), tol=spec.get("tol", 1e-3), **common,
-                 **keywords)
+    extra = {k: spec[k] for k in ("known_attractors", "coarse") if k in spec}
+    return basin(base, _axis_of(spec), _axis_of(spec, "2"), tol=spec.get("tol", 1e-3), **extra,
+                 **common, **keywords)
 
 
 def summarize(ds) -> dict:

@@ -246,7 +246,7 @@ contains
                call traj%store(model, y_sample)
             end do
             if (present(observer)) then
-               call build_dense(self, model, traj, h, dense_ready)
+               if (observer%needs_dense(tau, step_taken)) call build_dense(self, model, traj, h, dense_ready)
                call observer%pair_step(model, pair, tau, h, step_taken, self%in_contact)
             end if
             tau = tau + step_taken

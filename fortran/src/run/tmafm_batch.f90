@@ -11,13 +11,14 @@ module tmafm_batch
    use tmafm_trajectory, only: trajectory_t
    use tmafm_driver, only: run_trajectory
    use tmafm_simulation, only: prepare_model
-   use tmafm_observers, only: observer_t
+   use tmafm_observers, only: observer_t, group_all
    use tmafm_units, only: scales_t, scales_from_physical
    use tmafm_text, only: int_text, real_text
    implicit none
    private
 
-   public :: observe_options_t, observe_config, observe_batch, config_scales, max_observed_periods
+   public :: observe_options_t, observe_config, observe_batch, observe_states, config_scales, &
+      max_observed_periods
 
    !> Most periods one observed run may integrate.
    integer, parameter :: max_observed_periods = 10000000
@@ -38,6 +39,16 @@ module tmafm_batch
       integer :: harmonics = 3
       !> Stop at the first steady state found.
       logical :: stop_at_steady = .true.
+      !> The observable groups computed (bits tmafm_observers::group_*).
+      integer :: groups = group_all
+      !> Known attractors (none when unallocated or size(attractor_first) < 2): orbit k is
+      !> attractor_points(:, attractor_first(k):attractor_first(k+1)-1), one column per
+      !> Poincare point (2N rows); `confirm` points in a row within capture (relative to the
+      !> orbit's size) of one, each closer than the one before, label the run.
+      real(dp), allocatable :: attractor_points(:, :)
+      integer, allocatable :: attractor_first(:)
+      integer :: confirm = 3
+      real(dp) :: capture = 1.0e-6_dp
    end type observe_options_t
 
 contains
@@ -61,10 +72,38 @@ contains
       else if (options%harmonics < 1 .or. options%harmonics > max_harmonics) then
          errmsg = 'observe harmonics = '//int_text(options%harmonics)//': must be 1 to '// &
                   int_text(max_harmonics)
+      else if (options%groups < 0 .or. options%groups > group_all) then
+         errmsg = 'observe groups = '//int_text(options%groups)//': must be 0 to '//int_text(group_all)
+      else if (options%confirm < 1 .or. options%confirm > max_observed_periods) then
+         errmsg = 'observe confirm = '//int_text(options%confirm)//': must be >= 1'
+      else if (.not. (options%capture > 0 .and. options%capture < 1)) then
+         errmsg = 'observe capture = '//real_text(options%capture)//': must be > 0 and < 1'
+      else if (.not. attractors_valid(options)) then
+         errmsg = 'observe attractors: attractor_first must rise from 1 to the number of points + 1, '// &
+                  'and every point must be finite'
       else
          ierr = ok
       end if
    end subroutine check_options
+
+   !> .true. when the known attractors are absent or well formed: offsets rising from 1 to the
+   !> number of columns + 1, finite points.
+   pure logical function attractors_valid(options)
+      type(observe_options_t), intent(in) :: options
+      integer :: k
+      attractors_valid = .true.
+      if (.not. allocated(options%attractor_first)) return
+      if (size(options%attractor_first) < 2) return
+      attractors_valid = .false.
+      if (.not. allocated(options%attractor_points)) return
+      if (options%attractor_first(1) /= 1) return
+      if (options%attractor_first(size(options%attractor_first)) /= size(options%attractor_points, 2) + 1) return
+      do k = 1, size(options%attractor_first) - 1
+         if (options%attractor_first(k + 1) <= options%attractor_first(k)) return
+      end do
+      if (.not. all(abs(options%attractor_points) <= huge(1.0_dp))) return
+      attractors_valid = .true.
+   end function attractors_valid
 
    !> The SI scales of a configuration (known only when it came from &physical).
    pure function config_scales(config) result(scales)
@@ -85,9 +124,25 @@ contains
       type(config_t) :: chosen
       type(model_t) :: model
       type(run_settings_t) :: settings
-      type(trajectory_t) :: traj
-      real(dp) :: period
       integer :: n
+
+      call prepare_observed(config, options, chosen, model, settings, ierr, errmsg)
+      if (ierr /= ok) return
+      n = chosen%n_modes
+      call observe_prepared(model, settings, options, [chosen%a0(1:n), chosen%adot0(1:n)], observer, &
+                            ierr, errmsg)
+   end subroutine observe_config
+
+   !> The checks, the model and the run settings of an observed run of `config`.
+   subroutine prepare_observed(config, options, chosen, model, settings, ierr, errmsg)
+      type(config_t), intent(in) :: config
+      type(observe_options_t), intent(in) :: options
+      type(config_t), intent(out) :: chosen
+      type(model_t), intent(out) :: model
+      type(run_settings_t), intent(out) :: settings
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      real(dp) :: period
 
       call check_options(options, ierr, errmsg)
       if (ierr /= ok) return
@@ -107,19 +162,46 @@ contains
       end if
       call prepare_model(config, chosen, model, ierr, errmsg)
       if (ierr /= ok) return
-      n = chosen%n_modes
       period = 2*acos(-1.0_dp)/model%scene%omega
       settings = chosen%solver
       ! No samples kept: the run ends at the last period boundary, or when the observer stops it.
       settings%tau_end = options%max_periods*period
       settings%sample_dtau = settings%tau_end
-      call check_run_size(settings, n, ierr, errmsg)
-      if (ierr /= ok) return
+      call check_run_size(settings, chosen%n_modes, ierr, errmsg)
+   end subroutine prepare_observed
+
+   !> One observed run of a prepared model from the state y0 = [a0, adot0] at tau = 0.
+   subroutine observe_prepared(model, settings, options, y0, observer, ierr, errmsg)
+      type(model_t), intent(in) :: model
+      type(run_settings_t), intent(in) :: settings
+      type(observe_options_t), intent(in) :: options
+      real(dp), intent(in) :: y0(:)
+      type(observer_t), intent(inout) :: observer
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      type(trajectory_t) :: traj
+      integer :: n
+
+      n = size(y0)/2
+      ierr = ok
+      errmsg = ''
       call observer%init(model, options%max_periods, options%harmonics, options%p_max, options%tol, &
-                         options%repeats, options%stop_at_steady, [chosen%a0(1:n), chosen%adot0(1:n)])
-      call run_trajectory(model, settings, chosen%a0(1:n), chosen%adot0(1:n), traj, ierr, errmsg, &
+                         options%repeats, options%stop_at_steady, y0, options%groups)
+      if (allocated(options%attractor_first)) then
+         if (size(options%attractor_first) >= 2) then
+            if (size(options%attractor_points, 1) /= 2*n) then
+               ierr = err_input
+               errmsg = 'observe attractors: points have '//int_text(size(options%attractor_points, 1))// &
+                        ' components, the run''s state has '//int_text(2*n)
+               return
+            end if
+            call observer%set_attractors(options%attractor_points, options%attractor_first, options%confirm, &
+                                         options%capture)
+         end if
+      end if
+      call run_trajectory(model, settings, y0(1:n), y0(n + 1:2*n), traj, ierr, errmsg, &
                           observer=observer)
-   end subroutine observe_config
+   end subroutine observe_prepared
 
    !> Observe every configuration, on `threads` OpenMP threads (0: the OpenMP default);
    !> ierr(k), errmsg(k) belong to configs(k).  Results do not depend on the thread count.
@@ -145,5 +227,64 @@ contains
          !$omp end parallel do
       end if
    end subroutine observe_batch
+
+   !> Observe one configuration from many initial states, states(:, k) = [a0, adot0] of run k
+   !> (2N rows, N the configuration's, already chosen), on `threads` OpenMP threads (0: the
+   !> OpenMP default): the configuration is checked and its model built once, and shared.
+   !> ierr = err_input (and nothing runs) for a bad configuration, options or state (each
+   !> component finite with |value| <= 1, as &initial); run k's failure is run_ierr(k),
+   !> run_errmsg(k).  Results equal observe_batch's on the same inputs.
+   subroutine observe_states(config, states, options, observers, ierr, errmsg, run_ierr, run_errmsg, &
+                             threads)
+      type(config_t), intent(in) :: config
+      real(dp), intent(in) :: states(:, :)
+      type(observe_options_t), intent(in) :: options
+      type(observer_t), intent(inout) :: observers(:)
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      integer, intent(out) :: run_ierr(:)
+      character(len=*), intent(out) :: run_errmsg(:)
+      integer, intent(in) :: threads
+      type(config_t) :: chosen
+      type(model_t) :: model
+      type(run_settings_t) :: settings
+      integer :: k, j
+
+      run_ierr = ok
+      run_errmsg = ''
+      call prepare_observed(config, options, chosen, model, settings, ierr, errmsg)
+      if (ierr /= ok) return
+      if (size(states, 1) /= 2*chosen%n_modes) then
+         ierr = err_input
+         errmsg = 'observe states: '//int_text(size(states, 1))//' components per state, the input''s '// &
+                  'N = '//int_text(chosen%n_modes)//' needs '//int_text(2*chosen%n_modes)
+         return
+      end if
+      do k = 1, size(states, 2)
+         do j = 1, size(states, 1)
+            if (.not. (abs(states(j, k)) <= 1)) then
+               ierr = err_input
+               errmsg = 'observe state '//int_text(k)//' component '//int_text(j)//' = '// &
+                        real_text(states(j, k))//': must be finite with |value| <= 1 (gap units)'
+               return
+            end if
+         end do
+      end do
+      if (threads > 0) then
+         !$omp parallel do schedule(dynamic) num_threads(threads)
+         do k = 1, size(states, 2)
+            call observe_prepared(model, settings, options, states(:, k), observers(k), run_ierr(k), &
+                                  run_errmsg(k))
+         end do
+         !$omp end parallel do
+      else
+         !$omp parallel do schedule(dynamic)
+         do k = 1, size(states, 2)
+            call observe_prepared(model, settings, options, states(:, k), observers(k), run_ierr(k), &
+                                  run_errmsg(k))
+         end do
+         !$omp end parallel do
+      end if
+   end subroutine observe_states
 
 end module tmafm_batch

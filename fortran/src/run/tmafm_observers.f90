@@ -8,6 +8,12 @@
 !> force are located on the dense output by a golden-section search around the best node, and so
 !> are max V_T and each mode's max and min over the period's in-contact part and its free part.
 !> Every array is allocated in init; feeding steps allocates nothing.
+!>
+!> A run computes only the observable groups it asks for (observer_t%groups, bits group_*):
+!> the Poincare points, the contact time and the contact count always; the columns of a group
+!> not asked for are NaN.  A run with no group asked for evaluates the state only at the period
+!> boundaries.  Known attractors (set_attractors) let a run stop as soon as its Poincare points
+!> repeat a known orbit (docs/sweeps.md, "Stopping at a known attractor").
 module tmafm_observers
    use tmafm_kinds, only: dp
    use tmafm_model, only: model_t, n_powers, power_drive, power_beam_damping, &
@@ -24,6 +30,7 @@ module tmafm_observers
    private
 
    public :: observer_t, stop_requested, observable_names, n_observables, observable_factors
+   public :: group_lockin, group_extrema, group_peak_force, group_energy, group_all, group_columns
    public :: obs_amplitude, obs_phase, obs_mean_deflection, obs_min_gap, obs_peak_force, &
       obs_contact_time, obs_contacts, obs_dissipated, obs_dissipated_beam, &
       obs_dissipated_contact_damping, obs_dissipated_friction, obs_drive_work, obs_virial, &
@@ -34,6 +41,11 @@ module tmafm_observers
       obs_peak_force = 5, obs_contact_time = 6, obs_contacts = 7, obs_dissipated = 8, &
       obs_dissipated_beam = 9, obs_dissipated_contact_damping = 10, obs_dissipated_friction = 11, &
       obs_drive_work = 12, obs_virial = 13, obs_contact_normal_work = 14, n_observables = 14
+   !> Observable groups, bits of observer_t%groups: V_T's harmonics, phase and mean deflection;
+   !> the located extrema (min_gap, max V_T, modal extrema); the peak force; the energies and
+   !> the virial.  contact_time, contacts_per_period and the Poincare points are always computed.
+   integer, parameter :: group_lockin = 1, group_extrema = 2, group_peak_force = 4, group_energy = 8, &
+      group_all = 15
    !> Last index of observer_t%modal_extrema: mode j's max and min in contact, and free.
    integer, parameter :: ext_max_contact = 1, ext_min_contact = 2, ext_max_free = 3, ext_min_free = 4
    !> Names of the columns, as Python reports them.
@@ -71,6 +83,23 @@ module tmafm_observers
       real(dp) :: tol = 1.0e-6_dp
       !> Stop the run at the first steady state found.
       logical :: stop_at_steady = .true.
+      !> The observable groups computed (bits group_*), and the same as flags.
+      integer :: groups = group_all
+      logical :: do_lockin = .true., do_extrema = .true., do_force = .true., do_energy = .true.
+      !> Known attractors: orbit k's points are attractor_points(:, first(k):first(k+1)-1), its
+      !> size (largest |component|) attractor_size(k); `confirm` points in a row within
+      !> capture*size of orbit k's points, in the orbit's order, each closer than the one before,
+      !> label the run with k and may stop it.
+      real(dp), allocatable :: attractor_points(:, :), attractor_size(:)
+      integer, allocatable :: attractor_first(:)
+      integer :: n_attractors = 0, confirm = 3
+      real(dp) :: capture = 1.0e-6_dp
+      !> The matching in progress: attractor, orbit point, how many points in a row, and the
+      !> last point's distance (relative to the orbit's size).
+      integer :: match_attractor = 0, match_point = 0, match_streak = 0
+      real(dp) :: match_distance = huge(1.0_dp)
+      !> The known attractor the run was matched to (0: none).
+      integer :: attractor = 0
       !> Drive frequency Omega and period T = 2 pi/Omega.
       real(dp) :: omega = 0, period_length = 0
       !> .true. once the run may stop (steady state found, or max_periods done).
@@ -102,7 +131,12 @@ module tmafm_observers
    contains
       !> Allocate everything for a run starting from y0 at tau = 0.
       procedure :: init => observer_init
-      !> Feed an accepted step [tau, tau + taken] of an embedded pair (dense output built).
+      !> Give the run known attractors to stop at (after init).
+      procedure :: set_attractors => observer_set_attractors
+      !> .true. when feeding the step [tau, tau + taken] evaluates the pair's dense output.
+      procedure :: needs_dense => observer_needs_dense
+      !> Feed an accepted step [tau, tau + taken] of an embedded pair (dense output built when
+      !> needs_dense says so).
       procedure :: pair_step => observer_pair_step
       !> Feed a free flight [tau, tau + length] of the exact flight solution started at tau.
       procedure :: flight_segment => observer_flight_segment
@@ -121,8 +155,22 @@ contains
       if (present(observer)) stop_requested = observer%done
    end function stop_requested
 
+   !> Which columns of observer_t%values the groups compute.
+   pure function group_columns(groups) result(computed)
+      integer, intent(in) :: groups
+      logical :: computed(n_observables)
+      computed = .false.
+      computed([obs_contact_time, obs_contacts]) = .true.
+      if (iand(groups, group_lockin) /= 0) computed([obs_amplitude, obs_phase, obs_mean_deflection]) = .true.
+      if (iand(groups, group_extrema) /= 0) computed(obs_min_gap) = .true.
+      if (iand(groups, group_peak_force) /= 0) computed(obs_peak_force) = .true.
+      if (iand(groups, group_energy) /= 0) computed([obs_dissipated, obs_dissipated_beam, &
+                                                      obs_dissipated_contact_damping, obs_dissipated_friction, &
+                                                      obs_drive_work, obs_virial, obs_contact_normal_work]) = .true.
+   end function group_columns
+
    subroutine observer_init(self, model, max_periods, harmonics, p_max, tol, repeats, &
-                            stop_at_steady, y0)
+                            stop_at_steady, y0, groups)
       class(observer_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       integer, intent(in) :: max_periods
@@ -132,6 +180,20 @@ contains
       integer, intent(in) :: repeats
       logical, intent(in) :: stop_at_steady
       real(dp), intent(in) :: y0(:)
+      !> The observable groups to compute (bits group_*); all when absent.
+      integer, intent(in), optional :: groups
+      self%groups = group_all
+      if (present(groups)) self%groups = iand(groups, group_all)
+      self%do_lockin = iand(self%groups, group_lockin) /= 0
+      self%do_extrema = iand(self%groups, group_extrema) /= 0
+      self%do_force = iand(self%groups, group_peak_force) /= 0
+      self%do_energy = iand(self%groups, group_energy) /= 0
+      self%n_attractors = 0
+      self%match_attractor = 0
+      self%match_point = 0
+      self%match_streak = 0
+      self%match_distance = huge(1.0_dp)
+      self%attractor = 0
       self%n_state = size(y0)
       self%max_periods = max_periods
       self%harmonics = harmonics
@@ -171,6 +233,31 @@ contains
       call reset(self)
    end subroutine observer_init
 
+   !> Known attractors for this run: orbit k is points(:, first(k):first(k+1)-1) (its points in
+   !> order, size(first) = number of orbits + 1); `confirm` Poincare points in a row within
+   !> capture*size of orbit k (in its order), each closer than the one before, label the run
+   !> with k, and stop it if stop_at_steady.
+   subroutine observer_set_attractors(self, points, first, confirm, capture)
+      class(observer_t), intent(inout) :: self
+      real(dp), intent(in) :: points(:, :)
+      integer, intent(in) :: first(:)
+      integer, intent(in) :: confirm
+      real(dp), intent(in) :: capture
+      integer :: k
+      self%n_attractors = size(first) - 1
+      self%confirm = max(confirm, 1)
+      self%capture = capture
+      if (allocated(self%attractor_points)) deallocate (self%attractor_points, self%attractor_size, &
+                                                         self%attractor_first)
+      allocate (self%attractor_points, source=points)
+      allocate (self%attractor_first, source=first)
+      allocate (self%attractor_size(max(self%n_attractors, 0)))
+      do k = 1, self%n_attractors
+         self%attractor_size(k) = maxval(abs(points(:, first(k):first(k + 1) - 1)))
+         if (.not. (self%attractor_size(k) > 0)) self%attractor_size(k) = tiny(1.0_dp)
+      end do
+   end subroutine observer_set_attractors
+
    subroutine reset(self)
       class(observer_t), intent(inout) :: self
       self%acc_sin = 0
@@ -186,6 +273,17 @@ contains
       self%acc_modal(:, [ext_min_contact, ext_min_free]) = huge(1.0_dp)
       self%contacts = 0
    end subroutine reset
+
+   pure logical function observer_needs_dense(self, tau, taken)
+      class(observer_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: taken
+      observer_needs_dense = .false.
+      if (self%done) return
+      ! As process: the groups evaluate every piece; otherwise only a period boundary reached.
+      observer_needs_dense = self%do_lockin .or. self%do_extrema .or. self%do_force .or. self%do_energy &
+                             .or. tau + taken >= (self%n_periods + 1)*self%period_length
+   end function observer_needs_dense
 
    subroutine observer_pair_step(self, model, pair, tau, h, taken, in_contact)
       class(observer_t), intent(inout) :: self
@@ -342,11 +440,19 @@ contains
       type(free_flight_t), intent(in), optional :: flight
       type(hermite_t), intent(in), optional :: cubic
       real(dp) :: a, b, boundary
+      logical :: pieces
+      ! Without a group that integrates or locates, only the period boundaries are evaluated.
+      pieces = self%do_lockin .or. self%do_extrema .or. self%do_force .or. self%do_energy
       a = t_start
       do while (a < t_end .and. .not. self%done)
          boundary = (self%n_periods + 1)*self%period_length
-         b = min(t_end, boundary, a + self%period_length/pieces_per_period)
-         if (b > a) call piece(self, model, a, b, in_contact, origin, h, pair, flight, cubic)
+         if (pieces) then
+            b = min(t_end, boundary, a + self%period_length/pieces_per_period)
+            if (b > a) call piece(self, model, a, b, in_contact, origin, h, pair, flight, cubic)
+         else
+            b = min(t_end, boundary)
+         end if
+         if (in_contact .and. b > a) self%acc_contact_time = self%acc_contact_time + (b - a)
          if (b >= boundary) then
             call state_at(model, origin, h, boundary, self%y, pair, flight, cubic)
             call finish_period(self)
@@ -391,34 +497,41 @@ contains
       t(1:m) = mid + half*nodes(1:m)
       force = 0
       do i = 0, m + 1
+         ! The ends serve only the located extrema.
+         if ((i == 0 .or. i == m + 1) .and. .not. (self%do_extrema .or. self%do_force)) cycle
          call state_at(model, origin, h, t(i), self%y, pair, flight, cubic)
          gap(i) = model%tip_gap(t(i), self%y)
-         self%modal_nodes(i, :) = self%y(1:n)
-         if (in_contact) then
+         if (self%do_extrema) self%modal_nodes(i, :) = self%y(1:n)
+         if (in_contact .and. (self%do_force .or. self%do_energy)) then
             state = model%contact(t(i), self%y(1:n))
             force(i) = model%kappa5*state%normal
          end if
          if (i == 0 .or. i == m + 1) cycle
          weight = half*weights(i)
          tip_u = gap(i) - model%scene%delta_hat
-         ! sin(k Omega t), cos(k Omega t) by the angle-addition recurrence.
-         s1 = sin(self%omega*t(i))
-         c1 = cos(self%omega*t(i))
-         sk = s1
-         ck = c1
-         do k = 1, self%harmonics
-            self%acc_sin(k) = self%acc_sin(k) + weight*gap(i)*sk
-            self%acc_cos(k) = self%acc_cos(k) + weight*gap(i)*ck
-            next = sk*c1 + ck*s1
-            ck = ck*c1 - sk*s1
-            sk = next
-         end do
-         self%acc_deflection = self%acc_deflection + weight*(tip_u - model%scene%alpha2*s1)
-         call model%energy_flow(t(i), self%y(1:n), self%y(n + 1:2*n), in_contact, power, energy)
-         self%acc_powers = self%acc_powers + weight*power
-         self%acc_virial = self%acc_virial + weight*force(i)*tip_u
+         if (self%do_lockin) then
+            ! sin(k Omega t), cos(k Omega t) by the angle-addition recurrence.
+            s1 = sin(self%omega*t(i))
+            c1 = cos(self%omega*t(i))
+            sk = s1
+            ck = c1
+            do k = 1, self%harmonics
+               self%acc_sin(k) = self%acc_sin(k) + weight*gap(i)*sk
+               self%acc_cos(k) = self%acc_cos(k) + weight*gap(i)*ck
+               next = sk*c1 + ck*s1
+               ck = ck*c1 - sk*s1
+               sk = next
+            end do
+            self%acc_deflection = self%acc_deflection + weight*(tip_u - model%scene%alpha2*s1)
+         end if
+         if (self%do_energy) then
+            call model%energy_flow(t(i), self%y(1:n), self%y(n + 1:2*n), in_contact, power, energy)
+            self%acc_powers = self%acc_powers + weight*power
+            self%acc_virial = self%acc_virial + weight*force(i)*tip_u
+         end if
       end do
-      if (in_contact) self%acc_contact_time = self%acc_contact_time + (b - a)
+      if (self%do_force .and. in_contact) call locate_peak_force()
+      if (.not. self%do_extrema) return
 
       i_best = minloc(gap(0:m + 1), 1) - 1
       best = gap(i_best)
@@ -438,7 +551,11 @@ contains
             call locate_extremum(self%acc_modal(k, ext_min_free), self%modal_nodes(0:m + 1, k), -k, -1.0_dp)
          end if
       end do
-      if (in_contact) then
+
+   contains
+
+      !> Raise the running peak force by the nodes' best, located by a golden-section search.
+      subroutine locate_peak_force()
          i_best = maxloc(force(0:m + 1), 1) - 1
          best = -force(i_best)
          if (-best > self%peak_force) then
@@ -447,9 +564,7 @@ contains
                                    pair, flight, cubic)
             self%peak_force = max(self%peak_force, -best)
          end if
-      end if
-
-   contains
+      end subroutine locate_peak_force
 
       !> Raise the running maximum (direction 1; running minimum for -1) `extreme` of the
       !> values at the nodes, located by a golden-section search around an interior best node.
@@ -474,7 +589,7 @@ contains
    !> steady-state test.
    subroutine finish_period(self)
       class(observer_t), intent(inout) :: self
-      real(dp) :: s, c, period
+      real(dp) :: s, c, period, nan
       integer :: k, m
 
       period = self%period_length
@@ -504,8 +619,18 @@ contains
       end associate
       self%max_gap_values(m) = self%max_gap
       self%modal_extrema(m, :, :) = self%acc_modal
-      where (abs(self%acc_modal) >= huge(1.0_dp)) &
-         self%modal_extrema(m, :, :) = ieee_value(1.0_dp, ieee_quiet_nan)
+      nan = ieee_value(1.0_dp, ieee_quiet_nan)
+      where (abs(self%acc_modal) >= huge(1.0_dp)) self%modal_extrema(m, :, :) = nan
+      ! The groups not asked for are NaN, never a stale or default number.
+      where (.not. group_columns(self%groups)) self%values(m, :) = nan
+      if (.not. self%do_lockin) then
+         self%harmonic_amplitude(m, :) = nan
+         self%harmonic_phase(m, :) = nan
+      end if
+      if (.not. self%do_extrema) then
+         self%max_gap_values(m) = nan
+         self%modal_extrema(m, :, :) = nan
+      end if
       self%poincare(:, m) = self%y
       self%n_periods = m
       call reset(self)
@@ -513,8 +638,61 @@ contains
          self%found_period = steady_period(self%poincare(:, 0:m), self%p_max, self%tol, self%repeats)
          if (self%stop_at_steady .and. self%found_period > 0) self%done = .true.
       end if
+      if (self%n_attractors > 0 .and. self%found_period == 0) then
+         call match_attractors(self)
+         if (self%attractor > 0) then
+            k = self%attractor
+            self%found_period = self%attractor_first(k + 1) - self%attractor_first(k)
+            if (self%stop_at_steady) self%done = .true.
+         end if
+      end if
       if (m == self%max_periods) self%done = .true.
    end subroutine finish_period
+
+   !> Follow the newest Poincare point on the known attractors: a point within capture*size of
+   !> orbit k's point q continues a match in progress when it is the same orbit, q is the point
+   !> after the previous one (cyclically) and it is closer than the previous point (the run
+   !> approaches the orbit); `confirm` points in a row set self%attractor.
+   subroutine match_attractors(self)
+      class(observer_t), intent(inout) :: self
+      integer :: k, q, p, expected, found_k, found_q
+      real(dp) :: distance, best
+      associate (point => self%poincare(:, self%n_periods))
+         found_k = 0
+         found_q = 0
+         best = huge(1.0_dp)
+         do k = 1, self%n_attractors
+            do q = self%attractor_first(k), self%attractor_first(k + 1) - 1
+               distance = maxval(abs(point - self%attractor_points(:, q)))/self%attractor_size(k)
+               if (distance <= self%capture .and. distance < best) then
+                  best = distance
+                  found_k = k
+                  found_q = q
+               end if
+            end do
+         end do
+      end associate
+      if (found_k == 0) then
+         self%match_streak = 0
+      else
+         if (self%match_streak > 0 .and. found_k == self%match_attractor) then
+            p = self%attractor_first(found_k + 1) - self%attractor_first(found_k)
+            expected = self%attractor_first(found_k) + &
+                       mod(self%match_point - self%attractor_first(found_k) + 1, p)
+            if (found_q == expected .and. best < self%match_distance) then
+               self%match_streak = self%match_streak + 1
+            else
+               self%match_streak = 1
+            end if
+         else
+            self%match_streak = 1
+         end if
+         self%match_attractor = found_k
+         self%match_point = found_q
+         self%match_distance = best
+      end if
+      if (self%match_streak >= self%confirm) self%attractor = self%match_attractor
+   end subroutine match_attractors
 
    !> Factors from each column's model units to its SI-derived unit (nm, deg, nN, us, 1, aJ).
    pure function observable_factors(scales) result(factors)

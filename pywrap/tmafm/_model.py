@@ -69,6 +69,10 @@ class Model:
         self._f = handle
         self.n_modes = int(handle.n_modes)
 
+    def __reduce__(self):
+        # The core's model_t lives in this process: a pickle rebuilds it from the Config.
+        return (Model, (self.config,))
+
     @property
     def scene(self) -> dict:
         """The dimensionless groups."""

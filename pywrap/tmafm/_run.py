@@ -115,6 +115,11 @@ class Config:
         self._text = None
         self._scene = None
 
+    def __reduce__(self):
+        # The core's config_t lives in this process's memory: a copy for another process (a
+        # pickle: multiprocessing, Dask) carries the resolved text and is read there again.
+        return (_config_from_resolved_text, (self.text, self.label))
+
     @property
     def n_modes(self) -> int:
         """Number of Galerkin modes N (the chosen one when automatic)."""
@@ -314,3 +319,12 @@ def run(nml: NamelistLike, max_switches: int | None = None, **overrides) -> Resu
     and BlowUpError when the integration diverges.
     """
     return Config(nml, **overrides).run(max_switches)
+
+
+def _config_from_resolved_text(text: str, label: str) -> Config:
+    """A Config rebuilt from its resolved text (how a pickled Config is unpickled)."""
+    config = Config.__new__(Config)
+    handle, ierr, errmsg = _api.config_from_text(text, label)
+    raise_for(ierr, errmsg)
+    config.label, config._f, config._text, config._scene = label, handle, text, None
+    return config

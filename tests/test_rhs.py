@@ -89,7 +89,7 @@ EXPLICIT_RTOL = 1e-12
 def test_derivative_is_the_solution_of_the_explicit_system(tmp_path, convention):
     """a'' = M^-1 (F - C a' - K a) with M, C, K, F from model%matrices, for N = 1..30."""
     rng = np.random.default_rng(7)
-    for n in (1, 2, 3, 4, 8, 13, 30):
+    for n in range(1, 31):
         for law in ("hertz", "dmt"):
             path = tmp_path / f"{n}_{law}.nml"
             f90nml.write(f90nml.Namelist({"model": {"n_modes": n, "convention": convention,

@@ -123,6 +123,8 @@ module tmafm_model
    !> Rows of a'' the kernel computes together (a fixed count, so that its inner loops have
    !> constant length and need no remainder code; rows past N are zero and dropped).
    integer, parameter :: rows_per_block = 4
+   !> The largest n_padded.
+   integer, parameter :: n_max_padded = rows_per_block*((max_modes + rows_per_block - 1)/rows_per_block)
 
    !> Indices of the powers returned by energy_flow.
    integer, parameter, public :: power_drive = 1, power_beam_damping = 2, &
@@ -409,11 +411,12 @@ contains
       end associate
    end subroutine rhs_kernel
 
-   !> dydt = (a', a'') from the folded terms, rows_per_block rows of a'' at a time (kept in
-   !> registers): the drive and the columns of B, which do not depend on the contact forces,
-   !> so that they overlap with the contact's square roots; then, in contact,
-   !> tip_push M^-1 p + P2 ((g0/d) M^-1 r + M^-1 G a).  Explicit shapes: the compiler knows
-   !> the strides and that nothing aliases.
+   !> dydt = (a', a'') from the folded terms: the drive and the columns of B, which do not
+   !> depend on the contact forces (so that they overlap with the contact's square roots),
+   !> then, in contact, tip_push M^-1 p + P2 ((g0/d) M^-1 r + M^-1 G a).  N <= 4 (one block of
+   !> rows_per_block rows) keeps a'' in registers, with inner loops of constant length; larger
+   !> N sweeps whole padded columns (unit stride, vectorised along the rows).  Explicit shapes:
+   !> the compiler knows the strides and that nothing aliases.
    pure subroutine accumulate(n, n_padded, terms, pa, pv, pg, y, in_contact, sin_phase, cos_phase, &
                               tip_push, axial, dydt)
       integer, intent(in) :: n
@@ -429,40 +432,90 @@ contains
       real(dp), intent(in) :: tip_push
       real(dp), intent(in) :: axial
       real(dp), intent(out) :: dydt(2*n)
-      real(dp) :: acc(rows_per_block), stiff(rows_per_block), xa, xv
-      integer :: row, i, j
-      do row = 0, n_padded - rows_per_block, rows_per_block
+      real(dp) :: block(rows_per_block), block_stiff(rows_per_block)
+      real(dp) :: acc(n_max_padded), stiff(n_max_padded), xa, xv, xa2, xv2
+      integer :: i, j, last
+      if (n_padded == rows_per_block) then
          do i = 1, rows_per_block
-            acc(i) = terms(row + i, 1)*sin_phase + terms(row + i, 2)*cos_phase
+            block(i) = terms(i, 1)*sin_phase + terms(i, 2)*cos_phase
          end do
          if (in_contact) then
             do i = 1, rows_per_block
-               stiff(i) = terms(row + i, 4)
+               block_stiff(i) = terms(i, 4)
             end do
             do j = 1, n
                xa = y(j)
                xv = y(n + j)
                do i = 1, rows_per_block
-                  acc(i) = acc(i) + pa(row + i, j)*xa + pv(row + i, j)*xv
-                  stiff(i) = stiff(i) + pg(row + i, j)*xa
+                  block(i) = block(i) + (pa(i, j)*xa + pv(i, j)*xv)
+                  block_stiff(i) = block_stiff(i) + pg(i, j)*xa
                end do
             end do
             do i = 1, rows_per_block
-               acc(i) = acc(i) + tip_push*terms(row + i, 3) + axial*stiff(i)
+               block(i) = block(i) + tip_push*terms(i, 3) + axial*block_stiff(i)
             end do
          else
             do j = 1, n
                xa = y(j)
                xv = y(n + j)
                do i = 1, rows_per_block
-                  acc(i) = acc(i) + pa(row + i, j)*xa + pv(row + i, j)*xv
+                  block(i) = block(i) + (pa(i, j)*xa + pv(i, j)*xv)
                end do
             end do
          end if
-         do i = 1, min(rows_per_block, n - row)
-            dydt(row + i) = y(n + row + i)
-            dydt(n + row + i) = acc(i)
+         do i = 1, n
+            dydt(i) = y(n + i)
+            dydt(n + i) = block(i)
          end do
+         return
+      end if
+      do i = 1, n_padded
+         acc(i) = terms(i, 1)*sin_phase + terms(i, 2)*cos_phase
+      end do
+      ! Two columns per sweep of acc (half the loads and stores of acc), then the odd one.
+      last = n - mod(n, 2)
+      if (in_contact) then
+         do i = 1, n_padded
+            stiff(i) = terms(i, 4)
+         end do
+         do j = 1, last, 2
+            xa = y(j)
+            xv = y(n + j)
+            xa2 = y(j + 1)
+            xv2 = y(n + j + 1)
+            do i = 1, n_padded
+               acc(i) = acc(i) + ((pa(i, j)*xa + pv(i, j)*xv) + (pa(i, j + 1)*xa2 + pv(i, j + 1)*xv2))
+               stiff(i) = stiff(i) + (pg(i, j)*xa + pg(i, j + 1)*xa2)
+            end do
+         end do
+         do j = last + 1, n
+            do i = 1, n_padded
+               acc(i) = acc(i) + (pa(i, j)*y(j) + pv(i, j)*y(n + j))
+               stiff(i) = stiff(i) + pg(i, j)*y(j)
+            end do
+         end do
+         do i = 1, n_padded
+            acc(i) = acc(i) + tip_push*terms(i, 3) + axial*stiff(i)
+         end do
+      else
+         do j = 1, last, 2
+            xa = y(j)
+            xv = y(n + j)
+            xa2 = y(j + 1)
+            xv2 = y(n + j + 1)
+            do i = 1, n_padded
+               acc(i) = acc(i) + ((pa(i, j)*xa + pv(i, j)*xv) + (pa(i, j + 1)*xa2 + pv(i, j + 1)*xv2))
+            end do
+         end do
+         do j = last + 1, n
+            do i = 1, n_padded
+               acc(i) = acc(i) + (pa(i, j)*y(j) + pv(i, j)*y(n + j))
+            end do
+         end do
+      end if
+      do i = 1, n
+         dydt(i) = y(n + i)
+         dydt(n + i) = acc(i)
       end do
    end subroutine accumulate
 

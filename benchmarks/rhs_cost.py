@@ -57,7 +57,7 @@ import sys, tmafm
 r = tmafm.run(sys.argv[1], solver={"method": "flight_exact", "tau_end": 100.0, "rtol": 1e-10})
 c = r.counters
 flights = c["steps"] - c["contact_steps"]
-print(flights, c["rhs_evaluations"] - 6 * (c["contact_steps"] + c["rejected_steps"]))
+print(flights, c["rhs_evaluations"] - 12 * (c["contact_steps"] + c["rejected_steps"]))
 """
 
 #: scene -> (overrides of inputs/fig2_n4.nml); tau_end and sampling follow from periods.

@@ -9,7 +9,8 @@
 !> tmafm_error_scale; its order is 8 (exponent 1/8, taken as three square roots).  The
 !> dense output needs three more stages (14-16): they are evaluated only for steps that
 !> hold a sample or a switch.  The coefficients are Hairer's, to the last bit of a double.
-!> Registers are allocated once by `init`; a step allocates nothing.
+!> Registers are allocated once by `init`; a step allocates nothing.  The drive phase of
+!> every stage comes from one sin/cos per step (tmafm_embedded_pair stage_phases).
 module tmafm_dop853
    use tmafm_kinds, only: dp
    use tmafm_model, only: model_t

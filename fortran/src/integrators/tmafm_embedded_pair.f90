@@ -4,7 +4,8 @@
 !> A pair takes one step in a frozen phase (f0 = f(tau, y) given: first same as last),
 !> estimates its error in the norm of tmafm_error_scale, and builds its dense output only
 !> when asked (a sample or a switch in the step), so steps that need none skip that work.
-!> Registers are allocated once by `init`; a step allocates nothing.
+!> Registers are allocated once by `init`; a step allocates nothing.  `stage_phases` gives the
+!> drive phase at every node of a step from one sin/cos of Omega tau (the pairs and rk4 use it).
 !>
 !> The controller turns an error norm into the next step, h_new = h * clamp(safety *
 !> norm^(-1/(q+1))), q the order of the error estimate.  No real-exponent power is taken:

@@ -129,6 +129,30 @@ subroutine model_terms(path, n_modes, tau, a, adot, in_contact, mass, damping, s
    call model%derivative(tau, [a, adot], in_contact, rate)
 end subroutine model_terms
 
+!> sin and cos of the drive phase at tau + nodes*h as the embedded pairs' stages take them.
+subroutine stage_phases(path, n_modes, tau, h, n_nodes, nodes, sin_phase, cos_phase, ierr, errmsg)
+   use tmafm, only: model_t, load_model, ok
+   use tmafm_embedded_pair, only: pair_stage_phases => stage_phases
+   use tmafm_kinds, only: dp
+   implicit none
+   character(len=*), intent(in) :: path
+   integer, intent(in) :: n_modes
+   real(dp), intent(in) :: tau
+   real(dp), intent(in) :: h
+   integer, intent(in) :: n_nodes
+   real(dp), intent(in) :: nodes(n_nodes)
+   real(dp), intent(out) :: sin_phase(n_nodes)
+   real(dp), intent(out) :: cos_phase(n_nodes)
+   integer, intent(out) :: ierr
+   character(len=512), intent(out) :: errmsg
+   type(model_t) :: model
+
+   sin_phase = 0; cos_phase = 0
+   call load_model(path, n_modes, model, ierr, errmsg)
+   if (ierr /= ok) return
+   call pair_stage_phases(model, tau, h, nodes, sin_phase, cos_phase)
+end subroutine stage_phases
+
 !> Contact state [theta1, A, f_c, h, P1, P2] for one gap and slope; law 1 Hertz, 2 DMT.
 subroutine contact_state(vt, scaled_slope, theta, beta, law, kappa5, kappa6, signed_slope, state)
    use tmafm, only: contact_brackets_t, contact_brackets

@@ -9,12 +9,13 @@
 !> tmafm_error_scale; its order is 8 (exponent 1/8, taken as three square roots).  The
 !> dense output needs three more stages (14-16): they are evaluated only for steps that
 !> hold a sample or a switch.  The coefficients are Hairer's, to the last bit of a double.
-!> Registers are allocated once by `init`; a step allocates nothing.
+!> Registers are allocated once by `init`; a step allocates nothing.  The drive phase of
+!> every stage comes from one sin/cos per step (tmafm_embedded_pair stage_phases).
 module tmafm_dop853
    use tmafm_kinds, only: dp
    use tmafm_model, only: model_t
    use tmafm_error_scale, only: error_scale_t
-   use tmafm_embedded_pair, only: embedded_pair_t
+   use tmafm_embedded_pair, only: embedded_pair_t, stage_phases
    implicit none
    private
 
@@ -25,6 +26,9 @@ module tmafm_dop853
       c4 = 0.1183503419072274_dp, c5 = 0.2816496580927726_dp, c6 = 0.3333333333333333_dp, c7 = 0.25_dp, &
       c8 = 0.3076923076923077_dp, c9 = 0.6512820512820513_dp, c10 = 0.6_dp, c11 = 0.8571428571428571_dp, &
       c12 = 1.0_dp, c14 = 0.1_dp, c15 = 0.2_dp, c16 = 0.7777777777777778_dp
+   !> The distinct nodes of stages 2-13 (stages 12 and 13 are both at c = 1), and of 14-16.
+   real(dp), parameter :: step_nodes(11) = [c2, c3, c4, c5, c6, c7, c8, c9, c10, c11, c12], &
+      dense_nodes(3) = [c14, c15, c16]
    real(dp), parameter :: a2_1 = 0.05260015195876773_dp
    real(dp), parameter :: a3_1 = 0.0197250569845379_dp, a3_2 = 0.0591751709536137_dp
    real(dp), parameter :: a4_1 = 0.02958758547680685_dp, a4_3 = 0.08876275643042054_dp
@@ -134,61 +138,73 @@ contains
       class(dop853_pair_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: tau
-      real(dp), intent(in) :: y(:)
+      real(dp), intent(in), contiguous :: y(:)
       real(dp), intent(in) :: h
       logical, intent(in) :: in_contact
-      real(dp), intent(in) :: f0(:)
-      real(dp), intent(out) :: y_new(:)
-      real(dp), intent(out) :: f_new(:)
-
-      associate (k => self%k, stage => self%stage)
-         stage = y + h*a2_1*f0
-         call model%derivative(tau + c2*h, stage, in_contact, k(:, 2))
-         stage = y + h*(a3_1*f0 + a3_2*k(:, 2))
-         call model%derivative(tau + c3*h, stage, in_contact, k(:, 3))
-         stage = y + h*(a4_1*f0 + a4_3*k(:, 3))
-         call model%derivative(tau + c4*h, stage, in_contact, k(:, 4))
-         stage = y + h*(a5_1*f0 + a5_3*k(:, 3) + a5_4*k(:, 4))
-         call model%derivative(tau + c5*h, stage, in_contact, k(:, 5))
-         stage = y + h*(a6_1*f0 + a6_4*k(:, 4) + a6_5*k(:, 5))
-         call model%derivative(tau + c6*h, stage, in_contact, k(:, 6))
-         stage = y + h*(a7_1*f0 + a7_4*k(:, 4) + a7_5*k(:, 5) + a7_6*k(:, 6))
-         call model%derivative(tau + c7*h, stage, in_contact, k(:, 7))
-         stage = y + h*(a8_1*f0 + a8_4*k(:, 4) + a8_5*k(:, 5) + a8_6*k(:, 6) + a8_7*k(:, 7))
-         call model%derivative(tau + c8*h, stage, in_contact, k(:, 8))
-         stage = y + h*(a9_1*f0 + a9_4*k(:, 4) + a9_5*k(:, 5) + a9_6*k(:, 6) + a9_7*k(:, 7) &
-                        + a9_8*k(:, 8))
-         call model%derivative(tau + c9*h, stage, in_contact, k(:, 9))
-         stage = y + h*(a10_1*f0 + a10_4*k(:, 4) + a10_5*k(:, 5) + a10_6*k(:, 6) + a10_7*k(:, 7) &
-                        + a10_8*k(:, 8) + a10_9*k(:, 9))
-         call model%derivative(tau + c10*h, stage, in_contact, k(:, 10))
-         stage = y + h*(a11_1*f0 + a11_4*k(:, 4) + a11_5*k(:, 5) + a11_6*k(:, 6) + a11_7*k(:, 7) &
-                        + a11_8*k(:, 8) + a11_9*k(:, 9) + a11_10*k(:, 10))
-         call model%derivative(tau + c11*h, stage, in_contact, k(:, 11))
-         stage = y + h*(a12_1*f0 + a12_4*k(:, 4) + a12_5*k(:, 5) + a12_6*k(:, 6) + a12_7*k(:, 7) &
-                        + a12_8*k(:, 8) + a12_9*k(:, 9) + a12_10*k(:, 10) + a12_11*k(:, 11))
-         call model%derivative(tau + h, stage, in_contact, k(:, 12))
-         y_new = y + h*(b1*f0 + b6*k(:, 6) + b7*k(:, 7) + b8*k(:, 8) + b9*k(:, 9) + b10*k(:, 10) &
-                        + b11*k(:, 11) + b12*k(:, 12))
-         call model%derivative(tau + h, y_new, in_contact, f_new)
-      end associate
+      real(dp), intent(in), contiguous :: f0(:)
+      real(dp), intent(out), contiguous :: y_new(:)
+      real(dp), intent(out), contiguous :: f_new(:)
+      call dop853_stages(model, size(y), tau, y, h, in_contact, f0, self%k, self%stage, y_new, f_new)
    end subroutine dop853_step
+
+   !> The stages of dop853_step on explicit-shape registers (the compiler sees unit strides
+   !> and no aliasing): k(:, 2:12), the new state and f_new.
+   pure subroutine dop853_stages(model, n, tau, y, h, in_contact, f0, k, stage, y_new, f_new)
+      type(model_t), intent(in) :: model
+      integer, intent(in) :: n
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: y(n)
+      real(dp), intent(in) :: h
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: f0(n)
+      real(dp), intent(inout) :: k(n, 2:16)
+      real(dp), intent(inout) :: stage(n)
+      real(dp), intent(out) :: y_new(n)
+      real(dp), intent(out) :: f_new(n)
+      real(dp) :: sin_phase(size(step_nodes)), cos_phase(size(step_nodes))
+
+      call stage_phases(model, tau, h, step_nodes, sin_phase, cos_phase)
+      stage = y + h*a2_1*f0
+      call model%derivative_at_phase(stage, in_contact, sin_phase(1), cos_phase(1), k(:, 2))
+      stage = y + h*(a3_1*f0 + a3_2*k(:, 2))
+      call model%derivative_at_phase(stage, in_contact, sin_phase(2), cos_phase(2), k(:, 3))
+      stage = y + h*(a4_1*f0 + a4_3*k(:, 3))
+      call model%derivative_at_phase(stage, in_contact, sin_phase(3), cos_phase(3), k(:, 4))
+      stage = y + h*(a5_1*f0 + a5_3*k(:, 3) + a5_4*k(:, 4))
+      call model%derivative_at_phase(stage, in_contact, sin_phase(4), cos_phase(4), k(:, 5))
+      stage = y + h*(a6_1*f0 + a6_4*k(:, 4) + a6_5*k(:, 5))
+      call model%derivative_at_phase(stage, in_contact, sin_phase(5), cos_phase(5), k(:, 6))
+      stage = y + h*(a7_1*f0 + a7_4*k(:, 4) + a7_5*k(:, 5) + a7_6*k(:, 6))
+      call model%derivative_at_phase(stage, in_contact, sin_phase(6), cos_phase(6), k(:, 7))
+      stage = y + h*(a8_1*f0 + a8_4*k(:, 4) + a8_5*k(:, 5) + a8_6*k(:, 6) + a8_7*k(:, 7))
+      call model%derivative_at_phase(stage, in_contact, sin_phase(7), cos_phase(7), k(:, 8))
+      stage = y + h*(a9_1*f0 + a9_4*k(:, 4) + a9_5*k(:, 5) + a9_6*k(:, 6) + a9_7*k(:, 7) &
+                     + a9_8*k(:, 8))
+      call model%derivative_at_phase(stage, in_contact, sin_phase(8), cos_phase(8), k(:, 9))
+      stage = y + h*(a10_1*f0 + a10_4*k(:, 4) + a10_5*k(:, 5) + a10_6*k(:, 6) + a10_7*k(:, 7) &
+                     + a10_8*k(:, 8) + a10_9*k(:, 9))
+      call model%derivative_at_phase(stage, in_contact, sin_phase(9), cos_phase(9), k(:, 10))
+      stage = y + h*(a11_1*f0 + a11_4*k(:, 4) + a11_5*k(:, 5) + a11_6*k(:, 6) + a11_7*k(:, 7) &
+                     + a11_8*k(:, 8) + a11_9*k(:, 9) + a11_10*k(:, 10))
+      call model%derivative_at_phase(stage, in_contact, sin_phase(10), cos_phase(10), k(:, 11))
+      stage = y + h*(a12_1*f0 + a12_4*k(:, 4) + a12_5*k(:, 5) + a12_6*k(:, 6) + a12_7*k(:, 7) &
+                     + a12_8*k(:, 8) + a12_9*k(:, 9) + a12_10*k(:, 10) + a12_11*k(:, 11))
+      call model%derivative_at_phase(stage, in_contact, sin_phase(11), cos_phase(11), k(:, 12))
+      y_new = y + h*(b1*f0 + b6*k(:, 6) + b7*k(:, 7) + b8*k(:, 8) + b9*k(:, 9) + b10*k(:, 10) &
+                     + b11*k(:, 11) + b12*k(:, 12))
+      call model%derivative_at_phase(y_new, in_contact, sin_phase(11), cos_phase(11), f_new)
+   end subroutine dop853_stages
 
    !> Hairer's DOP853 estimate; f_new is not used (its weights e5_13 and e3_13 are zero).
    pure subroutine dop853_error_norm(self, h, f0, f_new, scale, norm)
       class(dop853_pair_t), intent(inout) :: self
       real(dp), intent(in) :: h
-      real(dp), intent(in) :: f0(:)
-      real(dp), intent(in) :: f_new(:)
+      real(dp), intent(in), contiguous :: f0(:)
+      real(dp), intent(in), contiguous :: f_new(:)
       type(error_scale_t), intent(in) :: scale
       real(dp), intent(out) :: norm
       real(dp) :: s5, s3
-      associate (k => self%k)
-         self%err5 = e5_1*f0 + e5_6*k(:, 6) + e5_7*k(:, 7) + e5_8*k(:, 8) + e5_9*k(:, 9) &
-                     + e5_10*k(:, 10) + e5_11*k(:, 11) + e5_12*k(:, 12)
-         self%err3 = e3_1*f0 + e3_6*k(:, 6) + e3_7*k(:, 7) + e3_8*k(:, 8) + e3_9*k(:, 9) &
-                     + e3_10*k(:, 10) + e3_11*k(:, 11) + e3_12*k(:, 12)
-      end associate
+      call error_estimates(size(f0), f0, self%k, self%err5, self%err3)
       s5 = scale%sum_of_squares(self%err5)
       s3 = scale%sum_of_squares(self%err3)
       if (s5 == 0 .and. s3 == 0) then
@@ -197,6 +213,19 @@ contains
          norm = abs(h)*s5/sqrt(s5 + 0.01_dp*s3)
       end if
    end subroutine dop853_error_norm
+
+   !> The fifth- and third-order error estimates of the last step, on explicit-shape registers.
+   pure subroutine error_estimates(n, f0, k, err5, err3)
+      integer, intent(in) :: n
+      real(dp), intent(in) :: f0(n)
+      real(dp), intent(in) :: k(n, 2:16)
+      real(dp), intent(out) :: err5(n)
+      real(dp), intent(out) :: err3(n)
+      err5 = e5_1*f0 + e5_6*k(:, 6) + e5_7*k(:, 7) + e5_8*k(:, 8) + e5_9*k(:, 9) &
+             + e5_10*k(:, 10) + e5_11*k(:, 11) + e5_12*k(:, 12)
+      err3 = e3_1*f0 + e3_6*k(:, 6) + e3_7*k(:, 7) + e3_8*k(:, 8) + e3_9*k(:, 9) &
+             + e3_10*k(:, 10) + e3_11*k(:, 11) + e3_12*k(:, 12)
+   end subroutine error_estimates
 
    pure function dop853_growth(self, norm) result(ratio)
       class(dop853_pair_t), intent(in) :: self
@@ -209,23 +238,25 @@ contains
       class(dop853_pair_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: tau
-      real(dp), intent(in) :: y(:)
-      real(dp), intent(in) :: y_new(:)
+      real(dp), intent(in), contiguous :: y(:)
+      real(dp), intent(in), contiguous :: y_new(:)
       real(dp), intent(in) :: h
       logical, intent(in) :: in_contact
-      real(dp), intent(in) :: f0(:)
-      real(dp), intent(in) :: f_new(:)
+      real(dp), intent(in), contiguous :: f0(:)
+      real(dp), intent(in), contiguous :: f_new(:)
+      real(dp) :: sin_phase(size(dense_nodes)), cos_phase(size(dense_nodes))
 
+      call stage_phases(model, tau, h, dense_nodes, sin_phase, cos_phase)
       associate (k => self%k, stage => self%stage, r => self%r)
          stage = y + h*(a14_1*f0 + a14_7*k(:, 7) + a14_8*k(:, 8) + a14_9*k(:, 9) + a14_10*k(:, 10) &
                         + a14_11*k(:, 11) + a14_12*k(:, 12) + a14_13*f_new)
-         call model%derivative(tau + c14*h, stage, in_contact, k(:, 14))
+         call model%derivative_at_phase(stage, in_contact, sin_phase(1), cos_phase(1), k(:, 14))
          stage = y + h*(a15_1*f0 + a15_6*k(:, 6) + a15_7*k(:, 7) + a15_8*k(:, 8) + a15_11*k(:, 11) &
                         + a15_12*k(:, 12) + a15_13*f_new + a15_14*k(:, 14))
-         call model%derivative(tau + c15*h, stage, in_contact, k(:, 15))
+         call model%derivative_at_phase(stage, in_contact, sin_phase(2), cos_phase(2), k(:, 15))
          stage = y + h*(a16_1*f0 + a16_6*k(:, 6) + a16_7*k(:, 7) + a16_8*k(:, 8) + a16_9*k(:, 9) &
                         + a16_13*f_new + a16_14*k(:, 14) + a16_15*k(:, 15))
-         call model%derivative(tau + c16*h, stage, in_contact, k(:, 16))
+         call model%derivative_at_phase(stage, in_contact, sin_phase(3), cos_phase(3), k(:, 16))
          self%y0 = y
          r(:, 0) = y_new - y
          r(:, 1) = h*f0 - r(:, 0)
@@ -248,7 +279,7 @@ contains
    pure subroutine dop853_dense(self, theta, y)
       class(dop853_pair_t), intent(in) :: self
       real(dp), intent(in) :: theta
-      real(dp), intent(out) :: y(:)
+      real(dp), intent(out), contiguous :: y(:)
       real(dp) :: rest
       rest = 1 - theta
       associate (r => self%r)

@@ -8,7 +8,7 @@ module tmafm_dopri5
    use tmafm_kinds, only: dp
    use tmafm_model, only: model_t
    use tmafm_error_scale, only: error_scale_t
-   use tmafm_embedded_pair, only: embedded_pair_t
+   use tmafm_embedded_pair, only: embedded_pair_t, stage_phases
    implicit none
    private
 
@@ -16,6 +16,8 @@ module tmafm_dopri5
 
    ! Butcher tableau.
    real(dp), parameter :: c2 = 1.0_dp/5, c3 = 3.0_dp/10, c4 = 4.0_dp/5, c5 = 8.0_dp/9
+   !> The distinct nodes of stages 2-7 (stages 6 and 7 are both at c = 1).
+   real(dp), parameter :: step_nodes(5) = [c2, c3, c4, c5, 1.0_dp]
    real(dp), parameter :: a21 = 1.0_dp/5
    real(dp), parameter :: a31 = 3.0_dp/40, a32 = 9.0_dp/40
    real(dp), parameter :: a41 = 44.0_dp/45, a42 = -56.0_dp/15, a43 = 32.0_dp/9
@@ -75,35 +77,37 @@ contains
       class(dopri5_pair_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: tau
-      real(dp), intent(in) :: y(:)
+      real(dp), intent(in), contiguous :: y(:)
       real(dp), intent(in) :: h
       logical, intent(in) :: in_contact
-      real(dp), intent(in) :: f0(:)
-      real(dp), intent(out) :: y_new(:)
-      real(dp), intent(out) :: f_new(:)
+      real(dp), intent(in), contiguous :: f0(:)
+      real(dp), intent(out), contiguous :: y_new(:)
+      real(dp), intent(out), contiguous :: f_new(:)
+      real(dp) :: sin_phase(size(step_nodes)), cos_phase(size(step_nodes))
 
+      call stage_phases(model, tau, h, step_nodes, sin_phase, cos_phase)
       associate (k2 => self%k2, k3 => self%k3, k4 => self%k4, k5 => self%k5, k6 => self%k6, &
                  stage => self%stage)
          stage = y + h*a21*f0
-         call model%derivative(tau + c2*h, stage, in_contact, k2)
+         call model%derivative_at_phase(stage, in_contact, sin_phase(1), cos_phase(1), k2)
          stage = y + h*(a31*f0 + a32*k2)
-         call model%derivative(tau + c3*h, stage, in_contact, k3)
+         call model%derivative_at_phase(stage, in_contact, sin_phase(2), cos_phase(2), k3)
          stage = y + h*(a41*f0 + a42*k2 + a43*k3)
-         call model%derivative(tau + c4*h, stage, in_contact, k4)
+         call model%derivative_at_phase(stage, in_contact, sin_phase(3), cos_phase(3), k4)
          stage = y + h*(a51*f0 + a52*k2 + a53*k3 + a54*k4)
-         call model%derivative(tau + c5*h, stage, in_contact, k5)
+         call model%derivative_at_phase(stage, in_contact, sin_phase(4), cos_phase(4), k5)
          stage = y + h*(a61*f0 + a62*k2 + a63*k3 + a64*k4 + a65*k5)
-         call model%derivative(tau + h, stage, in_contact, k6)
+         call model%derivative_at_phase(stage, in_contact, sin_phase(5), cos_phase(5), k6)
          y_new = y + h*(a71*f0 + a73*k3 + a74*k4 + a75*k5 + a76*k6)
-         call model%derivative(tau + h, y_new, in_contact, f_new)
+         call model%derivative_at_phase(y_new, in_contact, sin_phase(5), cos_phase(5), f_new)
       end associate
    end subroutine dopri5_step
 
    pure subroutine dopri5_error_norm(self, h, f0, f_new, scale, norm)
       class(dopri5_pair_t), intent(inout) :: self
       real(dp), intent(in) :: h
-      real(dp), intent(in) :: f0(:)
-      real(dp), intent(in) :: f_new(:)
+      real(dp), intent(in), contiguous :: f0(:)
+      real(dp), intent(in), contiguous :: f_new(:)
       type(error_scale_t), intent(in) :: scale
       real(dp), intent(out) :: norm
       self%error = h*(e1*f0 + e3*self%k3 + e4*self%k4 + e5*self%k5 + e6*self%k6 + e7*f_new)
@@ -122,12 +126,12 @@ contains
       class(dopri5_pair_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: tau
-      real(dp), intent(in) :: y(:)
-      real(dp), intent(in) :: y_new(:)
+      real(dp), intent(in), contiguous :: y(:)
+      real(dp), intent(in), contiguous :: y_new(:)
       real(dp), intent(in) :: h
       logical, intent(in) :: in_contact
-      real(dp), intent(in) :: f0(:)
-      real(dp), intent(in) :: f_new(:)
+      real(dp), intent(in), contiguous :: f0(:)
+      real(dp), intent(in), contiguous :: f_new(:)
       self%r1 = y
       self%r2 = y_new - y
       self%r3 = h*f0 - self%r2
@@ -138,7 +142,7 @@ contains
    pure subroutine dopri5_dense(self, theta, y)
       class(dopri5_pair_t), intent(in) :: self
       real(dp), intent(in) :: theta
-      real(dp), intent(out) :: y(:)
+      real(dp), intent(out), contiguous :: y(:)
       real(dp) :: rest
       rest = 1 - theta
       y = self%r1 + theta*(self%r2 + rest*(self%r3 + theta*(self%r4 + rest*self%r5)))

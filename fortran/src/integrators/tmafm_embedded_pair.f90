@@ -4,7 +4,8 @@
 !> A pair takes one step in a frozen phase (f0 = f(tau, y) given: first same as last),
 !> estimates its error in the norm of tmafm_error_scale, and builds its dense output only
 !> when asked (a sample or a switch in the step), so steps that need none skip that work.
-!> Registers are allocated once by `init`; a step allocates nothing.
+!> Registers are allocated once by `init`; a step allocates nothing.  `stage_phases` gives the
+!> drive phase at every node of a step from one sin/cos of Omega tau (the pairs and rk4 use it).
 !>
 !> The controller turns an error norm (and, once a phase had a rejection, the last accepted
 !> one) into the next step from norm^(-1/(q+1)), q the order of the error estimate; each
@@ -17,7 +18,18 @@ module tmafm_embedded_pair
    implicit none
    private
 
-   public :: embedded_pair_t, step_controller_t
+   public :: embedded_pair_t, step_controller_t, stage_phases, taylor_limit
+
+   !> Largest |Omega c h| for which stage_phases sums the Taylor series instead of calling libm.
+   real(dp), parameter :: taylor_limit = 1.0_dp
+   !> (-1)^k/(2k+1)! and (-1)^k/(2k)!, k = 0..9: at |x| <= 1 the first omitted terms, 1/21! and
+   !> 1/20!, are below 1e-18, far under the rounding of the sums.
+   real(dp), parameter :: sin_series(0:9) = [1.0_dp, -1.0_dp/6, 1.0_dp/120, -1.0_dp/5040, &
+      1.0_dp/362880, -1.0_dp/39916800, 1.0_dp/6227020800.0_dp, -1.0_dp/1307674368000.0_dp, &
+      1.0_dp/355687428096000.0_dp, -1.0_dp/121645100408832000.0_dp]
+   real(dp), parameter :: cos_series(0:9) = [1.0_dp, -1.0_dp/2, 1.0_dp/24, -1.0_dp/720, &
+      1.0_dp/40320, -1.0_dp/3628800, 1.0_dp/479001600, -1.0_dp/87178291200.0_dp, &
+      1.0_dp/20922789888000.0_dp, -1.0_dp/6402373705728000.0_dp]
 
    !> An embedded pair with dense output.
    type, abstract :: embedded_pair_t
@@ -55,20 +67,20 @@ module tmafm_embedded_pair
          class(embedded_pair_t), intent(inout) :: self
          type(model_t), intent(in) :: model
          real(dp), intent(in) :: tau
-         real(dp), intent(in) :: y(:)
+         real(dp), intent(in), contiguous :: y(:)
          real(dp), intent(in) :: h
          logical, intent(in) :: in_contact
-         real(dp), intent(in) :: f0(:)
-         real(dp), intent(out) :: y_new(:)
-         real(dp), intent(out) :: f_new(:)
+         real(dp), intent(in), contiguous :: f0(:)
+         real(dp), intent(out), contiguous :: y_new(:)
+         real(dp), intent(out), contiguous :: f_new(:)
       end subroutine pair_step
 
       pure subroutine pair_norm(self, h, f0, f_new, scale, norm)
          import :: embedded_pair_t, error_scale_t, dp
          class(embedded_pair_t), intent(inout) :: self
          real(dp), intent(in) :: h
-         real(dp), intent(in) :: f0(:)
-         real(dp), intent(in) :: f_new(:)
+         real(dp), intent(in), contiguous :: f0(:)
+         real(dp), intent(in), contiguous :: f_new(:)
          type(error_scale_t), intent(in) :: scale
          real(dp), intent(out) :: norm
       end subroutine pair_norm
@@ -85,19 +97,19 @@ module tmafm_embedded_pair
          class(embedded_pair_t), intent(inout) :: self
          type(model_t), intent(in) :: model
          real(dp), intent(in) :: tau
-         real(dp), intent(in) :: y(:)
-         real(dp), intent(in) :: y_new(:)
+         real(dp), intent(in), contiguous :: y(:)
+         real(dp), intent(in), contiguous :: y_new(:)
          real(dp), intent(in) :: h
          logical, intent(in) :: in_contact
-         real(dp), intent(in) :: f0(:)
-         real(dp), intent(in) :: f_new(:)
+         real(dp), intent(in), contiguous :: f0(:)
+         real(dp), intent(in), contiguous :: f_new(:)
       end subroutine pair_prepare
 
       pure subroutine pair_dense(self, theta, y)
          import :: embedded_pair_t, dp
          class(embedded_pair_t), intent(in) :: self
          real(dp), intent(in) :: theta
-         real(dp), intent(out) :: y(:)
+         real(dp), intent(out), contiguous :: y(:)
       end subroutine pair_dense
    end interface
 
@@ -132,6 +144,43 @@ module tmafm_embedded_pair
    end type step_controller_t
 
 contains
+
+   !> sin and cos of the drive phase Omega (tau + c_i h) at the nodes c_i of a step, with one
+   !> sin and cos (of Omega tau) per step instead of one per stage: when every |Omega c_i h| is
+   !> at most taylor_limit, sin and cos of x_i = Omega c_i h are Taylor sums (exact to
+   !> round-off there) and the phase follows by angle addition; otherwise each node calls libm.
+   pure subroutine stage_phases(model, tau, h, nodes, sin_phase, cos_phase)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: h
+      real(dp), intent(in) :: nodes(:)
+      real(dp), intent(out) :: sin_phase(:)
+      real(dp), intent(out) :: cos_phase(:)
+      real(dp) :: omega, sin0, cos0, x, x2, sin_x, cos_x
+      integer :: i, k
+      omega = model%scene%omega
+      if (abs(omega*h)*maxval(abs(nodes)) <= taylor_limit) then
+         call model%phase(tau, sin0, cos0)
+         do i = 1, size(nodes)
+            ! Horner's rule in x^2.
+            x = omega*(nodes(i)*h)
+            x2 = x*x
+            sin_x = sin_series(ubound(sin_series, 1))
+            cos_x = cos_series(ubound(cos_series, 1))
+            do k = ubound(sin_series, 1) - 1, 0, -1
+               sin_x = sin_x*x2 + sin_series(k)
+               cos_x = cos_x*x2 + cos_series(k)
+            end do
+            sin_x = sin_x*x
+            sin_phase(i) = sin0*cos_x + cos0*sin_x
+            cos_phase(i) = cos0*cos_x - sin0*sin_x
+         end do
+      else
+         do i = 1, size(nodes)
+            call model%phase(tau + nodes(i)*h, sin_phase(i), cos_phase(i))
+         end do
+      end if
+   end subroutine stage_phases
 
    function controller_next_step(self, pair, h, norm) result(h_next)
       class(step_controller_t), intent(inout) :: self

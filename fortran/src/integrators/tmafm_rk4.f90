@@ -7,10 +7,14 @@
 module tmafm_rk4
    use tmafm_kinds, only: dp
    use tmafm_model, only: model_t
+   use tmafm_embedded_pair, only: stage_phases
    implicit none
    private
 
    public :: rk4_stepper_t
+
+   !> The distinct nodes of stages 2-4 (stages 2 and 3 are both at c = 1/2).
+   real(dp), parameter :: step_nodes(2) = [0.5_dp, 1.0_dp]
 
    !> Stage registers of one classical RK4 integrator.
    type :: rk4_stepper_t
@@ -40,14 +44,16 @@ contains
       logical, intent(in) :: in_contact
       real(dp), intent(in) :: f0(:)
       real(dp), intent(out) :: y_new(:)
+      real(dp) :: sin_phase(size(step_nodes)), cos_phase(size(step_nodes))
 
+      call stage_phases(model, tau, h, step_nodes, sin_phase, cos_phase)
       associate (k2 => self%k2, k3 => self%k3, k4 => self%k4, stage => self%stage)
          stage = y + 0.5_dp*h*f0
-         call model%derivative(tau + 0.5_dp*h, stage, in_contact, k2)
+         call model%derivative_at_phase(stage, in_contact, sin_phase(1), cos_phase(1), k2)
          stage = y + 0.5_dp*h*k2
-         call model%derivative(tau + 0.5_dp*h, stage, in_contact, k3)
+         call model%derivative_at_phase(stage, in_contact, sin_phase(1), cos_phase(1), k3)
          stage = y + h*k3
-         call model%derivative(tau + h, stage, in_contact, k4)
+         call model%derivative_at_phase(stage, in_contact, sin_phase(2), cos_phase(2), k4)
          y_new = y + (h/6)*(f0 + 2*k2 + 2*k3 + k4)
       end associate
    end subroutine rk4_step

@@ -129,7 +129,8 @@ contains
       real(dp), intent(out) :: friction
       real(dp) :: depth
       depth = max(-vt, 0.0_dp)
-      radius = sqrt(depth*sin1/beta)
+      ! depth/beta first: the division does not wait for the contact angle.
+      radius = sqrt((depth/beta)*sin1)
       normal = radius*radius*radius
       if (law == law_dmt) normal = normal - dmt_adhesion
       friction = radius*(depth*cos1)

@@ -9,9 +9,13 @@
 !> constant matrix and vector at set-up.  The right-hand side is one kernel with no
 !> allocation and no temporaries: a'' = B (a, a') + w_s sin(Omega tau) + w_c cos(Omega tau),
 !> with B = -M^-1 [Lambda | alpha3 I] folded at set-up; in contact the axial term
-!> P2 M^-1 G is added to B's first half in the same pass, and the rank-one tip and moment
-!> terms come from three dot products (p.a, s.a, p.a') and one call of the contact forces.
-!> One sin/cos of Omega tau per evaluation, none of theta1 (see contact_angle_sin_cos).
+!> P2 M^-1 G a and the rank-one tip and moment terms are added, from three dot products
+!> (p.a, (d/L) s.a, p.a') and one call of the contact forces.  The kernel builds a'' four rows
+!> at a time in registers, from copies of the folded terms padded to a multiple of four rows
+!> (loops of constant length, no remainder code), and computes the part that does not depend
+!> on the contact forces while their square roots are under way.  It takes the drive phase
+!> as sin/cos(Omega tau) (derivative_at_phase: the pairs compute them once per step), or
+!> takes one sin/cos per evaluation (derivative); none of theta1 (see contact_angle_sin_cos).
 module tmafm_model
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok, err_input, err_runtime
@@ -51,6 +55,8 @@ module tmafm_model
       real(dp), allocatable :: tip(:)
       !> s = phi'(xi0): tip slopes.
       real(dp), allocatable :: slope(:)
+      !> (d/L) s: the tip slopes in the units of the contact angle (Eq. 3).
+      real(dp), allocatable :: scaled_slope(:)
       !> m: where the tip mass sits, phi(1) (printed) or phi(xi0) (E6).
       real(dp), allocatable :: mass_point(:)
       !> r: the moment shape, phi''(xi0) (printed) or phi'(xi0) (E3).
@@ -75,8 +81,14 @@ module tmafm_model
       real(dp), allocatable :: inv_mass_inertial(:)
       !> M^-1 q: the damping drive direction.
       real(dp), allocatable :: inv_mass_integral(:)
-      !> B = -[M^-1 Lambda | alpha3 M^-1] (N x 2N): the free a'' is B (a, a') plus the drive.
-      real(dp), allocatable :: free_pass(:, :)
+      !> N rounded up to a whole number of the kernel's row blocks (rows_per_block).
+      integer :: n_padded = 0
+      !> B = -[M^-1 Lambda | alpha3 M^-1]: the free a'' is B (a, a') plus the drive.  Its two
+      !> halves, and M^-1 G, as the kernel reads them: n_padded x N, zero below row N.
+      real(dp), allocatable :: pass_a(:, :), pass_v(:, :), pass_g(:, :)
+      !> w_s, w_c, M^-1 p and the moment term (columns 1-4) as the kernel reads them: n_padded
+      !> rows, zero below row N.
+      real(dp), allocatable :: pass_terms(:, :)
       !> w_s = alpha2 Omega^2 M^-1 (alpha1 m + q): the drive term of a'' that goes with sin(Omega tau).
       real(dp), allocatable :: drive_sin(:)
       !> w_c = -alpha2 alpha3 Omega M^-1 q: the drive term of a'' that goes with cos(Omega tau).
@@ -109,6 +121,12 @@ module tmafm_model
       !> The power of each generalized force on the modes, and the modal energy, at one state.
       procedure :: energy_flow => model_energy_flow
    end type model_t
+
+   !> Rows of a'' the kernel computes together (a fixed count, so that its inner loops have
+   !> constant length and need no remainder code; rows past N are zero and dropped).
+   integer, parameter :: rows_per_block = 4
+   !> The largest n_padded.
+   integer, parameter :: n_max_padded = rows_per_block*((max_modes + rows_per_block - 1)/rows_per_block)
 
    !> Indices of the powers returned by energy_flow.
    integer, parameter, public :: power_drive = 1, power_beam_damping = 2, &
@@ -145,6 +163,7 @@ contains
       model%eigen = model%beta**4
       model%tip = mode_shape(model%beta, scene%xi0, 0)
       model%slope = mode_shape(model%beta, scene%xi0, 1)
+      model%scaled_slope = model%slope/scene%l_over_d
       model%integral = mode_integrals_closed_form(model%beta)
 
       if (errata%e6_tip_mass_at_xi0) then
@@ -220,10 +239,13 @@ contains
       model%inv_mass_integral = rhs(:, 3*n + 4)
 
       ! The folded forms the right-hand side uses.
+      model%n_padded = rows_per_block*((n + rows_per_block - 1)/rows_per_block)
+      allocate (model%pass_a(model%n_padded, n), model%pass_v(model%n_padded, n), &
+                model%pass_g(model%n_padded, n), model%pass_terms(model%n_padded, 4), source=0.0_dp)
       associate (s => scene)
-         allocate (model%free_pass(n, 2*n))
-         model%free_pass(:, 1:n) = -model%inv_mass_eigen
-         model%free_pass(:, n + 1:2*n) = -s%alpha3*model%inv_mass
+         model%pass_a(1:n, :) = -model%inv_mass_eigen
+         model%pass_v(1:n, :) = -s%alpha3*model%inv_mass
+         model%pass_g(1:n, :) = model%inv_mass_axial
          model%drive_sin = s%alpha2*s%omega**2*model%inv_mass_inertial
          model%drive_cos = -s%alpha2*s%alpha3*s%omega*model%inv_mass_integral
          if (model%has_moment) then
@@ -244,6 +266,10 @@ contains
             model%base_cos = 0
          end if
       end associate
+      model%pass_terms(1:n, 1) = model%drive_sin
+      model%pass_terms(1:n, 2) = model%drive_cos
+      model%pass_terms(1:n, 3) = model%inv_mass_tip
+      model%pass_terms(1:n, 4) = model%moment_force
    end subroutine init_model
 
    pure subroutine model_phase(self, tau, sin_phase, cos_phase)
@@ -326,146 +352,193 @@ contains
    pure subroutine model_derivative(self, tau, y, in_contact, dydt)
       class(model_t), intent(in) :: self
       real(dp), intent(in) :: tau
-      real(dp), intent(in) :: y(:)
+      real(dp), intent(in), contiguous :: y(:)
       logical, intent(in) :: in_contact
-      real(dp), intent(out) :: dydt(:)
+      real(dp), intent(out), contiguous :: dydt(:)
       real(dp) :: sin_phase, cos_phase, vt, vtdot
-      call self%phase(tau, sin_phase, cos_phase)
+      call model_phase(self, tau, sin_phase, cos_phase)
       call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
    end subroutine model_derivative
 
    pure subroutine model_derivative_at_phase(self, y, in_contact, sin_phase, cos_phase, dydt)
       class(model_t), intent(in) :: self
-      real(dp), intent(in) :: y(:)
+      real(dp), intent(in), contiguous :: y(:)
       logical, intent(in) :: in_contact
       real(dp), intent(in) :: sin_phase
       real(dp), intent(in) :: cos_phase
-      real(dp), intent(out) :: dydt(:)
+      real(dp), intent(out), contiguous :: dydt(:)
       real(dp) :: vt, vtdot
       call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
    end subroutine model_derivative_at_phase
 
    pure subroutine model_derivative_and_gap(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
       class(model_t), intent(in) :: self
-      real(dp), intent(in) :: y(:)
+      real(dp), intent(in), contiguous :: y(:)
       logical, intent(in) :: in_contact
       real(dp), intent(in) :: sin_phase
       real(dp), intent(in) :: cos_phase
-      real(dp), intent(out) :: dydt(:)
+      real(dp), intent(out), contiguous :: dydt(:)
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: vtdot
       call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
    end subroutine model_derivative_and_gap
 
    !> The one right-hand side: (a', a'') from y = (a, a') and the drive phase, and V_T and
-   !> dV_T/dtau when want_gap (always in contact, where they are needed anyway).  The state
-   !> is copied into a local array first, so that every loop runs on unit strides.
+   !> dV_T/dtau when want_gap (always in contact, where they are needed anyway).  The contact
+   !> forces first (their square roots are the longest chain), then accumulate.
    pure subroutine rhs_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
       type(model_t), intent(in) :: self
-      real(dp), intent(in) :: y(:)
+      real(dp), intent(in), contiguous :: y(:)
       logical, intent(in) :: in_contact
       real(dp), intent(in) :: sin_phase
       real(dp), intent(in) :: cos_phase
       logical, intent(in) :: want_gap
-      real(dp), intent(out) :: dydt(:)
+      real(dp), intent(out), contiguous :: dydt(:)
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: vtdot
-      real(dp) :: x(2*max_modes), acc(max_modes)
       real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, radius, normal, friction
       real(dp) :: tip_push
-      integer :: n, i, j
+      integer :: n, j
 
       n = self%n_modes
       associate (s => self%scene)
-         do i = 1, 2*n
-            x(i) = y(i)
-         end do
-         do i = 1, n
-            acc(i) = self%drive_sin(i)*sin_phase + self%drive_cos(i)*cos_phase
-         end do
          vt = 0
          vtdot = 0
+         axial = 0
+         tip_push = 0
          if (in_contact .or. want_gap) then
             tip_a = 0
             slope_a = 0
             tip_adot = 0
             do j = 1, n
-               tip_a = tip_a + self%tip(j)*x(j)
-               slope_a = slope_a + self%slope(j)*x(j)
-               tip_adot = tip_adot + self%tip(j)*x(n + j)
+               tip_a = tip_a + self%tip(j)*y(j)
+               slope_a = slope_a + self%scaled_slope(j)*y(j)
+               tip_adot = tip_adot + self%tip(j)*y(n + j)
             end do
             vt = tip_a + s%alpha2*sin_phase + s%delta_hat
             vtdot = tip_adot + s%alpha2*s%omega*cos_phase
          end if
          if (in_contact) then
-            call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a/s%l_over_d, &
+            call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a, &
                                        self%errata%e7_signed_slope, sin1, cos1)
             call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
                                 transverse, axial, radius, normal, friction)
             ! Everything that acts along p: P1, the contact damping and its base term.
             tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*sin_phase &
                        + self%base_cos*cos_phase
-            do i = 1, n
-               acc(i) = acc(i) + tip_push*self%inv_mass_tip(i) + axial*self%moment_force(i)
-            end do
-            ! B's displacement half and the axial stiffness P2 M^-1 G in one pass, then B's
-            ! velocity half.
-            call add_product_pair(n, n, self%free_pass, self%inv_mass_axial, axial, x, acc)
-            call add_product(n, n, self%free_pass(:, n + 1:), x(n + 1:), acc)
-         else
-            call add_product(n, 2*n, self%free_pass, x, acc)
          end if
-         do i = 1, n
-            dydt(i) = x(n + i)
-            dydt(n + i) = acc(i)
-         end do
+         call accumulate(n, self%n_padded, self%pass_terms, self%pass_a, self%pass_v, self%pass_g, y, &
+                         in_contact, sin_phase, cos_phase, tip_push, axial, dydt)
       end associate
    end subroutine rhs_kernel
 
-   !> acc += b x for an n x m matrix b, four columns per sweep of acc.
-   pure subroutine add_product(n, m, b, x, acc)
+   !> dydt = (a', a'') from the folded terms: the drive and the columns of B, which do not
+   !> depend on the contact forces (so that they overlap with the contact's square roots),
+   !> then, in contact, tip_push M^-1 p + P2 ((g0/d) M^-1 r + M^-1 G a).  N <= 4 (one block of
+   !> rows_per_block rows) keeps a'' in registers, with inner loops of constant length; larger
+   !> N sweeps whole padded columns (unit stride, vectorised along the rows).  Explicit shapes:
+   !> the compiler knows the strides and that nothing aliases.
+   pure subroutine accumulate(n, n_padded, terms, pa, pv, pg, y, in_contact, sin_phase, cos_phase, &
+                              tip_push, axial, dydt)
       integer, intent(in) :: n
-      integer, intent(in) :: m
-      real(dp), intent(in) :: b(n, m)
-      real(dp), intent(in) :: x(m)
-      real(dp), intent(inout) :: acc(n)
-      integer :: i, j
-      do j = 1, m - 3, 4
-         do i = 1, n
-            acc(i) = acc(i) + (b(i, j)*x(j) + b(i, j + 1)*x(j + 1) + b(i, j + 2)*x(j + 2) &
-                               + b(i, j + 3)*x(j + 3))
+      integer, intent(in) :: n_padded
+      real(dp), intent(in) :: terms(n_padded, 4)
+      real(dp), intent(in) :: pa(n_padded, n)
+      real(dp), intent(in) :: pv(n_padded, n)
+      real(dp), intent(in) :: pg(n_padded, n)
+      real(dp), intent(in) :: y(2*n)
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      real(dp), intent(in) :: tip_push
+      real(dp), intent(in) :: axial
+      real(dp), intent(out) :: dydt(2*n)
+      real(dp) :: block(rows_per_block), block_stiff(rows_per_block)
+      real(dp) :: acc(n_max_padded), stiff(n_max_padded), xa, xv, xa2, xv2
+      integer :: i, j, last
+      if (n_padded == rows_per_block) then
+         do i = 1, rows_per_block
+            block(i) = terms(i, 1)*sin_phase + terms(i, 2)*cos_phase
          end do
-      end do
-      do j = m - mod(m, 4) + 1, m
+         if (in_contact) then
+            do i = 1, rows_per_block
+               block_stiff(i) = terms(i, 4)
+            end do
+            do j = 1, n
+               xa = y(j)
+               xv = y(n + j)
+               do i = 1, rows_per_block
+                  block(i) = block(i) + (pa(i, j)*xa + pv(i, j)*xv)
+                  block_stiff(i) = block_stiff(i) + pg(i, j)*xa
+               end do
+            end do
+            do i = 1, rows_per_block
+               block(i) = block(i) + tip_push*terms(i, 3) + axial*block_stiff(i)
+            end do
+         else
+            do j = 1, n
+               xa = y(j)
+               xv = y(n + j)
+               do i = 1, rows_per_block
+                  block(i) = block(i) + (pa(i, j)*xa + pv(i, j)*xv)
+               end do
+            end do
+         end if
          do i = 1, n
-            acc(i) = acc(i) + b(i, j)*x(j)
+            dydt(i) = y(n + i)
+            dydt(n + i) = block(i)
          end do
+         return
+      end if
+      do i = 1, n_padded
+         acc(i) = terms(i, 1)*sin_phase + terms(i, 2)*cos_phase
       end do
-   end subroutine add_product
-
-   !> acc += (b + c g) x for n x m matrices b and g, four columns per sweep of acc.
-   pure subroutine add_product_pair(n, m, b, g, c, x, acc)
-      integer, intent(in) :: n
-      integer, intent(in) :: m
-      real(dp), intent(in) :: b(n, m)
-      real(dp), intent(in) :: g(n, m)
-      real(dp), intent(in) :: c
-      real(dp), intent(in) :: x(m)
-      real(dp), intent(inout) :: acc(n)
-      integer :: i, j
-      do j = 1, m - 3, 4
-         do i = 1, n
-            acc(i) = acc(i) + ((b(i, j) + c*g(i, j))*x(j) + (b(i, j + 1) + c*g(i, j + 1))*x(j + 1) &
-                               + (b(i, j + 2) + c*g(i, j + 2))*x(j + 2) &
-                               + (b(i, j + 3) + c*g(i, j + 3))*x(j + 3))
+      ! Two columns per sweep of acc (half the loads and stores of acc), then the odd one.
+      last = n - mod(n, 2)
+      if (in_contact) then
+         do i = 1, n_padded
+            stiff(i) = terms(i, 4)
          end do
-      end do
-      do j = m - mod(m, 4) + 1, m
-         do i = 1, n
-            acc(i) = acc(i) + (b(i, j) + c*g(i, j))*x(j)
+         do j = 1, last, 2
+            xa = y(j)
+            xv = y(n + j)
+            xa2 = y(j + 1)
+            xv2 = y(n + j + 1)
+            do i = 1, n_padded
+               acc(i) = acc(i) + ((pa(i, j)*xa + pv(i, j)*xv) + (pa(i, j + 1)*xa2 + pv(i, j + 1)*xv2))
+               stiff(i) = stiff(i) + (pg(i, j)*xa + pg(i, j + 1)*xa2)
+            end do
          end do
+         do j = last + 1, n
+            do i = 1, n_padded
+               acc(i) = acc(i) + (pa(i, j)*y(j) + pv(i, j)*y(n + j))
+               stiff(i) = stiff(i) + pg(i, j)*y(j)
+            end do
+         end do
+         do i = 1, n_padded
+            acc(i) = acc(i) + tip_push*terms(i, 3) + axial*stiff(i)
+         end do
+      else
+         do j = 1, last, 2
+            xa = y(j)
+            xv = y(n + j)
+            xa2 = y(j + 1)
+            xv2 = y(n + j + 1)
+            do i = 1, n_padded
+               acc(i) = acc(i) + ((pa(i, j)*xa + pv(i, j)*xv) + (pa(i, j + 1)*xa2 + pv(i, j + 1)*xv2))
+            end do
+         end do
+         do j = last + 1, n
+            do i = 1, n_padded
+               acc(i) = acc(i) + (pa(i, j)*y(j) + pv(i, j)*y(n + j))
+            end do
+         end do
+      end if
+      do i = 1, n
+         dydt(i) = y(n + i)
+         dydt(n + i) = acc(i)
       end do
-   end subroutine add_product_pair
+   end subroutine accumulate
 
    pure subroutine model_matrices(self, tau, a, in_contact, mass, damping, stiffness, force)
       class(model_t), intent(in) :: self

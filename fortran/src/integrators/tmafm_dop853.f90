@@ -144,12 +144,14 @@ contains
       real(dp), intent(in), contiguous :: f0(:)
       real(dp), intent(out), contiguous :: y_new(:)
       real(dp), intent(out), contiguous :: f_new(:)
-      call dop853_stages(model, size(y), tau, y, h, in_contact, f0, self%k, self%stage, y_new, f_new)
+      call dop853_stages(model, size(y), tau, y, h, in_contact, f0, self%k, self%stage, y_new, f_new, &
+                         self%sin_end, self%cos_end)
    end subroutine dop853_step
 
    !> The stages of dop853_step on explicit-shape registers (the compiler sees unit strides
-   !> and no aliasing): k(:, 2:12), the new state and f_new.
-   pure subroutine dop853_stages(model, n, tau, y, h, in_contact, f0, k, stage, y_new, f_new)
+   !> and no aliasing): k(:, 2:12), the new state, f_new and the drive phase at tau + h.
+   pure subroutine dop853_stages(model, n, tau, y, h, in_contact, f0, k, stage, y_new, f_new, &
+                                 sin_end, cos_end)
       type(model_t), intent(in) :: model
       integer, intent(in) :: n
       real(dp), intent(in) :: tau
@@ -161,9 +163,13 @@ contains
       real(dp), intent(inout) :: stage(n)
       real(dp), intent(out) :: y_new(n)
       real(dp), intent(out) :: f_new(n)
+      real(dp), intent(out) :: sin_end
+      real(dp), intent(out) :: cos_end
       real(dp) :: sin_phase(size(step_nodes)), cos_phase(size(step_nodes))
 
       call stage_phases(model, tau, h, step_nodes, sin_phase, cos_phase)
+      sin_end = sin_phase(11)
+      cos_end = cos_phase(11)
       stage = y + h*a2_1*f0
       call model%derivative_at_phase(stage, in_contact, sin_phase(1), cos_phase(1), k(:, 2))
       stage = y + h*(a3_1*f0 + a3_2*k(:, 2))

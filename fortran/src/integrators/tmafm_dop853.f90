@@ -144,12 +144,16 @@ contains
       real(dp), intent(in), contiguous :: f0(:)
       real(dp), intent(out), contiguous :: y_new(:)
       real(dp), intent(out), contiguous :: f_new(:)
-      call dop853_stages(model, size(y), tau, y, h, in_contact, f0, self%k, self%stage, y_new, f_new)
+      call dop853_stages(model, size(y), tau, y, h, in_contact, f0, self%k, self%stage, y_new, f_new, &
+                         self%err5, self%err3, self%sin_end, self%cos_end)
    end subroutine dop853_step
 
    !> The stages of dop853_step on explicit-shape registers (the compiler sees unit strides
-   !> and no aliasing): k(:, 2:12), the new state and f_new.
-   pure subroutine dop853_stages(model, n, tau, y, h, in_contact, f0, k, stage, y_new, f_new)
+   !> and no aliasing): k(:, 2:12), the new state, f_new, the fifth- and third-order error
+   !> estimates (in the pass that forms the new state: they weigh the same stages) and the
+   !> drive phase at tau + h.
+   pure subroutine dop853_stages(model, n, tau, y, h, in_contact, f0, k, stage, y_new, f_new, &
+                                 err5, err3, sin_end, cos_end)
       type(model_t), intent(in) :: model
       integer, intent(in) :: n
       real(dp), intent(in) :: tau
@@ -161,9 +165,16 @@ contains
       real(dp), intent(inout) :: stage(n)
       real(dp), intent(out) :: y_new(n)
       real(dp), intent(out) :: f_new(n)
+      real(dp), intent(out) :: err5(n)
+      real(dp), intent(out) :: err3(n)
+      real(dp), intent(out) :: sin_end
+      real(dp), intent(out) :: cos_end
       real(dp) :: sin_phase(size(step_nodes)), cos_phase(size(step_nodes))
+      integer :: i
 
       call stage_phases(model, tau, h, step_nodes, sin_phase, cos_phase)
+      sin_end = sin_phase(11)
+      cos_end = cos_phase(11)
       stage = y + h*a2_1*f0
       call model%derivative_at_phase(stage, in_contact, sin_phase(1), cos_phase(1), k(:, 2))
       stage = y + h*(a3_1*f0 + a3_2*k(:, 2))
@@ -190,12 +201,19 @@ contains
       stage = y + h*(a12_1*f0 + a12_4*k(:, 4) + a12_5*k(:, 5) + a12_6*k(:, 6) + a12_7*k(:, 7) &
                      + a12_8*k(:, 8) + a12_9*k(:, 9) + a12_10*k(:, 10) + a12_11*k(:, 11))
       call model%derivative_at_phase(stage, in_contact, sin_phase(11), cos_phase(11), k(:, 12))
-      y_new = y + h*(b1*f0 + b6*k(:, 6) + b7*k(:, 7) + b8*k(:, 8) + b9*k(:, 9) + b10*k(:, 10) &
-                     + b11*k(:, 11) + b12*k(:, 12))
+      do i = 1, n
+         y_new(i) = y(i) + h*(b1*f0(i) + b6*k(i, 6) + b7*k(i, 7) + b8*k(i, 8) + b9*k(i, 9) &
+                              + b10*k(i, 10) + b11*k(i, 11) + b12*k(i, 12))
+         err5(i) = e5_1*f0(i) + e5_6*k(i, 6) + e5_7*k(i, 7) + e5_8*k(i, 8) + e5_9*k(i, 9) &
+                   + e5_10*k(i, 10) + e5_11*k(i, 11) + e5_12*k(i, 12)
+         err3(i) = e3_1*f0(i) + e3_6*k(i, 6) + e3_7*k(i, 7) + e3_8*k(i, 8) + e3_9*k(i, 9) &
+                   + e3_10*k(i, 10) + e3_11*k(i, 11) + e3_12*k(i, 12)
+      end do
       call model%derivative_at_phase(y_new, in_contact, sin_phase(11), cos_phase(11), f_new)
    end subroutine dop853_stages
 
-   !> Hairer's DOP853 estimate; f_new is not used (its weights e5_13 and e3_13 are zero).
+   !> Hairer's DOP853 estimate from err5 and err3 (formed by dop853_stages); f_new is not used
+   !> (its weights e5_13 and e3_13 are zero).
    pure subroutine dop853_error_norm(self, h, f0, f_new, scale, norm)
       class(dop853_pair_t), intent(inout) :: self
       real(dp), intent(in) :: h
@@ -204,7 +222,6 @@ contains
       type(error_scale_t), intent(in) :: scale
       real(dp), intent(out) :: norm
       real(dp) :: s5, s3
-      call error_estimates(size(f0), f0, self%k, self%err5, self%err3)
       s5 = scale%sum_of_squares(self%err5)
       s3 = scale%sum_of_squares(self%err3)
       if (s5 == 0 .and. s3 == 0) then
@@ -213,19 +230,6 @@ contains
          norm = abs(h)*s5/sqrt(s5 + 0.01_dp*s3)
       end if
    end subroutine dop853_error_norm
-
-   !> The fifth- and third-order error estimates of the last step, on explicit-shape registers.
-   pure subroutine error_estimates(n, f0, k, err5, err3)
-      integer, intent(in) :: n
-      real(dp), intent(in) :: f0(n)
-      real(dp), intent(in) :: k(n, 2:16)
-      real(dp), intent(out) :: err5(n)
-      real(dp), intent(out) :: err3(n)
-      err5 = e5_1*f0 + e5_6*k(:, 6) + e5_7*k(:, 7) + e5_8*k(:, 8) + e5_9*k(:, 9) &
-             + e5_10*k(:, 10) + e5_11*k(:, 11) + e5_12*k(:, 12)
-      err3 = e3_1*f0 + e3_6*k(:, 6) + e3_7*k(:, 7) + e3_8*k(:, 8) + e3_9*k(:, 9) &
-             + e3_10*k(:, 10) + e3_11*k(:, 11) + e3_12*k(:, 12)
-   end subroutine error_estimates
 
    pure function dop853_growth(self, norm) result(ratio)
       class(dop853_pair_t), intent(in) :: self

@@ -86,6 +86,8 @@ contains
       real(dp) :: sin_phase(size(step_nodes)), cos_phase(size(step_nodes))
 
       call stage_phases(model, tau, h, step_nodes, sin_phase, cos_phase)
+      self%sin_end = sin_phase(5)
+      self%cos_end = cos_phase(5)
       associate (k2 => self%k2, k3 => self%k3, k4 => self%k4, k5 => self%k5, k6 => self%k6, &
                  stage => self%stage)
          stage = y + h*a21*f0

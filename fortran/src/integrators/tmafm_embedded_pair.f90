@@ -40,6 +40,9 @@ module tmafm_embedded_pair
       integer :: dense_evaluations = 0
       !> Smallest and largest ratio of a new step to the old one (Hairer's fac1, fac2).
       real(dp) :: shrink_limit = 0.2_dp, grow_limit = 5.0_dp
+      !> sin and cos of the drive phase Omega (tau + h) at the end of the last step (from
+      !> stage_phases, as f_new used them).
+      real(dp) :: sin_end = 0, cos_end = 1
    contains
       !> Allocate the registers for a state of size n_state.
       procedure(pair_init), deferred :: init

@@ -124,10 +124,12 @@ contains
       self%h = settings%dtau
    end subroutine adaptive_init
 
-   !> V_T, dV_T/dtau and the switch margin (tmafm_events) at a state, with one sin and one cos.
-   pure subroutine gap_state(model, tau, y, vt, rate, margin, drive)
+   !> V_T, dV_T/dtau and the switch margin (tmafm_events) at a state, given sin and cos of the
+   !> drive phase there.
+   pure subroutine gap_state(model, sin_phase, cos_phase, y, vt, rate, margin, drive)
       type(model_t), intent(in) :: model
-      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
       real(dp), intent(in) :: y(:)
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: rate
@@ -137,9 +139,9 @@ contains
       integer :: n
       n = model%n_modes
       associate (s => model%scene)
-         drive = s%alpha2*sin(s%omega*tau)
+         drive = s%alpha2*sin_phase
          vt = dot_product(model%tip, y(1:n)) + drive + s%delta_hat
-         rate = dot_product(model%tip, y(n + 1:2*n)) + s%alpha2*s%omega*cos(s%omega*tau)
+         rate = dot_product(model%tip, y(n + 1:2*n)) + s%alpha2*s%omega*cos_phase
          ! As tmafm_events switch_margin, without a second sin.
          margin = 64*epsilon(1.0_dp)*(sum(abs(model%tip*y(1:n))) + abs(s%alpha2) + abs(s%delta_hat)) &
                   + tiny(1.0_dp)
@@ -159,7 +161,7 @@ contains
       type(observer_t), intent(inout), optional :: observer
 
       type(bracketed_root_t) :: root
-      real(dp) :: h, norm, side, s_test, theta, step_taken, drive, drive1
+      real(dp) :: h, norm, side, s_test, theta, step_taken, drive, drive1, sin_test, cos_test
       ! V_T, its rate and the margin at the step start (0) and end (1); G = side V_T + margin0.
       real(dp) :: vt0, rate0, margin0, vt1, rate1, margin1, vt_test, rate_test, margin_test
       logical :: have_f0, dense_ready, phase_start
@@ -178,7 +180,8 @@ contains
                traj%rhs_evaluations = traj%rhs_evaluations + 1
                have_f0 = .true.
                side = phase_sign(self%in_contact)
-               call gap_state(model, tau, y, vt0, rate0, margin0, drive)
+               call model%phase(tau, sin_test, cos_test)
+               call gap_state(model, sin_test, cos_test, y, vt0, rate0, margin0, drive)
                phase_start = .true.
                call controller%restart()
                if (self%h_phase_start(phase_index(self%in_contact)) > 0) &
@@ -205,14 +208,16 @@ contains
             if (phase_start) self%h_phase_start(phase_index(self%in_contact)) = h
             phase_start = .false.
 
-            call gap_state(model, tau + h, y_new, vt1, rate1, margin1, drive1)
+            ! The drive phase at tau + h: the pair's, as f_new used it (no sin/cos here).
+            call gap_state(model, pair%sin_end, pair%cos_end, y_new, vt1, rate1, margin1, drive1)
             call step_event_test(side*vt0 + margin0, side*rate0, side*vt1 + margin0, side*rate1, h, &
                                  self%in_contact, status, s_test)
             if (status == event_candidate) then
                ! Is the dip of the interpolant real?  Check the dense output there.
                call build_dense(self, model, traj, h, dense_ready)
                call pair%dense(s_test/h, y_sample)
-               call gap_state(model, tau + s_test, y_sample, vt_test, rate_test, margin_test, drive)
+               call model%phase(tau + s_test, sin_test, cos_test)
+               call gap_state(model, sin_test, cos_test, y_sample, vt_test, rate_test, margin_test, drive)
                if (side*vt_test + margin0 > 0) status = no_event
             end if
             step_taken = h

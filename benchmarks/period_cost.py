@@ -6,7 +6,7 @@ against scipy's solve_ivp (DOP853 with events) at equal error.
     /opt/tmafm-venv/bin/python benchmarks/period_cost.py --table benchmarks/period_cost.json
 
 Cost: CPU time (user + sys) of the whole `tmafm` process over `periods` drive periods, one
-output row per period, divided by the periods (the least of 3 runs for the adaptive methods); every number comes from the same run of this
+output row per period, divided by the periods (the least of --repeat runs, default 3, for the adaptive methods); every number comes from the same run of this
 script, so compare ratios.  Error: max |V_T - V_T_ref| over the first 20 periods, sampled
 every 0.05, against flight_exact at rtol 1e-13, atol 1e-18.  The scipy peer
 (tmafm/_peer.py) integrates 100 periods at rtol 1e-10 (its call timed whole, in CPU time);
@@ -68,14 +68,14 @@ def groups(scene, solver, periods, sample_dtau, out_file):
     return nml
 
 
-def process_cpu(nml, scratch, repeat=REPEAT):
+def process_cpu(nml, scratch, repeat=None):
     """CPU seconds (user + sys) of one whole tmafm process on the namelist dict: the least
     of `repeat` runs."""
     import f90nml
     path = Path(scratch) / "run.nml"
     f90nml.write(f90nml.Namelist(nml), str(path), force=True)
     times = []
-    for _ in range(repeat):
+    for _ in range(REPEAT if repeat is None else repeat):
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         subprocess.run([tmafm.executable(), "-q", str(path)], check=True, cwd=scratch)
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -90,7 +90,7 @@ def vt_error(scene, solver, reference):
 
 
 def study(periods, with_scipy, progress=print):
-    report = {"tmafm": tmafm.__version__, "periods": periods,
+    report = {"tmafm": tmafm.__version__, "periods": periods, "repeat": REPEAT,
               "cost": "CPU (user+sys) of the whole tmafm process / periods; one row per period",
               "error": f"max |V_T - V_T_ref| over {ERROR_PERIODS} periods, samples every 0.05; "
                        "ref flight_exact rtol 1e-13 atol 1e-18",
@@ -202,17 +202,21 @@ def table(report):
 
 
 def main():
+    global REPEAT
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--table", type=Path, help="print the markdown tables of a JSON and stop")
     parser.add_argument("--periods", type=int, default=1000)
     parser.add_argument("--out", type=Path, default=REPO / "benchmarks")
     parser.add_argument("--skip-scipy", action="store_true")
+    parser.add_argument("--repeat", type=int, default=REPEAT,
+                        help="time each adaptive run this many times and keep the least")
     args = parser.parse_args()
     if args.table:
         print(table(json.loads(args.table.read_text())))
         return
     if args.out.resolve() == (REPO / "benchmarks").resolve() and args.periods != 1000:
         parser.error("a shortened run must not overwrite the committed results: pass --out")
+    REPEAT = args.repeat
     report = study(args.periods, not args.skip_scipy)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "period_cost.json").write_text(json.dumps(report, indent=1))

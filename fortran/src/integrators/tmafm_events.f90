@@ -44,11 +44,9 @@ contains
    !> The round-off level of V_T at a state: 64 eps times the size of the terms of V_T.  The
    !> drive counts with its amplitude alpha2, not its value at tau: the margin is then never
    !> zero (at rest at tau = 0 every term vanishes, and a zero margin let a phase end where it
-   !> began, a zero-length step, again and again: the rk4_event dtau = 1 hang).  tau is unused
-   !> (the margin does not depend on the drive phase); it stays for the callers' convenience.
-   pure function switch_margin(model, tau, y) result(margin)
+   !> began, a zero-length step, again and again: the rk4_event dtau = 1 hang).
+   pure function switch_margin(model, y) result(margin)
       type(model_t), intent(in) :: model
-      real(dp), intent(in) :: tau
       real(dp), intent(in) :: y(:)
       real(dp) :: margin
       margin = 64*epsilon(1.0_dp)*(sum(abs(model%tip*y(1:model%n_modes))) &

@@ -243,7 +243,7 @@ contains
       end do
       self%tip_weight = self%z*self%tip_of_vector
       self%weight4 = self%multiplicity*abs(self%tip_weight)*abs(self%eigenvalue)**4
-      self%margin = switch_margin(model, tau, y)
+      self%margin = switch_margin(model, y)
       self%fourth_derivative_bound = sum(self%weight4) + self%harmonic_bound
       self%since_anchor = anchor_every
    end subroutine flight_start

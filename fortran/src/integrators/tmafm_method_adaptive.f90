@@ -17,7 +17,8 @@ module tmafm_method_adaptive
    use tmafm_error_scale, only: error_scale_t
    use tmafm_dopri5, only: dopri5_pair_t
    use tmafm_dop853, only: dop853_pair_t
-   use tmafm_events, only: no_event, event_candidate, step_event_test, initial_phase, phase_sign
+   use tmafm_events, only: no_event, event_candidate, step_event_test, initial_phase, phase_sign, &
+                           switch_margin
    use tmafm_roots, only: bracketed_root_t
    use tmafm_observers, only: observer_t, stop_requested
    implicit none
@@ -136,16 +137,9 @@ contains
       real(dp), intent(out) :: margin
       !> The drive term alpha2 sin(Omega tau) of V_T.
       real(dp), intent(out) :: drive
-      integer :: n
-      n = model%n_modes
-      associate (s => model%scene)
-         drive = s%alpha2*sin_phase
-         vt = dot_product(model%tip, y(1:n)) + drive + s%delta_hat
-         rate = dot_product(model%tip, y(n + 1:2*n)) + s%alpha2*s%omega*cos_phase
-         ! As tmafm_events switch_margin, without a second sin.
-         margin = 64*epsilon(1.0_dp)*(sum(abs(model%tip*y(1:n))) + abs(s%alpha2) + abs(s%delta_hat)) &
-                  + tiny(1.0_dp)
-      end associate
+      call model%gap_at_phase(y, sin_phase, cos_phase, vt, rate)
+      drive = model%scene%alpha2*sin_phase
+      margin = switch_margin(model, y)
    end subroutine gap_state
 
    subroutine adaptive_advance(self, model, settings, traj, stop_at_switch, ierr, errmsg, progress, &

@@ -69,7 +69,7 @@ contains
          if (ierr /= ok) return
 
          side = phase_sign(in_contact)
-         margin = switch_margin(model, tau, y)
+         margin = switch_margin(model, y)
          call step_event_test(side*model%tip_gap(tau, y) + margin, side*model%tip_gap_rate(tau, y), &
                               side*model%tip_gap(tau + h, y_new) + margin, &
                               side*model%tip_gap_rate(tau + h, y_new), h, in_contact, status, s_test)

@@ -287,20 +287,16 @@ contains
       class(model_t), intent(in) :: self
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: y(:)
-      real(dp) :: vt
-      vt = dot_product(self%tip, y(1:self%n_modes)) &
-           + self%scene%alpha2*sin(self%scene%omega*tau) + self%scene%delta_hat
+      real(dp) :: vt, vtdot
+      call self%gap_at_phase(y, sin(self%scene%omega*tau), cos(self%scene%omega*tau), vt, vtdot)
    end function model_tip_gap
 
    pure function model_tip_gap_rate(self, tau, y) result(vtdot)
       class(model_t), intent(in) :: self
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: y(:)
-      real(dp) :: vtdot
-      integer :: n
-      n = self%n_modes
-      vtdot = dot_product(self%tip, y(n + 1:2*n)) &
-              + self%scene%alpha2*self%scene%omega*cos(self%scene%omega*tau)
+      real(dp) :: vtdot, vt
+      call self%gap_at_phase(y, sin(self%scene%omega*tau), cos(self%scene%omega*tau), vt, vtdot)
    end function model_tip_gap_rate
 
    pure subroutine model_gap_at_phase(self, y, sin_phase, cos_phase, vt, vtdot)

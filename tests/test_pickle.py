@@ -37,7 +37,8 @@ def _vt_in_child(config):
 def test_config_runs_in_a_spawned_process():
     config = tmafm.Config("fig4a", **SHORT)
     with multiprocessing.get_context("spawn").Pool(1) as pool:
-        vt = pool.apply(_vt_in_child, (config,))
+        # A child that crashed would leave the pool waiting: bound the wait.
+        vt = pool.apply_async(_vt_in_child, (config,)).get(timeout=120)
     np.testing.assert_array_equal(vt, config.run().vt)
 
 

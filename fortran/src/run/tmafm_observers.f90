@@ -115,6 +115,7 @@ module tmafm_observers
       real(dp), allocatable :: acc_modal(:, :)
       !> Work array: each mode's a_j at a piece's nodes (node, mode).
       real(dp), allocatable :: modal_nodes(:, :)
+      !> Contacts begun in the current period.
       integer :: contacts = 0
       !> Gauss-Legendre nodes and weights on [-1, 1]; state registers.
       real(dp) :: gl_x(gl_points) = 0, gl_w(gl_points) = 0

@@ -93,8 +93,9 @@ contains
    !> The accepted method names as text: 'a', 'b' or 'c'.
    pure function method_choices() result(text)
       ! A length from the names, not a deferred length (not thread-safe with gfortran 12, see
-      ! tmafm_text); every piece ends in a quote, so trim(text) is the text so far.
-      character(len=sum(len_trim(method_names)) + 4*size(method_names) - 2) :: text
+      ! tmafm_text); every piece ends in a quote, so trim(text) is the text so far.  Two quotes
+      ! per name; between n >= 2 names, n - 2 times ', ' and once ' or ': 2n characters.
+      character(len=sum(len_trim(method_names)) + 4*size(method_names)) :: text
       integer :: k
       text = ''''//trim(method_names(1))//''''
       do k = 2, size(method_names)

@@ -14,12 +14,11 @@ import sys
 from pathlib import Path
 
 #: Wrapped routines that run without the GIL (they touch no Python object; choosing N in
-#: config_from_text runs the comparison runs).  config_from_texts keeps the GIL: released, two
-#: threads calling it at once corrupted each other's input text (1 call in 30 of
-#: tests/test_threads.py's mix; cause not yet found, see docs/model-notes.md), while
-#: config_from_text did not, in the same experiment.
+#: config_from_text(s) runs the comparison runs).  The core keeps no state between calls, and
+#: returns no deferred-length function result (gfortran 12 keeps the length of one in a static
+#: variable of the caller: docs/model-notes.md, finding 11; tests/test_threads.py checks it).
 THREADSAFE = ("f90wrap_tmafm_api__run_config", "f90wrap_tmafm_api__config_from_text",
-              "f90wrap_tmafm_api__trajectory_energy_flow")
+              "f90wrap_tmafm_api__config_from_texts", "f90wrap_tmafm_api__trajectory_energy_flow")
 #: Core entities that Python never calls (the integrators' own helpers).
 SKIP = ["check_blowup", "init_trajectory", "scene_from_physical", "errata_for_convention", "parse_errata",
         "errata_label", "contact_angle", "contact_radius", "normal_force_group", "friction_group",

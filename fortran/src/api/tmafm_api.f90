@@ -143,7 +143,9 @@ contains
    function config_text_length(config) result(n)
       type(config_t), intent(in) :: config
       integer :: n
-      n = len(config_text(config))
+      character(len=:), allocatable :: text
+      call config_text(config, text)
+      n = len(text)
    end function config_text_length
 
    !> The resolved input text as character codes, into `codes` (sized by config_text_length).
@@ -152,7 +154,7 @@ contains
       integer, intent(inout) :: codes(:)
       character(len=:), allocatable :: text
       integer :: k
-      text = config_text(config)
+      call config_text(config, text)
       codes = 0
       do k = 1, min(len(text), size(codes))
          codes(k) = iachar(text(k:k))

@@ -15,7 +15,7 @@ module tmafm_namelist
       ieee_positive_inf, ieee_negative_inf
    use tmafm_kinds, only: dp, i8
    use tmafm_errors, only: ok, err_input
-   use tmafm_text, only: real_text, int_text, lower, short_real_text
+   use tmafm_text, only: real_text, real_text_padded, int_text, lower, short_real_text
    use tmafm_modes, only: max_modes
    use tmafm_scene, only: scene_t, physical_t, scene_from_physical, scene_names, scene_values, &
       scene_lower, scene_upper, scene_lower_closed, scene_upper_open, physical_names, &
@@ -555,14 +555,10 @@ contains
          end if
       end if
    contains
-      function depends_text(keys) result(text)
+      pure function depends_text(keys) result(text)
          integer, intent(in) :: keys(:)
-         character(len=:), allocatable :: text
-         integer :: i
-         text = trim(physical_names(keys(1)))
-         do i = 2, size(keys)
-            text = text//', '//trim(physical_names(keys(i)))
-         end do
+         character(len=names_length(physical_names(keys))) :: text
+         text = names_text(physical_names(keys))
       end function depends_text
    end subroutine check_derived
 
@@ -756,10 +752,11 @@ contains
       end if
    end function in_range
 
-   function range_text(lower_bound, upper_bound, lower_closed, upper_open) result(text)
+   pure function range_text(lower_bound, upper_bound, lower_closed, upper_open) result(text)
       real(dp), intent(in) :: lower_bound, upper_bound
       logical, intent(in) :: lower_closed, upper_open
-      character(len=:), allocatable :: text
+      character(len=len('finite, ') + merge(2, 1, lower_closed) + 1 + len(real_text(lower_bound)) + &
+                len(' and ') + merge(1, 2, upper_open) + 1 + len(real_text(upper_bound))) :: text
       text = 'finite, '//trim(merge('>=', '> ', lower_closed))//' '//real_text(lower_bound)// &
              ' and '//trim(merge('< ', '<=', upper_open))//' '//real_text(upper_bound)
    end function range_text
@@ -824,16 +821,19 @@ contains
          end if
       end do
       e%key = key
-      e%written = real_text(value)//' (default)'
+      e%written = trim(real_text_padded(value))//' (default)'
       e%line = 0
    end function entry_or_default
 
-   function kind_phrase(value) result(text)
+   pure function kind_phrase(value) result(text)
       type(nml_value_t), intent(in) :: value
-      character(len=:), allocatable :: text
-      text = value_kind_name(value%kind)
-      if (value%kind == value_word) text = text//' (strings must be quoted)'
-      if (value%kind == value_logical) text = text
+      character(len=len(value_kind_name(value%kind)) + &
+                merge(len(' (strings must be quoted)'), 0, value%kind == value_word)) :: text
+      if (value%kind == value_word) then
+         text = value_kind_name(value%kind)//' (strings must be quoted)'
+      else
+         text = value_kind_name(value%kind)
+      end if
    end function kind_phrase
 
    !> Position of `name` in `names` (blank-padded comparison), 0 if absent.
@@ -846,15 +846,23 @@ contains
       index_of = 0
    end function index_of
 
-   function names_text(names) result(text)
+   pure function names_text(names) result(text)
       character(len=*), intent(in) :: names(:)
-      character(len=:), allocatable :: text
-      integer :: k
-      text = trim(names(1))
+      character(len=names_length(names)) :: text
+      integer :: k, n
+      text = names(1)
+      n = len_trim(names(1))
       do k = 2, size(names)
-         text = text//', '//trim(names(k))
+         text(n + 1:) = ', '//names(k)
+         n = n + 2 + len_trim(names(k))
       end do
    end function names_text
+
+   !> Length of names_text(names).
+   pure integer function names_length(names)
+      character(len=*), intent(in) :: names(:)
+      names_length = sum(len_trim(names)) + 2*(size(names) - 1)
+   end function names_length
 
    ! --- writing ----------------------------------------------------------------------------
 
@@ -867,7 +875,7 @@ contains
       character(len=:), allocatable :: text
       integer :: first, eol
 
-      text = config_text(config)
+      call config_text(config, text)
       first = 1
       do while (first <= len(text))
          eol = index(text(first:), new_line('a'))
@@ -878,9 +886,11 @@ contains
 
    !> The resolved input as namelist text (every key, defaults included), one line per key,
    !> each line ended by new_line('a').  Reading it back gives the same configuration.
-   function config_text(config) result(text)
+   !> (A subroutine, not a function: gfortran 12 keeps the length of a deferred-length function
+   !> result in a static variable of the caller, shared by threads; see tmafm_text.)
+   subroutine config_text(config, text)
       type(config_t), intent(in) :: config
-      character(len=:), allocatable :: text
+      character(len=:), allocatable, intent(out) :: text
       character(len=:), allocatable :: c
       character, parameter :: nl = new_line('a')
       integer :: n, k
@@ -893,8 +903,12 @@ contains
          ! Keep the request, so the file reruns the choice; record the choice as a comment.
          call line('    n_modes = 0')
          if (config%n_mode_differences > 0) then
-            call line('    ! chosen n_modes = '//int_text(n)//search_note()// &
-                      ': max|V_T(N) - V_T(N+1)|/range(V_T): '//differences_text())
+            c = '    ! chosen n_modes = '//int_text(n)
+            call search_note(c)
+            c = c//': max|V_T(N) - V_T(N+1)|/range(V_T): '
+            call differences_text(c)
+            call line('')
+            c = ''
          end if
       else
          call line('    n_modes = '//int_text(n))
@@ -952,53 +966,80 @@ contains
       subroutine put(key, value)
          character(len=*), intent(in) :: key
          real(dp), intent(in) :: value
-         call line('    '//key//' = '//real_text(value))
+         call line('    '//key//' = '//trim(real_text_padded(value)))
       end subroutine put
-      !> Why the chosen N exceeds the N where the search stopped, if it does.
-      function search_note() result(note)
-         character(len=:), allocatable :: note
+      !> Append to `note` why the chosen N exceeds the N where the search stopped, if it does.
+      subroutine search_note(note)
+         character(len=:), allocatable, intent(inout) :: note
          integer :: searched
          searched = config%n_mode_differences
          if (config%mode_differences(searched) > config%mode_tol) searched = searched + 1
-         note = ''
-         if (config%n_modes > searched) note = ' (the search stopped at N = '//int_text(searched)// &
-                                               '; raised to keep every nonzero &initial value)'
-      end function search_note
-      function differences_text() result(list)
-         character(len=:), allocatable :: list
+         if (config%n_modes > searched) note = note//' (the search stopped at N = '// &
+                                               int_text(searched)//'; raised to keep every nonzero '// &
+                                               '&initial value)'
+      end subroutine search_note
+      !> Append to `list` the differences of the search for N.
+      subroutine differences_text(list)
+         character(len=:), allocatable, intent(inout) :: list
          integer :: j
-         list = ''
          do j = 1, config%n_mode_differences
             if (j > 1) list = list//', '
             list = list//'N='//int_text(j)//': '//short_real_text(config%mode_differences(j), 3)
          end do
-      end function differences_text
-   end function config_text
+      end subroutine differences_text
+   end subroutine config_text
 
    !> A string value in quotes, inner quotes doubled.
    pure function quoted(value) result(text)
       character(len=*), intent(in) :: value
-      character(len=:), allocatable :: text
-      integer :: k
-      text = ''''
+      character(len=len_trim(value) + count_quotes(value) + 2) :: text
+      integer :: k, n
+      text(1:1) = ''''
+      n = 1
       do k = 1, len_trim(value)
          if (value(k:k) == '''') then
-            text = text//''''''
+            text(n + 1:n + 2) = ''''''
+            n = n + 2
          else
-            text = text//value(k:k)
+            text(n + 1:n + 1) = value(k:k)
+            n = n + 1
          end if
       end do
-      text = text//''''
+      text(n + 1:n + 1) = ''''
    end function quoted
 
-   function list_text(values) result(text)
+   !> Number of quotes (') in `value`.
+   pure integer function count_quotes(value)
+      character(len=*), intent(in) :: value
+      integer :: k
+      count_quotes = 0
+      do k = 1, len(value)
+         if (value(k:k) == '''') count_quotes = count_quotes + 1
+      end do
+   end function count_quotes
+
+   pure function list_text(values) result(text)
       real(dp), intent(in) :: values(:)
-      character(len=:), allocatable :: text
-      integer :: j
-      text = real_text(values(1))
+      character(len=list_length(values)) :: text
+      character(len=40) :: one
+      integer :: j, n
+      text = real_text_padded(values(1))
+      n = len_trim(text)
       do j = 2, size(values)
-         text = text//', '//real_text(values(j))
+         one = real_text_padded(values(j))
+         text(n + 1:) = ', '//one
+         n = n + 2 + len_trim(one)
       end do
    end function list_text
+
+   !> Length of list_text(values).
+   pure integer function list_length(values)
+      real(dp), intent(in) :: values(:)
+      integer :: j
+      list_length = 2*(size(values) - 1)
+      do j = 1, size(values)
+         list_length = list_length + len_trim(real_text_padded(values(j)))
+      end do
+   end function list_length
 
 end module tmafm_namelist

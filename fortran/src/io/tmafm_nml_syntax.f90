@@ -128,7 +128,7 @@ contains
          return
       end if
       if (starts_with(text, output_header_mark)) then
-         s%text = output_header(text)
+         call output_header(text, s%text)
          s%skip_outside = .true.
          doc%from_output_file = .true.
       else
@@ -173,9 +173,9 @@ contains
 
    !> The header of an output file as namelist text: '# ' dropped, stop at '# columns:' or at
    !> the first line not starting with '#'.  Line numbers are kept.
-   function output_header(text) result(header)
+   pure subroutine output_header(text, header)
       character(len=*), intent(in) :: text
-      character(len=:), allocatable :: header
+      character(len=:), allocatable, intent(out) :: header
       character(len=:), allocatable :: buffer
       integer :: first, last, eol, used, skip
 
@@ -199,7 +199,7 @@ contains
          first = last + 2
       end do
       header = buffer(1:used)
-   end function output_header
+   end subroutine output_header
 
    !> Parse the body of group `name` (its name already read) up to its closing '/'.
    subroutine read_group(s, doc, name, label, ierr, errmsg)
@@ -571,7 +571,16 @@ contains
    !> A short name of a value kind, for messages ('an integer', 'a quoted string', ...).
    pure function value_kind_name(kind) result(name)
       integer, intent(in) :: kind
-      character(len=:), allocatable :: name
+      character(len=len_trim(kind_name_padded(kind))) :: name
+      name = kind_name_padded(kind)
+   end function value_kind_name
+
+   !> value_kind_name blank-padded to 16 characters.  (The text functions of this module give
+   !> their results a length computed from the arguments, never a deferred length: see
+   !> tmafm_text.)
+   pure function kind_name_padded(kind) result(name)
+      integer, intent(in) :: kind
+      character(len=16) :: name
       select case (kind)
       case (value_integer)
          name = 'an integer'
@@ -586,12 +595,12 @@ contains
       case default
          name = 'not a value'
       end select
-   end function value_kind_name
+   end function kind_name_padded
 
    !> `key = values` of an entry as written, for messages.
    pure function entry_text(entry) result(text)
       type(nml_entry_t), intent(in) :: entry
-      character(len=:), allocatable :: text
+      character(len=len(entry%key) + 3 + len(entry%written)) :: text
       text = entry%key//' = '//entry%written
    end function entry_text
 
@@ -670,18 +679,26 @@ contains
    end subroutine read_identifier
 
    !> Up to 40 characters of text from position p to the end of its line.
-   function snippet(text, p) result(piece)
+   pure function snippet(text, p) result(piece)
       character(len=*), intent(in) :: text
       integer, intent(in) :: p
-      character(len=:), allocatable :: piece
+      character(len=len_trim(snippet_padded(text, p))) :: piece
+      piece = snippet_padded(text, p)
+   end function snippet
+
+   !> snippet blank-padded to 40 characters.
+   pure function snippet_padded(text, p) result(piece)
+      character(len=*), intent(in) :: text
+      integer, intent(in) :: p
+      character(len=40) :: piece
       integer :: eol, last
       eol = index(text(p:), new_line('a'))
       last = len(text)
       if (eol > 0) last = p + eol - 2
       last = min(last, p + 39)
-      piece = trim(text(p:last))
-      if (verify(piece, printable()) /= 0) piece = '(non-text bytes)'
-   end function snippet
+      piece = text(p:last)
+      if (verify(trim(piece), printable()) /= 0) piece = '(non-text bytes)'
+   end function snippet_padded
 
    !> Every printable ASCII character.
    pure function printable() result(chars)
@@ -695,7 +712,7 @@ contains
    pure function join(a, b) result(c)
       character(len=*), intent(in) :: a
       character(len=*), intent(in) :: b
-      character(len=:), allocatable :: c
+      character(len=merge(len(b), len(a) + 1 + len(b), len(a) == 0)) :: c
       if (len(a) == 0) then
          c = b
       else

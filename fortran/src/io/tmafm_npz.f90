@@ -41,9 +41,9 @@ module tmafm_npz
 contains
 
    !> The .npy type code of a native `kind_code` ('f8', 'i8', 'i1'): '<f8' on little-endian hosts.
-   function native_descr(kind_code) result(descr)
+   pure function native_descr(kind_code) result(descr)
       character(len=*), intent(in) :: kind_code
-      character(len=:), allocatable :: descr
+      character(len=len(kind_code) + 1) :: descr
       if (kind_code == 'i1') then
          descr = '|i1'
       else if (transfer(1_i8, 'a') == achar(1)) then
@@ -55,14 +55,42 @@ contains
 
    !> The .npy (version 1.0) preamble of an array: magic, header length and the header dict,
    !> padded with blanks to a multiple of 64 bytes.  shape: one entry per dimension (none for 0-d).
-   function npy_header(descr, fortran_order, shape) result(header)
+   !> (Its length is computed from the arguments: a deferred-length result is not thread-safe
+   !> with gfortran 12, see tmafm_text.)
+   pure function npy_header(descr, fortran_order, shape) result(header)
       character(len=*), intent(in) :: descr
       logical, intent(in) :: fortran_order
       integer(i8), intent(in) :: shape(:)
-      character(len=:), allocatable :: header
-      character(len=:), allocatable :: dict, dims
+      character(len=npy_header_length(descr, fortran_order, shape)) :: header
+      character(len=:), allocatable :: dict
+      integer :: total
+
+      call npy_dict(descr, fortran_order, shape, dict)
+      total = len(header)
+      header = char(147)//'NUMPY'//achar(1)//achar(0)//le(int(total - 10, i8), 2)//dict// &
+               repeat(' ', total - 10 - len(dict) - 1)//achar(10)
+   end function npy_header
+
+   !> Length of npy_header(descr, fortran_order, shape): a multiple of 64.
+   pure integer function npy_header_length(descr, fortran_order, shape) result(total)
+      character(len=*), intent(in) :: descr
+      logical, intent(in) :: fortran_order
+      integer(i8), intent(in) :: shape(:)
+      character(len=:), allocatable :: dict
+      call npy_dict(descr, fortran_order, shape, dict)
+      total = 10 + len(dict) + 1
+      total = 64*((total + 63)/64)
+   end function npy_header_length
+
+   !> The header dict of an .npy array.
+   pure subroutine npy_dict(descr, fortran_order, shape, dict)
+      character(len=*), intent(in) :: descr
+      logical, intent(in) :: fortran_order
+      integer(i8), intent(in) :: shape(:)
+      character(len=:), allocatable, intent(out) :: dict
+      character(len=:), allocatable :: dims
       character(len=24) :: number
-      integer :: j, total
+      integer :: j
 
       dims = ''
       do j = 1, size(shape)
@@ -73,11 +101,7 @@ contains
       if (size(shape) == 1) dims = dims//','
       dict = "{'descr': '"//descr//"', 'fortran_order': "//merge('True ', 'False', fortran_order)
       dict = trim(dict)//", 'shape': ("//dims//'), }'
-      total = 10 + len(dict) + 1
-      total = 64*((total + 63)/64)
-      header = char(147)//'NUMPY'//achar(1)//achar(0)//le(int(total - 10, i8), 2)//dict// &
-               repeat(' ', total - 10 - len(dict) - 1)//achar(10)
-   end function npy_header
+   end subroutine npy_dict
 
    !> Size of an archive whose members have these names and byte counts (header + data).
    pure function npz_bytes(name_lengths, member_bytes) result(total)

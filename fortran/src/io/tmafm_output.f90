@@ -236,7 +236,7 @@ contains
          errmsg = 'output file '//shown(sink%path)//' was not opened'
          return
       end if
-      resolved = config_text(config)
+      call config_text(config, resolved)
       if (sink%binary) then
          call write_npz(sink, config, traj, resolved, ierr, errmsg, status)
       else
@@ -427,22 +427,50 @@ contains
    end subroutine write_npz
 
    !> Every line of `text` with `prefix` in front.
-   function prefixed(text, prefix) result(out)
+   !> (Its length is computed from the arguments: a deferred-length result is not thread-safe
+   !> with gfortran 12, see tmafm_text.)
+   pure function prefixed(text, prefix) result(out)
       character(len=*), intent(in) :: text, prefix
-      character(len=:), allocatable :: out
-      integer :: start, stop
-      out = ''
+      character(len=prefixed_length(text, len(prefix))) :: out
+      integer :: start, stop, n
+      n = 0
       start = 1
       do while (start <= len(text))
          stop = index(text(start:), new_line('a'))
          if (stop == 0) then
-            out = out//prefix//text(start:)//new_line('a')
+            out(n + 1:) = prefix//text(start:)//new_line('a')
             exit
          end if
-         out = out//prefix//text(start:start + stop - 1)
+         out(n + 1:n + len(prefix) + stop) = prefix//text(start:start + stop - 1)
+         n = n + len(prefix) + stop
          start = start + stop
       end do
    end function prefixed
+
+   !> Length of prefixed(text, prefix) for a prefix of prefix_length characters.
+   pure integer function prefixed_length(text, prefix_length)
+      character(len=*), intent(in) :: text
+      integer, intent(in) :: prefix_length
+      integer :: lines
+      lines = count_newlines(text)
+      prefixed_length = len(text)
+      if (len(text) > 0) then
+         if (text(len(text):) /= new_line('a')) then
+            lines = lines + 1
+            prefixed_length = prefixed_length + 1
+         end if
+      end if
+      prefixed_length = prefixed_length + lines*prefix_length
+   end function prefixed_length
+
+   pure integer function count_newlines(text)
+      character(len=*), intent(in) :: text
+      integer :: j
+      count_newlines = 0
+      do j = 1, len(text)
+         if (text(j:j) == new_line('a')) count_newlines = count_newlines + 1
+      end do
+   end function count_newlines
 
    !> `text` with control characters shown as '?', so a header line stays one line.
    pure function printable(text) result(out)
@@ -456,9 +484,9 @@ contains
    end function printable
 
    !> A path for a message: quoted, and shortened in the middle past 200 characters.
-   function shown(path) result(text)
+   pure function shown(path) result(text)
       character(len=*), intent(in) :: path
-      character(len=:), allocatable :: text
+      character(len=merge(len(path), 183, len(path) <= 200) + 2) :: text
       if (len(path) <= 200) then
          text = ''''//printable(path)//''''
       else

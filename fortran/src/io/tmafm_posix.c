@@ -156,16 +156,22 @@ int tmafm_check_writable(const char *path)
     return access(path, W_OK) == 0 ? 0 : -errno;
 }
 
-/* The text of an error number (positive errno) into buf[capacity], NUL-terminated. */
+/* The text of an error number (positive errno) into buf[capacity], NUL-terminated.  strerror_r
+   (GNU form: _GNU_SOURCE above), not strerror, whose buffer for unknown codes is shared. */
 void tmafm_error_text(int code, char *buf, int capacity)
 {
     if (capacity <= 0) return;
-    snprintf(buf, (size_t)capacity, "%s", strerror(code));
+    char own[256];
+    const char *text = strerror_r(code, own, sizeof own);
+    snprintf(buf, (size_t)capacity, "%s", text);
 }
 
-/* The ZIP CRC-32 (polynomial 0xEDB88320) tables for slicing by 8, into table[8][256]. */
-void tmafm_crc32_table(uint32_t *table)
+/* The ZIP CRC-32 (polynomial 0xEDB88320) tables for slicing by 8, into table[8][256].  The
+   Fortran side holds them as integer(c_int32_t): int32_t here too (one type on both sides for
+   LTO), read as uint32_t (signed and unsigned variants of a type may alias). */
+void tmafm_crc32_table(int32_t *table_out)
 {
+    uint32_t *table = (uint32_t *)table_out;
     for (uint32_t i = 0; i < 256; ++i) {
         uint32_t c = i;
         for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
@@ -243,11 +249,13 @@ static uint32_t crc32_clmul(const unsigned char *buf, int64_t n, uint32_t state)
 }
 #endif
 
-/* Continue a CRC-32 over n bytes: crc = 0 to start; the result is the CRC so far. */
-uint32_t tmafm_crc32_update(const uint32_t *table, uint32_t crc, const void *buf, int64_t n)
+/* Continue a CRC-32 over n bytes: crc = 0 to start; the result is the CRC so far (as int32_t,
+   the Fortran integer(c_int32_t); the bits are those of the uint32_t CRC). */
+int32_t tmafm_crc32_update(const int32_t *table_in, int32_t crc_in, const void *buf, int64_t n)
 {
+    const uint32_t *table = (const uint32_t *)table_in;
     const unsigned char *p = buf;
-    crc = ~crc;
+    uint32_t crc = ~(uint32_t)crc_in;
 #ifdef TMAFM_CLMUL
     if (n >= 64 && __builtin_cpu_supports("pclmul") && __builtin_cpu_supports("sse4.1")) {
         int64_t chunk = n & ~(int64_t)15;
@@ -273,5 +281,12 @@ uint32_t tmafm_crc32_update(const uint32_t *table, uint32_t crc, const void *buf
         n -= 8;
     }
     while (n-- > 0) crc = table[(crc ^ *p++) & 0xFFu] ^ (crc >> 8);
-    return ~crc;
+    return (int32_t)~crc;
+}
+
+/* tmafm_crc32_update over characters: its own name, so that the Fortran interface with a
+   character buffer does not redeclare tmafm_crc32_update with another type. */
+int32_t tmafm_crc32_text(const int32_t *table, int32_t crc, const char *buf, int64_t n)
+{
+    return tmafm_crc32_update(table, crc, buf, n);
 }

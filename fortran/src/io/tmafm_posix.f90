@@ -95,7 +95,8 @@ module tmafm_posix
          character(kind=c_char), intent(in) :: path(*)
          integer(c_int) :: status
       end function c_check_writable
-      subroutine c_error_text(code, buf, capacity) bind(c, name='tmafm_error_text')
+      !> strerror_r into buf (pure: it reads and writes nothing else).
+      pure subroutine c_error_text(code, buf, capacity) bind(c, name='tmafm_error_text')
          import :: c_char, c_int
          integer(c_int), value :: code
          character(kind=c_char), intent(out) :: buf(*)
@@ -115,7 +116,7 @@ module tmafm_posix
          integer(c_int64_t), value :: n
          integer(c_int32_t) :: updated
       end function crc32_update
-      function c_crc32_text(table, crc, buf, n) result(updated) bind(c, name='tmafm_crc32_update')
+      function c_crc32_text(table, crc, buf, n) result(updated) bind(c, name='tmafm_crc32_text')
          import :: c_char, c_int32_t, c_int64_t
          integer(c_int32_t), intent(in) :: table(*)
          integer(c_int32_t), value :: crc
@@ -196,12 +197,22 @@ contains
    end function check_writable
 
    !> The words for a failure status -errno (strerror).
-   function error_text(status) result(text)
+   !> (Its length is computed from the argument: a deferred-length result is not thread-safe
+   !> with gfortran 12, see tmafm_text.)
+   pure function error_text(status) result(text)
       integer, intent(in) :: status
-      character(len=:), allocatable :: text
+      character(len=index(error_buffer(status), c_null_char) - 1) :: text
       character(kind=c_char, len=200) :: buffer
-      call c_error_text(int(abs(status), c_int), buffer, len(buffer, kind=c_int))
-      text = buffer(1:index(buffer, c_null_char) - 1)
+      buffer = error_buffer(status)
+      text = buffer(1:len(text))
    end function error_text
+
+   !> The words for -errno `status`, NUL-terminated in a 200-character buffer.
+   pure function error_buffer(status) result(buffer)
+      integer, intent(in) :: status
+      character(kind=c_char, len=200) :: buffer
+      buffer = c_null_char
+      call c_error_text(int(abs(status), c_int), buffer, len(buffer, kind=c_int) - 1)
+   end function error_buffer
 
 end module tmafm_posix

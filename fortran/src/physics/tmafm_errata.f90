@@ -104,19 +104,33 @@ contains
    !> The corrections as a list of names, 'none' if there are none.
    pure function errata_label(errata) result(label)
       type(errata_t), intent(in) :: errata
-      character(len=:), allocatable :: label
-      label = ''
-      if (errata%e1_base_damping_velocity) label = label//',E1'
-      if (errata%e2_axial_span_to_tip) label = label//',E2'
-      if (errata%e3_moment_through_slope) label = label//',E3'
-      if (errata%e4_half_force_scales) label = label//',E4'
-      if (errata%e6_tip_mass_at_xi0) label = label//',E6'
-      if (errata%e7_signed_slope) label = label//',E7'
-      if (len(label) == 0) then
+      ! A length from the flags, not a deferred length (not thread-safe with gfortran 12, see
+      ! tmafm_text).
+      character(len=merge(4, 3*count(flags(errata)) - 1, count(flags(errata)) == 0)) :: label
+      character(len=*), parameter :: names(6) = ['E1', 'E2', 'E3', 'E4', 'E6', 'E7']
+      logical :: set(6)
+      integer :: k, n
+      set = flags(errata)
+      if (.not. any(set)) then
          label = 'none'
-      else
-         label = label(2:)
+         return
       end if
+      n = 0
+      do k = 1, size(set)
+         if (.not. set(k)) cycle
+         if (n > 0) label(n + 1:n + 1) = ','
+         if (n > 0) n = n + 1
+         label(n + 1:n + 2) = names(k)
+         n = n + 2
+      end do
    end function errata_label
+
+   !> The six flags of `errata` in label order (E1, E2, E3, E4, E6, E7).
+   pure function flags(errata) result(set)
+      type(errata_t), intent(in) :: errata
+      logical :: set(6)
+      set = [errata%e1_base_damping_velocity, errata%e2_axial_span_to_tip, errata%e3_moment_through_slope, &
+             errata%e4_half_force_scales, errata%e6_tip_mass_at_xi0, errata%e7_signed_slope]
+   end function flags
 
 end module tmafm_errata

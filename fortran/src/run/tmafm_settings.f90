@@ -92,14 +92,17 @@ contains
 
    !> The accepted method names as text: 'a', 'b' or 'c'.
    pure function method_choices() result(text)
-      character(len=:), allocatable :: text
+      ! A length from the names, not a deferred length (not thread-safe with gfortran 12, see
+      ! tmafm_text); every piece ends in a quote, so trim(text) is the text so far.  Two quotes
+      ! per name; between n >= 2 names, n - 2 times ', ' and once ' or ': 2n characters.
+      character(len=sum(len_trim(method_names)) + 4*size(method_names)) :: text
       integer :: k
       text = ''''//trim(method_names(1))//''''
       do k = 2, size(method_names)
          if (k == size(method_names)) then
-            text = text//' or '''//trim(method_names(k))//''''
+            text = trim(text)//' or '''//trim(method_names(k))//''''
          else
-            text = text//', '''//trim(method_names(k))//''''
+            text = trim(text)//', '''//trim(method_names(k))//''''
          end if
       end do
    end function method_choices

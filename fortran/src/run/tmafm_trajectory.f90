@@ -264,9 +264,10 @@ contains
    end subroutine check_blowup
 
    !> What a blow-up most likely means for a method, and what to change.
+   !> (Blank-padded: a deferred-length result is not thread-safe with gfortran 12, see tmafm_text.)
    pure function likely_cause(method) result(text)
       character(len=*), intent(in) :: method
-      character(len=:), allocatable :: text
+      character(len=256) :: text
       select case (trim(method))
       case (method_rk4_paper, method_rk4_event)
          text = 'the step is past the stability limit: reduce &solver dtau'

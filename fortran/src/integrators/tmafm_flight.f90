@@ -779,9 +779,12 @@ contains
    !> error bound does not clear it.  The cubic Hermite error is G''''(xi)/24 (s-s0)^2 (s-s1)^2,
    !> zero at both ends, with |G''''| <= bound, so G >= E(t) = c(t) - K t^2 (1-t)^2 with
    !> K = bound h^4/24, c built from G - shift at both ends (shift: the rounding allowance of
-   !> the end values, the rate's share included).  E is checked on a grid of spacing 1/n_check,
-   !> and between grid points it is at least the smaller neighbour minus max|E''|/(8 n_check^2):
-   !> rigorous.
+   !> the end values, the rate's share included).  First the cheap test: K t^2 (1-t)^2 <=
+   !> K t (1-t)/4 (at most K/16, equal at t = 1/2), so E >= c(t) - K t (1-t)/4, a cubic with
+   !> the same end values whose least value on [0, 1] is at an end or at its interior minimum
+   !> (hermite_minimum, closed form): if that, less the rounding of c, is positive, the
+   !> interval is cleared.  Else E is checked on a grid of spacing 1/n_check, and between grid
+   !> points it is at least the smaller neighbour minus max|E''|/(8 n_check^2): rigorous.
    subroutine classify_interval(self, model, s0, g0, r0, s1, g1, r1, bound, shift, s_low, s_high, g_high, &
                                 evaluations)
       type(free_flight_t), intent(in) :: self
@@ -808,6 +811,9 @@ contains
       a3 = 2*low0 + width*r0 - 2*low1 + width*r1
       b3 = -3*low0 - 2*width*r0 + 3*low1 - width*r1
       big_k = bound*width**4/24
+      call hermite_minimum(low0, width*r0 - big_k/4, low1, width*r1 + big_k/4, theta, cubic_min)
+      if (min(low0, low1, cubic_min) - 8*epsilon(1.0_dp)*(abs(a3) + abs(b3) + abs(width*r0) + abs(low0) &
+                                                           + big_k) > 0) return
       call hermite_minimum(low0, width*r0, low1, width*r1, theta, cubic_min)
       ! Lower envelope E(t) = c(t) - K (t (1 - t))^2 on the grid, less the curvature allowance.
       curvature = 2*abs(b3) + 6*abs(a3) + 2*big_k

@@ -501,3 +501,44 @@ subroutine flight_samples(path, n_modes, tau0, y0, dt, n_samples, recurrence, di
       call flight%state(model, s, direct(:, j))
    end do
 end subroutine flight_samples
+
+!> The first contact of one free flight of a namelist's model from y0 at tau0 within s_max, as
+!> flight%first_contact scans it: anchor = 0 as the run loop does (V_T turned along the scan
+!> ladder, evaluated directly every scan_anchor_every points), anchor = 1 with every scan point
+!> evaluated directly.  found = 1 if V_T reaches zero; evaluations counts the scan's points
+!> (direct or turned) and Brent's.  For tests of the scan.
+subroutine flight_scan(path, n_modes, tau0, y0, s_max, anchor, found, s_contact, evaluations, ierr, errmsg)
+   use tmafm, only: model_t, load_model, ok
+   use tmafm_kinds, only: dp
+   use tmafm_flight, only: free_flight_t
+   implicit none
+   character(len=*), intent(in) :: path
+   integer, intent(in) :: n_modes
+   real(dp), intent(in) :: tau0
+   real(dp), intent(in) :: y0(2*n_modes)
+   real(dp), intent(in) :: s_max
+   integer, intent(in) :: anchor
+   integer, intent(out) :: found
+   real(dp), intent(out) :: s_contact
+   integer, intent(out) :: evaluations
+   integer, intent(out) :: ierr
+   character(len=512), intent(out) :: errmsg
+   type(model_t) :: model
+   type(free_flight_t) :: flight
+   logical :: hit
+
+   found = 0
+   s_contact = 0
+   evaluations = 0
+   call load_model(path, n_modes, model, ierr, errmsg)
+   if (ierr /= ok) return
+   call flight%init(model, ierr, errmsg)
+   if (ierr /= ok) return
+   call flight%start(model, tau0, y0)
+   if (anchor > 0) then
+      call flight%first_contact(model, s_max, hit, s_contact, evaluations, ierr, errmsg, anchor)
+   else
+      call flight%first_contact(model, s_max, hit, s_contact, evaluations, ierr, errmsg)
+   end if
+   found = merge(1, 0, hit)
+end subroutine flight_scan

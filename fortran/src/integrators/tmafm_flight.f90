@@ -15,6 +15,11 @@
 !> then refined by Brent.  The scan step comes from the same bound: the largest step whose
 !> error bound at mid-interval is half of what the gap (or its rise) would allow, so a
 !> flight takes a few tens of evaluations instead of a fixed step per fastest time scale.
+!> The steps are taken down to a ladder h_k = h0 m_j 2^o (8 levels an octave, h0 a power of
+!> two), whose factors exp(lambda h_k) and exp(i Omega h_k) are tabulated once, in init: a
+!> scan point one step past the last is the last point's terms times one table entry each,
+!> no libm, with a direct evaluation every scan_anchor_every points and a rounding allowance
+!> taken off G before an interval is cleared (flight_first_contact says how much).
 !>
 !> The output samples of a flight are equally spaced (dt = sample_dtau), so `sample` turns each
 !> term from one sample to the next by the fixed factor exp(lambda dt) (set once per run by
@@ -24,7 +29,7 @@
 !> anchors the rounding drifts by a few ulp per sample (tests/test_sampling.py bounds it).
 module tmafm_flight
    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-   use tmafm_kinds, only: dp
+   use tmafm_kinds, only: dp, i8
    use tmafm_errors, only: ok, err_input, err_runtime
    use tmafm_model, only: model_t
    use tmafm_events, only: hermite_minimum, switch_margin
@@ -79,6 +84,27 @@ module tmafm_flight
       real(dp), allocatable :: running_re(:), running_im(:)
       real(dp) :: s_last = 0
       integer :: since_anchor = huge(1)
+      !> Real and imaginary parts of the eigenvalues, one per term.
+      real(dp), allocatable :: eigen_re(:), eigen_im(:)
+      !> The largest |lambda| of the free system, Omega included.
+      real(dp) :: rate_max = 0
+      !> Amplitude of the particular V_T (of the drive term).
+      real(dp) :: drive_size = 0
+      !> multiplicity |tip_weight| per term: each term's |share of V_T| at s = 0 (per flight).
+      real(dp), allocatable :: term_size(:)
+      !> The scan's ladder of steps h_k = h0 m_j 2^o, k = 1 + ladder_per_octave o + j, with h0 a
+      !> power of two (so that sums of steps are mostly exact), m_j = floor(16 2^(j/8))/16,
+      !> and h_k^3, h_k^4 to look a step up on it.
+      real(dp), allocatable :: ladder(:), ladder3(:), ladder4(:)
+      !> exp(lambda h_k) per term and level (n_terms x levels: real, imaginary parts and modulus)
+      !> and cos, sin of Omega h_k per level: the factors that take the terms one step on.
+      real(dp), allocatable :: ladder_re(:, :), ladder_im(:, :), ladder_decay(:, :)
+      real(dp), allocatable :: ladder_cos(:), ladder_sin(:)
+      !> Levels of the ladder in use.
+      integer :: n_levels = 0
+      !> The scan's two points (left, right) in flight: each term's share of V_T (real and
+      !> imaginary parts) and its decay, n_terms x 2 (workspace of first_contact).
+      real(dp), allocatable :: point_re(:, :), point_im(:, :), point_decay(:, :)
    contains
       !> Decompose the free system of a model (once per run).
       procedure :: init => flight_init
@@ -102,6 +128,16 @@ module tmafm_flight
    integer, parameter :: max_scan_evaluations = 10000000
    !> Samples between two evaluations of exp(lambda s) in `sample`.
    integer, parameter, public :: anchor_every = 32
+   !> Scan points between two direct evaluations of V_T (exp, sin, cos) in `first_contact`;
+   !> the points in between are turned by the ladder's factors.
+   integer, parameter, public :: scan_anchor_every = 16
+   !> Steps of the scan ladder per octave (the step halves every this many levels).
+   integer, parameter :: ladder_per_octave = 8
+   !> Most octaves of the ladder above h0.
+   integer, parameter :: ladder_octaves = 48
+   !> Rounding of one turn of a term by a ladder factor, in units of epsilon: the factor's
+   !> own rounding (exp, sin, cos: about 1 ulp each) and the complex product (sqrt 5 / 2 ulp).
+   real(dp), parameter :: turn_rounding = 8
 
 contains
 
@@ -209,7 +245,8 @@ contains
       allocate (self%eigenvalue(k), self%multiplicity(k), self%vectors(m, k), self%inverse(k, m), &
                 self%tip_of_vector(k), self%z(k), self%tip_weight(k), self%weight4(k), &
                 self%vectors_re(m, k), self%vectors_im(m, k), self%rotor_re(k), self%rotor_im(k), &
-                self%running_re(k), self%running_im(k))
+                self%running_re(k), self%running_im(k), self%eigen_re(k), self%eigen_im(k), &
+                self%term_size(k))
       self%rotor_re = 1
       self%rotor_im = 0
       self%sample_dt = 0
@@ -224,25 +261,82 @@ contains
       self%vectors_re = real(self%vectors, dp)
       self%vectors_im = aimag(self%vectors)
       self%min_step = 0.25_dp/max(maxval(abs(self%eigenvalue)), omega, tiny(1.0_dp))/1024
+      self%eigen_re = real(self%eigenvalue, dp)
+      self%eigen_im = aimag(self%eigenvalue)
+      self%rate_max = max(maxval(abs(self%eigenvalue)), omega)
+      self%drive_size = hypot(self%tip_sin, self%tip_cos)
+      self%term_size = 0
+      call build_ladder(self, omega)
    end subroutine flight_init
+
+   !> The scan ladder, from h0 = the power of two just above min_step up past 64 drive periods
+   !> (at most ladder_octaves octaves), with each level's factors; it ends below the first
+   !> level whose factors are not finite (a growing term; h0 itself is 2^-11 of the fastest
+   !> time scale, so its factors are all near 1).
+   subroutine build_ladder(self, omega)
+      type(free_flight_t), intent(inout) :: self
+      real(dp), intent(in) :: omega
+      real(dp) :: h0, h, longest, mantissa(0:ladder_per_octave - 1)
+      complex(dp) :: factor
+      integer :: n, k, j, octaves
+
+      h0 = scale(1.0_dp, exponent(self%min_step))
+      longest = 64*(8*atan(1.0_dp))/max(omega, tiny(1.0_dp))
+      octaves = ladder_octaves
+      if (longest/h0 < 2.0_dp**ladder_octaves) octaves = max(1, exponent(longest/h0))
+      do j = 0, ladder_per_octave - 1
+         mantissa(j) = floor(16*2.0_dp**(real(j, dp)/ladder_per_octave))/16.0_dp
+      end do
+      n = ladder_per_octave*octaves + 1
+      allocate (self%point_re(self%n_terms, 2), self%point_im(self%n_terms, 2), &
+                self%point_decay(self%n_terms, 2))
+      self%point_re = 0
+      self%point_im = 0
+      self%point_decay = 0
+      allocate (self%ladder(n), self%ladder3(n), self%ladder4(n), self%ladder_re(self%n_terms, n), &
+                self%ladder_im(self%n_terms, n), self%ladder_decay(self%n_terms, n), &
+                self%ladder_cos(n), self%ladder_sin(n))
+      self%n_levels = n
+      do k = 1, n
+         h = scale(h0*mantissa(mod(k - 1, ladder_per_octave)), (k - 1)/ladder_per_octave)
+         self%ladder(k) = h
+         self%ladder3(k) = h*h*h
+         self%ladder4(k) = (h*h)*(h*h)
+         do j = 1, self%n_terms
+            factor = exp(self%eigenvalue(j)*h)
+            self%ladder_re(j, k) = real(factor, dp)
+            self%ladder_im(j, k) = aimag(factor)
+            self%ladder_decay(j, k) = exp(self%eigen_re(j)*h)
+         end do
+         self%ladder_cos(k) = cos(omega*h)
+         self%ladder_sin(k) = sin(omega*h)
+         if (.not. (all(ieee_is_finite(self%ladder_re(:, k))) .and. all(ieee_is_finite(self%ladder_im(:, k))) &
+                    .and. all(ieee_is_finite(self%ladder_decay(:, k))) .and. ieee_is_finite(self%ladder4(k)))) then
+            self%n_levels = max(1, k - 1)
+            exit
+         end if
+      end do
+   end subroutine build_ladder
 
    subroutine flight_start(self, model, tau, y)
       class(free_flight_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: y(:)
-      real(dp) :: phase, offset(self%n_state)
+      real(dp) :: phase, sin_phase, cos_phase
       integer :: j
 
       self%tau0 = tau
       phase = model%scene%omega*tau
-      offset = y - self%u*sin(phase) - self%v*cos(phase)
+      sin_phase = sin(phase)
+      cos_phase = cos(phase)
       self%z = 0
       do j = 1, self%n_state
-         self%z = self%z + self%inverse(:, j)*offset(j)
+         self%z = self%z + self%inverse(:, j)*(y(j) - self%u(j)*sin_phase - self%v(j)*cos_phase)
       end do
       self%tip_weight = self%z*self%tip_of_vector
-      self%weight4 = self%multiplicity*abs(self%tip_weight)*abs(self%eigenvalue)**4
+      self%term_size = self%multiplicity*abs(self%tip_weight)
+      self%weight4 = self%term_size*abs(self%eigenvalue)**4
       self%margin = switch_margin(model, y)
       self%fourth_derivative_bound = sum(self%weight4) + self%harmonic_bound
       self%since_anchor = anchor_every
@@ -346,9 +440,7 @@ contains
       call gap_and_bound(self, model, s, vt, vtdot, bound)
    end subroutine flight_gap
 
-   !> V_T, dV_T/dtau and each modal term's share of |d^4 V_T/ds^4| at s, summed apart for
-   !> the terms that decay (bound(1), with the harmonic) and grow (bound(2); none when
-   !> alpha3 > 0): over [s0, s1] |d^4 V_T/ds^4| <= bound(1) at s0 + bound(2) at s1.
+   !> V_T, dV_T/dtau and the bound on |d^4 V_T/ds^4| at s by direct evaluation (exp, sin, cos).
    pure subroutine gap_and_bound(self, model, s, vt, vtdot, bound)
       type(free_flight_t), intent(in) :: self
       type(model_t), intent(in) :: model
@@ -356,31 +448,91 @@ contains
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: vtdot
       real(dp), intent(out) :: bound(2)
-      complex(dp) :: term
-      real(dp) :: phase, omega, decay, angle
+      real(dp) :: re, im, decay, cos_phase, sin_phase, size
       integer :: k
-      omega = model%scene%omega
-      phase = omega*(self%tau0 + s)
-      vt = self%tip_sin*sin(phase) + self%tip_cos*cos(phase) + model%scene%delta_hat
-      vtdot = omega*(self%tip_sin*cos(phase) - self%tip_cos*sin(phase))
-      bound(1) = self%harmonic_bound
-      bound(2) = 0
+      call drive_at(self, model, s, cos_phase, sin_phase)
+      call gap_of_drive(self, model, cos_phase, sin_phase, vt, vtdot, bound, size)
       do k = 1, self%n_terms
-         decay = exp(real(self%eigenvalue(k), dp)*s)
-         angle = aimag(self%eigenvalue(k))*s
-         term = self%multiplicity(k)*decay*self%tip_weight(k)*cmplx(cos(angle), sin(angle), dp)
-         vt = vt + real(term, dp)
-         vtdot = vtdot + real(term*self%eigenvalue(k), dp)
-         if (decay <= 1) then
-            bound(1) = bound(1) + self%weight4(k)*decay
-         else
-            bound(2) = bound(2) + self%weight4(k)*decay
-         end if
+         call term_at(self, k, s, re, im, decay)
+         call add_term(self, k, re, im, decay, vt, vtdot, bound, size)
       end do
    end subroutine gap_and_bound
 
-   subroutine flight_first_contact(self, model, s_max, found, s_contact, evaluations, ierr, errmsg)
-      class(free_flight_t), intent(in) :: self
+   !> cos and sin of the drive phase Omega (tau0 + s).
+   pure subroutine drive_at(self, model, s, cos_phase, sin_phase)
+      type(free_flight_t), intent(in) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: s
+      real(dp), intent(out) :: cos_phase, sin_phase
+      real(dp) :: phase
+      phase = model%scene%omega*(self%tau0 + s)
+      sin_phase = sin(phase)
+      cos_phase = cos(phase)
+   end subroutine drive_at
+
+   !> Modal term k of V_T at s by direct evaluation: its share re + i im (multiplicity
+   !> included) and its decay |exp(lambda s)|.
+   pure subroutine term_at(self, k, s, re, im, decay)
+      type(free_flight_t), intent(in) :: self
+      integer, intent(in) :: k
+      real(dp), intent(in) :: s
+      real(dp), intent(out) :: re, im, decay
+      complex(dp) :: term
+      real(dp) :: angle
+      decay = exp(self%eigen_re(k)*s)
+      angle = self%eigen_im(k)*s
+      term = self%multiplicity(k)*decay*self%tip_weight(k)*cmplx(cos(angle), sin(angle), dp)
+      re = real(term, dp)
+      im = aimag(term)
+   end subroutine term_at
+
+   !> The particular V_T and its rate at a drive phase, with the harmonic's share of the bound
+   !> on |d^4 V_T/ds^4| and its amplitude: what add_term then adds each modal term to.
+   pure subroutine gap_of_drive(self, model, cos_phase, sin_phase, vt, vtdot, bound, size)
+      type(free_flight_t), intent(in) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: cos_phase, sin_phase
+      real(dp), intent(out) :: vt, vtdot, bound(2), size
+      vt = self%tip_sin*sin_phase + self%tip_cos*cos_phase + model%scene%delta_hat
+      vtdot = model%scene%omega*(self%tip_sin*cos_phase - self%tip_cos*sin_phase)
+      bound(1) = self%harmonic_bound
+      bound(2) = 0
+      size = self%drive_size
+   end subroutine gap_of_drive
+
+   !> Add modal term k (share re + i im, decay) to V_T, its rate, the bound on |d^4 V_T/ds^4|
+   !> (bound(1) for a term that decays, bound(2) for one that grows, none when alpha3 > 0: over
+   !> [s0, s1] |d^4 V_T/ds^4| <= bound(1) at s0 + bound(2) at s1) and the size sum |terms|.
+   pure subroutine add_term(self, k, re, im, decay, vt, vtdot, bound, size)
+      type(free_flight_t), intent(in) :: self
+      integer, intent(in) :: k
+      real(dp), intent(in) :: re, im, decay
+      real(dp), intent(inout) :: vt, vtdot, bound(2), size
+      vt = vt + re
+      vtdot = vtdot + (re*self%eigen_re(k) - im*self%eigen_im(k))
+      if (decay <= 1) then
+         bound(1) = bound(1) + self%weight4(k)*decay
+      else
+         bound(2) = bound(2) + self%weight4(k)*decay
+      end if
+      size = size + self%term_size(k)*decay
+   end subroutine add_term
+
+   !> The scan walks [0, s_max] in steps taken from the ladder: at each point G = V_T + margin,
+   !> its rate and the bound on |G''''|.  A point one ladder step past the last is computed by
+   !> turning the last point's terms (`turned`) when the step sums exactly (left + h_k is
+   !> the point) and fewer than `anchor` points (default scan_anchor_every) were turned since
+   !> the last direct evaluation; otherwise, and wherever the turned G is within its rounding
+   !> allowance of zero, V_T is evaluated directly.  The allowance of a turned point is
+   !>   eps (turn_rounding (points since the direct one + 1) + rate_max (s - s_direct)) sum|terms|:
+   !> each turn rounds by a few ulp of each term, and the factor exp(lambda h) of a step h is
+   !> that of the rounded lambda h, as exp(lambda s) in a direct evaluation is.  It is taken off
+   !> G at both ends of an interval before the interval is cleared (with the rate's share,
+   !> rate_max times the same, over the interval), and the bound on |G''''| is raised by the
+   !> same relative amount.  Brent's points and the Hermite-minimum checks are always direct,
+   !> so the located contact is that of direct evaluation to round-off.
+   subroutine flight_first_contact(self, model, s_max, found, s_contact, evaluations, ierr, errmsg, anchor)
+      class(free_flight_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: s_max
       logical, intent(out) :: found
@@ -388,24 +540,35 @@ contains
       integer, intent(inout) :: evaluations
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      !> Scan points per direct evaluation (1: every point direct); default scan_anchor_every.
+      integer, intent(in), optional :: anchor
       type(bracketed_root_t) :: root
       real(dp) :: left, right, g_left, r_left, b_left(2), g_right, r_right, b_right(2), s_low, s_high
-      real(dp) :: g_high, x, rx, bx(2), h
-      integer :: halvings, first_evaluation
+      real(dp) :: g_high, x, rx, bx(2), h, shift
+      real(dp) :: l_cos, l_sin, r_cos, r_sin, l_size, r_size, l_rel, r_rel, l_origin, r_origin
+      integer :: halvings, first_evaluation, level, l_since, r_since, every, il, ir
 
       ierr = ok
       errmsg = ''
       found = .false.
       s_contact = s_max
       first_evaluation = evaluations
+      every = scan_anchor_every
+      if (present(anchor)) every = max(1, anchor)
+      il = 1
+      ir = 2
       left = 0
-      call switch_function(self, model, left, g_left, r_left, b_left, evaluations)
+      call direct(il, left, l_cos, l_sin, g_left, r_left, b_left, l_size)
+      l_since = 0
+      l_origin = left
+      l_rel = 0
       if (.not. (ieee_is_finite(g_left) .and. ieee_is_finite(r_left) .and. ieee_is_finite(sum(b_left)))) then
          ierr = err_runtime
          write (errmsg, '(a,es13.5e3)') 'flight_exact: the free flight is not finite at tau = ', self%tau0
          return
       end if
-      h = max(self%min_step, scan_step(g_left, r_left, sum(b_left)))
+      level = ladder_level(self, g_left, r_left, sum(b_left))
+      h = self%ladder(level)
       halvings = 0
       do while (left < s_max)
          right = min(s_max, left + h)
@@ -416,9 +579,24 @@ contains
                '); &scene omega or the tolerances are out of reach, use method = ''dopri5'''
             return
          end if
-         call switch_function(self, model, right, g_right, r_right, b_right, evaluations)
+         r_rel = 0
+         if (level > 0 .and. l_since + 1 < every .and. sum_is_exact(left, h, right)) then
+            call turned(il, ir, level, l_cos, l_sin, r_cos, r_sin, g_right, r_right, b_right, r_size)
+            r_since = l_since + 1
+            r_origin = l_origin
+            r_rel = epsilon(1.0_dp)*(turn_rounding*(r_since + 1) + self%rate_max*(right - r_origin))
+            ! Within its allowance of zero the sign of G is that of a direct evaluation.
+            if (.not. (g_right - r_rel*r_size > 0)) r_rel = 0
+         end if
+         if (.not. (r_rel > 0)) then
+            call direct(ir, right, r_cos, r_sin, g_right, r_right, b_right, r_size)
+            r_since = 0
+            r_origin = right
+         end if
+         shift = max(l_rel*l_size, r_rel*r_size)*(1 + (right - left)*self%rate_max/4)
          call classify_interval(self, model, left, g_left, r_left, right, g_right, r_right, &
-                                b_left(1) + b_right(2), s_low, s_high, g_high, evaluations)
+                                (b_left(1) + b_right(2))*(1 + max(l_rel, r_rel)), shift, s_low, s_high, &
+                                g_high, evaluations)
          if (s_high > 0) then
             ! A bracket [s_low, s_high] = [left, .]: refine it to round-off.
             call root%start(s_low, max(g_left, tiny(1.0_dp)), s_high, g_high, &
@@ -433,36 +611,156 @@ contains
             return
          else if (s_high < 0 .and. halvings < max_halvings) then
             halvings = halvings + 1      ! not cleared: look closer
-            h = h/2
+            if (level > ladder_per_octave) then
+               level = level - ladder_per_octave
+               h = self%ladder(level)
+            else
+               level = 0                  ! below the ladder's foot: direct evaluations
+               h = h/2
+            end if
             cycle
          end if
          left = right
          g_left = g_right
          r_left = r_right
          b_left = b_right
+         il = 3 - il
+         ir = 3 - ir
+         l_cos = r_cos
+         l_sin = r_sin
+         l_size = r_size
+         l_rel = r_rel
+         l_since = r_since
+         l_origin = r_origin
          halvings = 0
-         h = max(self%min_step, scan_step(g_left, r_left, sum(b_left)))
+         level = ladder_level(self, g_left, r_left, sum(b_left))
+         h = self%ladder(level)
       end do
+
+   contains
+
+      !> The point s by direct evaluation into column col of the workspace: G = V_T + margin,
+      !> its rate, the bound on |G''''| and sum|terms|.
+      subroutine direct(col, s, cos_phase, sin_phase, g, rate, bound, size)
+         integer, intent(in) :: col
+         real(dp), intent(in) :: s
+         real(dp), intent(out) :: cos_phase, sin_phase, g, rate, bound(2), size
+         integer :: k
+         call drive_at(self, model, s, cos_phase, sin_phase)
+         call gap_of_drive(self, model, cos_phase, sin_phase, g, rate, bound, size)
+         do k = 1, self%n_terms
+            call term_at(self, k, s, self%point_re(k, col), self%point_im(k, col), self%point_decay(k, col))
+            call add_term(self, k, self%point_re(k, col), self%point_im(k, col), self%point_decay(k, col), &
+                          g, rate, bound, size)
+         end do
+         g = g + self%margin
+         evaluations = evaluations + 1
+      end subroutine direct
+
+      !> The point one ladder step h_level past column from, into column col: each term turned
+      !> by exp(lambda h), its decay times |exp(lambda h)|, the drive phase by Omega h (no libm).
+      subroutine turned(from, col, level, cos_from, sin_from, cos_phase, sin_phase, g, rate, bound, size)
+         integer, intent(in) :: from, col, level
+         real(dp), intent(in) :: cos_from, sin_from
+         real(dp), intent(out) :: cos_phase, sin_phase, g, rate, bound(2), size
+         integer :: k
+         cos_phase = cos_from*self%ladder_cos(level) - sin_from*self%ladder_sin(level)
+         sin_phase = sin_from*self%ladder_cos(level) + cos_from*self%ladder_sin(level)
+         call gap_of_drive(self, model, cos_phase, sin_phase, g, rate, bound, size)
+         call turn_terms(self%n_terms, self%point_re(:, from), self%point_im(:, from), &
+                         self%point_decay(:, from), self%ladder_re(:, level), self%ladder_im(:, level), &
+                         self%ladder_decay(:, level), self%point_re(:, col), self%point_im(:, col), &
+                         self%point_decay(:, col))
+         do k = 1, self%n_terms
+            call add_term(self, k, self%point_re(k, col), self%point_im(k, col), self%point_decay(k, col), &
+                          g, rate, bound, size)
+         end do
+         g = g + self%margin
+         evaluations = evaluations + 1
+      end subroutine turned
+
    end subroutine flight_first_contact
 
-   !> The scan step from G, G' and the bound B on |G''''| at the left end: the largest h whose
-   !> Hermite error bound B h^4 t^2 (1-t)^2/24 stays below half of G (at t = 1/2: h^4 = 192 G/B)
-   !> or, for a rising G, below half of the rise G' h t (at t = 1/3: h^3 = 81 G'/B).
-   pure function scan_step(g, rate, bound) result(h)
+   !> Each term (re + i im, decay) times its factor (f_re + i f_im, f_decay).
+   pure subroutine turn_terms(n, re, im, decay, f_re, f_im, f_decay, re_out, im_out, decay_out)
+      integer, intent(in) :: n
+      real(dp), intent(in) :: re(n), im(n), decay(n), f_re(n), f_im(n), f_decay(n)
+      real(dp), intent(out) :: re_out(n), im_out(n), decay_out(n)
+      integer :: k
+      do k = 1, n
+         re_out(k) = re(k)*f_re(k) - im(k)*f_im(k)
+         im_out(k) = re(k)*f_im(k) + im(k)*f_re(k)
+         decay_out(k) = decay(k)*f_decay(k)
+      end do
+   end subroutine turn_terms
+
+   !> Whether right = left + h exactly (left, h >= 0, right their rounded sum): with the larger
+   !> addend first, right - larger is exact (Fast2Sum), so the sum is exact iff it gives back
+   !> the smaller.
+   pure logical function sum_is_exact(left, h, right)
+      real(dp), intent(in) :: left, h, right
+      if (left >= h) then
+         sum_is_exact = right - left == h
+      else
+         sum_is_exact = right - h == left
+      end if
+   end function sum_is_exact
+
+   !> The scan step from G, G' and the bound B on |G''''| at the left end, as a level of the
+   !> ladder: the largest h_k whose Hermite error bound B h^4 t^2 (1-t)^2/24 stays below half of
+   !> G (at t = 1/2: h^4 <= 192 G/B) or, for a rising G, below half of the rise G' h t (at
+   !> t = 1/3: h^3 <= 81 G'/B); at least the ladder's foot h0, at most its top.
+   pure function ladder_level(self, g, rate, bound) result(level)
+      type(free_flight_t), intent(in) :: self
       real(dp), intent(in) :: g
       real(dp), intent(in) :: rate
       real(dp), intent(in) :: bound
-      real(dp) :: h
+      integer :: level
       if (.not. (bound > 0)) then
-         h = huge(1.0_dp)
+         level = self%n_levels
          return
       end if
-      h = sqrt(sqrt(192*max(g, 0.0_dp)/bound))
-      if (rate > 0) h = max(h, (81*rate/bound)**(1.0_dp/3))
-   end function scan_step
+      level = highest_below(self%ladder4, self%n_levels, 192*max(g, 0.0_dp)/bound, 4)
+      if (rate > 0) level = max(level, highest_below(self%ladder3, self%n_levels, 81*rate/bound, 3))
+   end function ladder_level
+
+   !> The largest k <= n with p(k) <= x in the increasing table p(k) = h_k^power (1 if none):
+   !> a first guess from the binary exponents (ladder_per_octave levels per octave of h), then
+   !> a step or two along the table.
+   pure function highest_below(p, n, x, power) result(k)
+      real(dp), intent(in) :: p(:)
+      integer, intent(in) :: n
+      real(dp), intent(in) :: x
+      integer, intent(in) :: power
+      integer :: k
+      if (.not. (x >= p(1))) then
+         k = 1
+         return
+      end if
+      if (x >= p(n)) then
+         k = n
+         return
+      end if
+      k = min(max(1 + (ladder_per_octave*(binary_exponent(x) - binary_exponent(p(1))))/power, 1), n)
+      do while (k < n)
+         if (p(k + 1) > x) exit
+         k = k + 1
+      end do
+      do while (k > 1)
+         if (p(k) <= x) exit
+         k = k - 1
+      end do
+   end function highest_below
+
+   !> The biased binary exponent of a positive finite x, from its IEEE bits (the intrinsic
+   !> exponent() is a library call).
+   elemental integer function binary_exponent(x)
+      real(dp), intent(in) :: x
+      binary_exponent = int(ishft(transfer(x, 0_i8), -52))
+   end function binary_exponent
 
    !> G = V_T + margin along the flight (contact begins where G <= 0), its rate, and the
-   !> bound on |G''''| there.
+   !> bound on |G''''| there, by direct evaluation.
    subroutine switch_function(self, model, s, g, rate, bound, evaluations)
       type(free_flight_t), intent(in) :: self
       type(model_t), intent(in) :: model
@@ -480,16 +778,22 @@ contains
    !> with G(s_high) <= 0; s_high = 0 means the interval is cleared; s_high < 0 means the
    !> error bound does not clear it.  The cubic Hermite error is G''''(xi)/24 (s-s0)^2 (s-s1)^2,
    !> zero at both ends, with |G''''| <= bound, so G >= E(t) = c(t) - K t^2 (1-t)^2 with
-   !> K = bound h^4/24.  E is checked on a grid of spacing 1/n_check, and between grid points
-   !> it is at least the smaller neighbour minus max|E''|/(8 n_check^2): rigorous.
-   subroutine classify_interval(self, model, s0, g0, r0, s1, g1, r1, bound, s_low, s_high, g_high, &
+   !> K = bound h^4/24, c built from G - shift at both ends (shift: the rounding allowance of
+   !> the end values, the rate's share included).  First the cheap test: K t^2 (1-t)^2 <=
+   !> K t (1-t)/4 (at most K/16, equal at t = 1/2), so E >= c(t) - K t (1-t)/4, a cubic with
+   !> the same end values whose least value on [0, 1] is at an end or at its interior minimum
+   !> (hermite_minimum, closed form): if that, less the rounding of c, is positive, the
+   !> interval is cleared.  Else E is checked on a grid of spacing 1/n_check, and between grid
+   !> points it is at least the smaller neighbour minus max|E''|/(8 n_check^2): rigorous.
+   subroutine classify_interval(self, model, s0, g0, r0, s1, g1, r1, bound, shift, s_low, s_high, g_high, &
                                 evaluations)
       type(free_flight_t), intent(in) :: self
       type(model_t), intent(in) :: model
-      real(dp), intent(in) :: s0, g0, r0, s1, g1, r1, bound
+      real(dp), intent(in) :: s0, g0, r0, s1, g1, r1, bound, shift
       real(dp), intent(out) :: s_low, s_high, g_high
       integer, intent(inout) :: evaluations
       real(dp) :: width, theta, cubic_min, lowest, t, a3, b3, g_mid, r_mid, b_mid(2), big_k, curvature
+      real(dp) :: low0, low1
       integer :: k
       integer, parameter :: n_check = 32
 
@@ -502,18 +806,23 @@ contains
          g_high = g1
          return
       end if
-      ! Lower envelope E(t) = c(t) - K (t (1 - t))^2 on the grid, less the curvature allowance.
-      a3 = 2*g0 + width*r0 - 2*g1 + width*r1
-      b3 = -3*g0 - 2*width*r0 + 3*g1 - width*r1
+      low0 = g0 - shift
+      low1 = g1 - shift
+      a3 = 2*low0 + width*r0 - 2*low1 + width*r1
+      b3 = -3*low0 - 2*width*r0 + 3*low1 - width*r1
       big_k = bound*width**4/24
+      call hermite_minimum(low0, width*r0 - big_k/4, low1, width*r1 + big_k/4, theta, cubic_min)
+      if (min(low0, low1, cubic_min) - 8*epsilon(1.0_dp)*(abs(a3) + abs(b3) + abs(width*r0) + abs(low0) &
+                                                           + big_k) > 0) return
+      call hermite_minimum(low0, width*r0, low1, width*r1, theta, cubic_min)
+      ! Lower envelope E(t) = c(t) - K (t (1 - t))^2 on the grid, less the curvature allowance.
       curvature = 2*abs(b3) + 6*abs(a3) + 2*big_k
-      lowest = min(g0, g1)
+      lowest = min(low0, low1)
       do k = 1, n_check - 1
          t = real(k, dp)/n_check
-         lowest = min(lowest, ((a3*t + b3)*t + width*r0)*t + g0 - big_k*(t*(1 - t))**2)
+         lowest = min(lowest, ((a3*t + b3)*t + width*r0)*t + low0 - big_k*(t*(1 - t))**2)
       end do
       if (lowest - curvature/(8*n_check**2) > 0) return
-      call hermite_minimum(g0, width*r0, g1, width*r1, theta, cubic_min)
       if (theta > 0 .and. cubic_min <= 0) then
          call switch_function(self, model, s0 + theta*width, g_mid, r_mid, b_mid, evaluations)
          if (g_mid <= 0) then

@@ -27,8 +27,6 @@ module tmafm_embedded_pair
 
    public :: embedded_pair_t, step_controller_t, stage_phases, taylor_limit, time_map_t, stage_clock
 
-   !> Most nodes of one call of stage_phases or stage_clock.
-   integer, parameter :: max_nodes = 16
    !> Largest |Omega c h| for which stage_phases sums the Taylor series instead of calling libm.
    real(dp), parameter :: taylor_limit = 1.0_dp
    !> (-1)^k/(2k+1)! and (-1)^k/(2k)!, k = 0..9: at |x| <= 1 the first omitted terms, 1/21! and
@@ -176,7 +174,9 @@ module tmafm_embedded_pair
 contains
 
    !> sin and cos of the drive phase Omega (tau + c_i h) at the nodes c_i of a step, with one
-   !> sin and cos (of Omega tau) per step instead of one per stage (offset_phases).
+   !> sin and cos (of Omega tau) per step instead of one per stage: when every |Omega c_i h| is
+   !> at most taylor_limit, the phase at each node follows by angle addition (add_phase);
+   !> otherwise each node calls libm.
    pure subroutine stage_phases(model, tau, h, nodes, sin_phase, cos_phase)
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: tau
@@ -184,17 +184,26 @@ contains
       real(dp), intent(in) :: nodes(:)
       real(dp), intent(out) :: sin_phase(:)
       real(dp), intent(out) :: cos_phase(:)
-      real(dp) :: offsets(max_nodes)
-      integer :: n
-      n = size(nodes)
-      offsets(1:n) = nodes*h
-      call offset_phases(model, tau, offsets(1:n), sin_phase, cos_phase)
+      real(dp) :: omega, sin0, cos0
+      integer :: i
+      omega = model%scene%omega
+      if (abs(omega*h)*maxval(abs(nodes)) <= taylor_limit) then
+         call model%phase(tau, sin0, cos0)
+         do i = 1, size(nodes)
+            call add_phase(sin0, cos0, omega*(nodes(i)*h), sin_phase(i), cos_phase(i))
+         end do
+      else
+         do i = 1, size(nodes)
+            call model%phase(tau + nodes(i)*h, sin_phase(i), cos_phase(i))
+         end do
+      end if
    end subroutine stage_phases
 
    !> The drive phase at the nodes s0 + c_i h of a step over `map`, and dtau/ds there (factor,
-   !> set on warped steps only: a normal step's is 1 and its stages are not scaled).  A warped
-   !> node is at tau_0 + x_i, x_i = c_i h (2 s0 + c_i h), tau_0 = origin + s0^2: the offsets
-   !> from the step start, exact, whose phases offset_phases adds to one sin/cos of Omega tau_0.
+   !> set on warped steps only: a normal step's is 1 and its stages are not scaled; a normal
+   !> step is stage_phases).  A warped node is at tau_0 + x_i, x_i = c_i h (2 s0 + c_i h),
+   !> tau_0 = origin + s0^2: exact offsets from the step start, added to one sin/cos of
+   !> Omega tau_0 as in stage_phases.
    pure subroutine stage_clock(model, map, nodes, sin_phase, cos_phase, factor)
       type(model_t), intent(in) :: model
       type(time_map_t), intent(in) :: map
@@ -202,53 +211,51 @@ contains
       real(dp), intent(out) :: sin_phase(:)
       real(dp), intent(out) :: cos_phase(:)
       real(dp), intent(inout) :: factor(:)
-      real(dp) :: offsets(max_nodes)
-      integer :: n
-      n = size(nodes)
-      offsets(1:n) = nodes*map%h
+      real(dp) :: omega, sin0, cos0, tau0, x
+      integer :: i
       if (.not. map%warped) then
-         call offset_phases(model, map%s0, offsets(1:n), sin_phase, cos_phase)
+         call stage_phases(model, map%s0, map%h, nodes, sin_phase, cos_phase)
+         return
+      end if
+      omega = model%scene%omega
+      tau0 = map%time_at(0.0_dp)
+      factor = 2*(map%s0 + nodes*map%h)
+      ! The largest offset is the last node's (the nodes lie in [0, 1]).
+      if (abs(omega*map%h*(2*map%s0 + map%h))*maxval(abs(nodes)) <= taylor_limit) then
+         call model%phase(tau0, sin0, cos0)
+         do i = 1, size(nodes)
+            x = (nodes(i)*map%h)*(2*map%s0 + nodes(i)*map%h)
+            call add_phase(sin0, cos0, omega*x, sin_phase(i), cos_phase(i))
+         end do
       else
-         factor = 2*(map%s0 + offsets(1:n))
-         offsets(1:n) = offsets(1:n)*(2*map%s0 + offsets(1:n))
-         call offset_phases(model, map%time_at(0.0_dp), offsets(1:n), sin_phase, cos_phase)
+         do i = 1, size(nodes)
+            x = (nodes(i)*map%h)*(2*map%s0 + nodes(i)*map%h)
+            call model%phase(tau0 + x, sin_phase(i), cos_phase(i))
+         end do
       end if
    end subroutine stage_clock
 
-   !> sin and cos of Omega (tau + x_i): when every |Omega x_i| is at most taylor_limit, sin
-   !> and cos of Omega x_i are Taylor sums (exact to round-off there) and the phase follows by
-   !> angle addition from one sin/cos of Omega tau; otherwise each node calls libm.
-   pure subroutine offset_phases(model, tau, offsets, sin_phase, cos_phase)
-      type(model_t), intent(in) :: model
-      real(dp), intent(in) :: tau
-      real(dp), intent(in) :: offsets(:)
-      real(dp), intent(out) :: sin_phase(:)
-      real(dp), intent(out) :: cos_phase(:)
-      real(dp) :: omega, sin0, cos0, x, x2, sin_x, cos_x
-      integer :: i, k
-      omega = model%scene%omega
-      if (abs(omega)*maxval(abs(offsets)) <= taylor_limit) then
-         call model%phase(tau, sin0, cos0)
-         do i = 1, size(offsets)
-            ! Horner's rule in x^2.
-            x = omega*offsets(i)
-            x2 = x*x
-            sin_x = sin_series(ubound(sin_series, 1))
-            cos_x = cos_series(ubound(cos_series, 1))
-            do k = ubound(sin_series, 1) - 1, 0, -1
-               sin_x = sin_x*x2 + sin_series(k)
-               cos_x = cos_x*x2 + cos_series(k)
-            end do
-            sin_x = sin_x*x
-            sin_phase(i) = sin0*cos_x + cos0*sin_x
-            cos_phase(i) = cos0*cos_x - sin0*sin_x
-         end do
-      else
-         do i = 1, size(offsets)
-            call model%phase(tau + offsets(i), sin_phase(i), cos_phase(i))
-         end do
-      end if
-   end subroutine offset_phases
+   !> sin and cos of phi0 + x from those of phi0, for |x| <= taylor_limit: sin x and cos x are
+   !> Taylor sums (exact to round-off there, Horner's rule in x^2), then angle addition.
+   pure subroutine add_phase(sin0, cos0, x, sin_phase, cos_phase)
+      real(dp), intent(in) :: sin0
+      real(dp), intent(in) :: cos0
+      real(dp), intent(in) :: x
+      real(dp), intent(out) :: sin_phase
+      real(dp), intent(out) :: cos_phase
+      real(dp) :: x2, sin_x, cos_x
+      integer :: k
+      x2 = x*x
+      sin_x = sin_series(ubound(sin_series, 1))
+      cos_x = cos_series(ubound(cos_series, 1))
+      do k = ubound(sin_series, 1) - 1, 0, -1
+         sin_x = sin_x*x2 + sin_series(k)
+         cos_x = cos_x*x2 + cos_series(k)
+      end do
+      sin_x = sin_x*x
+      sin_phase = sin0*cos_x + cos0*sin_x
+      cos_phase = cos0*cos_x - sin0*sin_x
+   end subroutine add_phase
 
    elemental function map_time_at(self, theta) result(t)
       class(time_map_t), intent(in) :: self

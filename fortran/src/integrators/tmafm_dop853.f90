@@ -10,12 +10,13 @@
 !> dense output needs three more stages (14-16): they are evaluated only for steps that
 !> hold a sample or a switch.  The coefficients are Hairer's, to the last bit of a double.
 !> Registers are allocated once by `init`; a step allocates nothing.  The drive phase of
-!> every stage comes from one sin/cos per step (tmafm_embedded_pair stage_phases).
+!> every stage comes from one sin/cos per step (tmafm_embedded_pair stage_clock); on a warped
+!> step each stage derivative is scaled by its dtau/dsigma.
 module tmafm_dop853
    use tmafm_kinds, only: dp
    use tmafm_model, only: model_t
    use tmafm_error_scale, only: error_scale_t
-   use tmafm_embedded_pair, only: embedded_pair_t, stage_phases
+   use tmafm_embedded_pair, only: embedded_pair_t, time_map_t, stage_clock
    implicit none
    private
 
@@ -107,7 +108,7 @@ module tmafm_dop853
    contains
       !> Allocate the registers for a state of size n_state.
       procedure :: init => dop853_init
-      !> One step of length h in a frozen phase; f0 = f(tau, y) in, f_new = f(tau+h, y_new) out.
+      !> One step over a time map in a frozen phase; f0 = dy/ds in, f_new = dy/ds at y_new out.
       procedure :: step => dop853_step
       !> The error norm of the last step.
       procedure :: error_norm => dop853_error_norm
@@ -134,31 +135,31 @@ contains
                 self%err3(n_state), self%y0(n_state), self%r(n_state, 0:6))
    end subroutine dop853_init
 
-   subroutine dop853_step(self, model, tau, y, h, in_contact, f0, y_new, f_new)
+   subroutine dop853_step(self, model, map, y, in_contact, f0, y_new, f_new)
       class(dop853_pair_t), intent(inout) :: self
       type(model_t), intent(in) :: model
-      real(dp), intent(in) :: tau
+      type(time_map_t), intent(in) :: map
       real(dp), intent(in), contiguous :: y(:)
-      real(dp), intent(in) :: h
       logical, intent(in) :: in_contact
       real(dp), intent(in), contiguous :: f0(:)
       real(dp), intent(out), contiguous :: y_new(:)
       real(dp), intent(out), contiguous :: f_new(:)
-      call dop853_stages(model, size(y), tau, y, h, in_contact, f0, self%k, self%stage, y_new, f_new, &
+      self%map = map
+      call dop853_stages(model, size(y), map, y, in_contact, f0, self%k, self%stage, y_new, f_new, &
                          self%err5, self%err3, self%sin_end, self%cos_end)
    end subroutine dop853_step
 
    !> The stages of dop853_step on explicit-shape registers (the compiler sees unit strides
    !> and no aliasing): k(:, 2:12), the new state, f_new, the fifth- and third-order error
    !> estimates (in the pass that forms the new state: they weigh the same stages) and the
-   !> drive phase at tau + h.
-   pure subroutine dop853_stages(model, n, tau, y, h, in_contact, f0, k, stage, y_new, f_new, &
+   !> drive phase at the step end.  On a warped step each stage derivative is scaled by its
+   !> dtau/dsigma as soon as it is formed.
+   pure subroutine dop853_stages(model, n, map, y, in_contact, f0, k, stage, y_new, f_new, &
                                  err5, err3, sin_end, cos_end)
       type(model_t), intent(in) :: model
       integer, intent(in) :: n
-      real(dp), intent(in) :: tau
+      type(time_map_t), intent(in) :: map
       real(dp), intent(in) :: y(n)
-      real(dp), intent(in) :: h
       logical, intent(in) :: in_contact
       real(dp), intent(in) :: f0(n)
       real(dp), intent(inout) :: k(n, 2:16)
@@ -169,38 +170,51 @@ contains
       real(dp), intent(out) :: err3(n)
       real(dp), intent(out) :: sin_end
       real(dp), intent(out) :: cos_end
-      real(dp) :: sin_phase(size(step_nodes)), cos_phase(size(step_nodes))
+      real(dp) :: sin_phase(size(step_nodes)), cos_phase(size(step_nodes)), factor(size(step_nodes))
+      real(dp) :: h
       integer :: i
 
-      call stage_phases(model, tau, h, step_nodes, sin_phase, cos_phase)
+      h = map%h
+      call stage_clock(model, map, step_nodes, sin_phase, cos_phase, factor)
       sin_end = sin_phase(11)
       cos_end = cos_phase(11)
       stage = y + h*a2_1*f0
       call model%derivative_at_phase(stage, in_contact, sin_phase(1), cos_phase(1), k(:, 2))
+      if (map%warped) k(:, 2) = factor(1)*k(:, 2)
       stage = y + h*(a3_1*f0 + a3_2*k(:, 2))
       call model%derivative_at_phase(stage, in_contact, sin_phase(2), cos_phase(2), k(:, 3))
+      if (map%warped) k(:, 3) = factor(2)*k(:, 3)
       stage = y + h*(a4_1*f0 + a4_3*k(:, 3))
       call model%derivative_at_phase(stage, in_contact, sin_phase(3), cos_phase(3), k(:, 4))
+      if (map%warped) k(:, 4) = factor(3)*k(:, 4)
       stage = y + h*(a5_1*f0 + a5_3*k(:, 3) + a5_4*k(:, 4))
       call model%derivative_at_phase(stage, in_contact, sin_phase(4), cos_phase(4), k(:, 5))
+      if (map%warped) k(:, 5) = factor(4)*k(:, 5)
       stage = y + h*(a6_1*f0 + a6_4*k(:, 4) + a6_5*k(:, 5))
       call model%derivative_at_phase(stage, in_contact, sin_phase(5), cos_phase(5), k(:, 6))
+      if (map%warped) k(:, 6) = factor(5)*k(:, 6)
       stage = y + h*(a7_1*f0 + a7_4*k(:, 4) + a7_5*k(:, 5) + a7_6*k(:, 6))
       call model%derivative_at_phase(stage, in_contact, sin_phase(6), cos_phase(6), k(:, 7))
+      if (map%warped) k(:, 7) = factor(6)*k(:, 7)
       stage = y + h*(a8_1*f0 + a8_4*k(:, 4) + a8_5*k(:, 5) + a8_6*k(:, 6) + a8_7*k(:, 7))
       call model%derivative_at_phase(stage, in_contact, sin_phase(7), cos_phase(7), k(:, 8))
+      if (map%warped) k(:, 8) = factor(7)*k(:, 8)
       stage = y + h*(a9_1*f0 + a9_4*k(:, 4) + a9_5*k(:, 5) + a9_6*k(:, 6) + a9_7*k(:, 7) &
                      + a9_8*k(:, 8))
       call model%derivative_at_phase(stage, in_contact, sin_phase(8), cos_phase(8), k(:, 9))
+      if (map%warped) k(:, 9) = factor(8)*k(:, 9)
       stage = y + h*(a10_1*f0 + a10_4*k(:, 4) + a10_5*k(:, 5) + a10_6*k(:, 6) + a10_7*k(:, 7) &
                      + a10_8*k(:, 8) + a10_9*k(:, 9))
       call model%derivative_at_phase(stage, in_contact, sin_phase(9), cos_phase(9), k(:, 10))
+      if (map%warped) k(:, 10) = factor(9)*k(:, 10)
       stage = y + h*(a11_1*f0 + a11_4*k(:, 4) + a11_5*k(:, 5) + a11_6*k(:, 6) + a11_7*k(:, 7) &
                      + a11_8*k(:, 8) + a11_9*k(:, 9) + a11_10*k(:, 10))
       call model%derivative_at_phase(stage, in_contact, sin_phase(10), cos_phase(10), k(:, 11))
+      if (map%warped) k(:, 11) = factor(10)*k(:, 11)
       stage = y + h*(a12_1*f0 + a12_4*k(:, 4) + a12_5*k(:, 5) + a12_6*k(:, 6) + a12_7*k(:, 7) &
                      + a12_8*k(:, 8) + a12_9*k(:, 9) + a12_10*k(:, 10) + a12_11*k(:, 11))
       call model%derivative_at_phase(stage, in_contact, sin_phase(11), cos_phase(11), k(:, 12))
+      if (map%warped) k(:, 12) = factor(11)*k(:, 12)
       do i = 1, n
          y_new(i) = y(i) + h*(b1*f0(i) + b6*k(i, 6) + b7*k(i, 7) + b8*k(i, 8) + b9*k(i, 9) &
                               + b10*k(i, 10) + b11*k(i, 11) + b12*k(i, 12))
@@ -210,6 +224,7 @@ contains
                    + e3_10*k(i, 10) + e3_11*k(i, 11) + e3_12*k(i, 12)
       end do
       call model%derivative_at_phase(y_new, in_contact, sin_phase(11), cos_phase(11), f_new)
+      if (map%warped) f_new = factor(11)*f_new
    end subroutine dop853_stages
 
    !> Hairer's DOP853 estimate from err5 and err3 (formed by dop853_stages); f_new is not used
@@ -238,29 +253,32 @@ contains
       ratio = 1/sqrt(sqrt(sqrt(norm)))
    end function dop853_growth
 
-   subroutine dop853_prepare_dense(self, model, tau, y, y_new, h, in_contact, f0, f_new)
+   subroutine dop853_prepare_dense(self, model, y, y_new, in_contact, f0, f_new)
       class(dop853_pair_t), intent(inout) :: self
       type(model_t), intent(in) :: model
-      real(dp), intent(in) :: tau
       real(dp), intent(in), contiguous :: y(:)
       real(dp), intent(in), contiguous :: y_new(:)
-      real(dp), intent(in) :: h
       logical, intent(in) :: in_contact
       real(dp), intent(in), contiguous :: f0(:)
       real(dp), intent(in), contiguous :: f_new(:)
-      real(dp) :: sin_phase(size(dense_nodes)), cos_phase(size(dense_nodes))
+      real(dp) :: sin_phase(size(dense_nodes)), cos_phase(size(dense_nodes)), factor(size(dense_nodes))
+      real(dp) :: h
 
-      call stage_phases(model, tau, h, dense_nodes, sin_phase, cos_phase)
+      h = self%map%h
+      call stage_clock(model, self%map, dense_nodes, sin_phase, cos_phase, factor)
       associate (k => self%k, stage => self%stage, r => self%r)
          stage = y + h*(a14_1*f0 + a14_7*k(:, 7) + a14_8*k(:, 8) + a14_9*k(:, 9) + a14_10*k(:, 10) &
                         + a14_11*k(:, 11) + a14_12*k(:, 12) + a14_13*f_new)
          call model%derivative_at_phase(stage, in_contact, sin_phase(1), cos_phase(1), k(:, 14))
+         if (self%map%warped) k(:, 14) = factor(1)*k(:, 14)
          stage = y + h*(a15_1*f0 + a15_6*k(:, 6) + a15_7*k(:, 7) + a15_8*k(:, 8) + a15_11*k(:, 11) &
                         + a15_12*k(:, 12) + a15_13*f_new + a15_14*k(:, 14))
          call model%derivative_at_phase(stage, in_contact, sin_phase(2), cos_phase(2), k(:, 15))
+         if (self%map%warped) k(:, 15) = factor(2)*k(:, 15)
          stage = y + h*(a16_1*f0 + a16_6*k(:, 6) + a16_7*k(:, 7) + a16_8*k(:, 8) + a16_9*k(:, 9) &
                         + a16_13*f_new + a16_14*k(:, 14) + a16_15*k(:, 15))
          call model%derivative_at_phase(stage, in_contact, sin_phase(3), cos_phase(3), k(:, 16))
+         if (self%map%warped) k(:, 16) = factor(3)*k(:, 16)
          self%y0 = y
          r(:, 0) = y_new - y
          r(:, 1) = h*f0 - r(:, 0)

@@ -8,7 +8,7 @@ module tmafm_dopri5
    use tmafm_kinds, only: dp
    use tmafm_model, only: model_t
    use tmafm_error_scale, only: error_scale_t
-   use tmafm_embedded_pair, only: embedded_pair_t, stage_phases
+   use tmafm_embedded_pair, only: embedded_pair_t, time_map_t, stage_clock
    implicit none
    private
 
@@ -45,7 +45,7 @@ module tmafm_dopri5
    contains
       !> Allocate the registers for a state of size n_state.
       procedure :: init => dopri5_init
-      !> One step of length h in a frozen phase; f0 = f(tau, y) in, f_new = f(tau+h, y_new) out.
+      !> One step over a time map in a frozen phase; f0 = dy/ds in, f_new = dy/ds at y_new out.
       procedure :: step => dopri5_step
       !> The error norm of the last step.
       procedure :: error_norm => dopri5_error_norm
@@ -73,35 +73,43 @@ contains
                 self%r2(n_state), self%r3(n_state), self%r4(n_state), self%r5(n_state))
    end subroutine dopri5_init
 
-   subroutine dopri5_step(self, model, tau, y, h, in_contact, f0, y_new, f_new)
+   subroutine dopri5_step(self, model, map, y, in_contact, f0, y_new, f_new)
       class(dopri5_pair_t), intent(inout) :: self
       type(model_t), intent(in) :: model
-      real(dp), intent(in) :: tau
+      type(time_map_t), intent(in) :: map
       real(dp), intent(in), contiguous :: y(:)
-      real(dp), intent(in) :: h
       logical, intent(in) :: in_contact
       real(dp), intent(in), contiguous :: f0(:)
       real(dp), intent(out), contiguous :: y_new(:)
       real(dp), intent(out), contiguous :: f_new(:)
-      real(dp) :: sin_phase(size(step_nodes)), cos_phase(size(step_nodes))
+      real(dp) :: sin_phase(size(step_nodes)), cos_phase(size(step_nodes)), factor(size(step_nodes))
+      real(dp) :: h
 
-      call stage_phases(model, tau, h, step_nodes, sin_phase, cos_phase)
+      self%map = map
+      h = map%h
+      call stage_clock(model, map, step_nodes, sin_phase, cos_phase, factor)
       self%sin_end = sin_phase(5)
       self%cos_end = cos_phase(5)
       associate (k2 => self%k2, k3 => self%k3, k4 => self%k4, k5 => self%k5, k6 => self%k6, &
                  stage => self%stage)
          stage = y + h*a21*f0
          call model%derivative_at_phase(stage, in_contact, sin_phase(1), cos_phase(1), k2)
+         if (map%warped) k2 = factor(1)*k2
          stage = y + h*(a31*f0 + a32*k2)
          call model%derivative_at_phase(stage, in_contact, sin_phase(2), cos_phase(2), k3)
+         if (map%warped) k3 = factor(2)*k3
          stage = y + h*(a41*f0 + a42*k2 + a43*k3)
          call model%derivative_at_phase(stage, in_contact, sin_phase(3), cos_phase(3), k4)
+         if (map%warped) k4 = factor(3)*k4
          stage = y + h*(a51*f0 + a52*k2 + a53*k3 + a54*k4)
          call model%derivative_at_phase(stage, in_contact, sin_phase(4), cos_phase(4), k5)
+         if (map%warped) k5 = factor(4)*k5
          stage = y + h*(a61*f0 + a62*k2 + a63*k3 + a64*k4 + a65*k5)
          call model%derivative_at_phase(stage, in_contact, sin_phase(5), cos_phase(5), k6)
+         if (map%warped) k6 = factor(5)*k6
          y_new = y + h*(a71*f0 + a73*k3 + a74*k4 + a75*k5 + a76*k6)
          call model%derivative_at_phase(y_new, in_contact, sin_phase(5), cos_phase(5), f_new)
+         if (map%warped) f_new = factor(5)*f_new
       end associate
    end subroutine dopri5_step
 
@@ -123,17 +131,17 @@ contains
       ratio = exp(-0.2_dp*log(norm))
    end function dopri5_growth
 
-   !> Shampine's continuous extension needs no new stage: model, tau and in_contact are unused.
-   subroutine dopri5_prepare_dense(self, model, tau, y, y_new, h, in_contact, f0, f_new)
+   !> Shampine's continuous extension needs no new stage: model and in_contact are unused.
+   subroutine dopri5_prepare_dense(self, model, y, y_new, in_contact, f0, f_new)
       class(dopri5_pair_t), intent(inout) :: self
       type(model_t), intent(in) :: model
-      real(dp), intent(in) :: tau
       real(dp), intent(in), contiguous :: y(:)
       real(dp), intent(in), contiguous :: y_new(:)
-      real(dp), intent(in) :: h
       logical, intent(in) :: in_contact
       real(dp), intent(in), contiguous :: f0(:)
       real(dp), intent(in), contiguous :: f_new(:)
+      real(dp) :: h
+      h = self%map%h
       self%r1 = y
       self%r2 = y_new - y
       self%r3 = h*f0 - self%r2

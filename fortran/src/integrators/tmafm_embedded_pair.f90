@@ -7,6 +7,13 @@
 !> Registers are allocated once by `init`; a step allocates nothing.  `stage_phases` gives the
 !> drive phase at every node of a step from one sin/cos of Omega tau (the pairs and rk4 use it).
 !>
+!> A step runs in a step variable s over [s0, s0 + h] (time_map_t): s = tau on a normal step;
+!> on a warped step after a contact entry at tau_e, tau = tau_e + s^2 (s = sigma), where the
+!> state w(sigma) = y(tau_e + sigma^2) is smooth although the force ~ (tau - tau_e)^(3/2) is
+!> not, and the pair integrates dw/dsigma = 2 sigma f.  `stage_clock` gives each node's drive
+!> phase and dtau/ds; the pair's dense output is in theta = (s - s0)/h, and every caller
+!> turns a time into theta (and back) through the step's map only.
+!>
 !> The controller turns an error norm (and, once a phase had a rejection, the last accepted
 !> one) into the next step from norm^(-1/(q+1)), q the order of the error estimate; each
 !> pair computes its own norm^(-1/(q+1)) (dop853: three square roots for 1/8; dopri5: one
@@ -18,7 +25,7 @@ module tmafm_embedded_pair
    implicit none
    private
 
-   public :: embedded_pair_t, step_controller_t, stage_phases, taylor_limit
+   public :: embedded_pair_t, step_controller_t, stage_phases, taylor_limit, time_map_t, stage_clock
 
    !> Largest |Omega c h| for which stage_phases sums the Taylor series instead of calling libm.
    real(dp), parameter :: taylor_limit = 1.0_dp
@@ -30,6 +37,24 @@ module tmafm_embedded_pair
    real(dp), parameter :: cos_series(0:9) = [1.0_dp, -1.0_dp/2, 1.0_dp/24, -1.0_dp/720, &
       1.0_dp/40320, -1.0_dp/3628800, 1.0_dp/479001600, -1.0_dp/87178291200.0_dp, &
       1.0_dp/20922789888000.0_dp, -1.0_dp/6402373705728000.0_dp]
+
+   !> The time of a step as a function of its fraction theta: tau = s0 + theta h (normal), or
+   !> tau = origin + (s0 + theta h)^2 (warped: s = sigma = sqrt(tau - origin)).
+   type :: time_map_t
+      !> The step variable at the step start, and the step's length in it.
+      real(dp) :: s0 = 0, h = 0
+      !> The warp's origin tau_e (warped steps only).
+      real(dp) :: origin = 0
+      !> .true. on a warped step.
+      logical :: warped = .false.
+   contains
+      !> The time at fraction theta of the step.
+      procedure :: time_at => map_time_at
+      !> The fraction theta of the step at time t.
+      procedure :: theta_at => map_theta_at
+      !> dtau/dtheta at fraction theta.
+      procedure :: rate_at => map_rate_at
+   end type time_map_t
 
    !> An embedded pair with dense output.
    type, abstract :: embedded_pair_t
@@ -43,16 +68,19 @@ module tmafm_embedded_pair
       !> sin and cos of the drive phase Omega (tau + h) at the end of the last step (from
       !> stage_phases, as f_new used them).
       real(dp) :: sin_end = 0, cos_end = 1
+      !> The time map of the last step (set by `step`): its dense output is in map's theta.
+      type(time_map_t) :: map
    contains
       !> Allocate the registers for a state of size n_state.
       procedure(pair_init), deferred :: init
-      !> One step of length h; f0 = f(tau, y) in, f_new = f(tau + h, y_new) out.
+      !> One step over map (stored in self%map); f0 = dy/ds at its start in, f_new = dy/ds at
+      !> its end out (s the step variable: dy/ds = f, or 2 sigma f on a warped step).
       procedure(pair_step), deferred :: step
       !> The error norm of the last step (accept when <= 1).
       procedure(pair_norm), deferred :: error_norm
       !> norm^(-1/(q+1)) for a positive norm: the raw ratio of the optimal step to h.
       procedure(pair_growth), deferred :: growth
-      !> Build the dense output of the last step (may evaluate the right-hand side).
+      !> Build the dense output of the last step, over self%map (may evaluate the right-hand side).
       procedure(pair_prepare), deferred :: prepare_dense
       !> The dense-output state at fraction theta of the last step.
       procedure(pair_dense), deferred :: dense
@@ -65,13 +93,12 @@ module tmafm_embedded_pair
          integer, intent(in) :: n_state
       end subroutine pair_init
 
-      subroutine pair_step(self, model, tau, y, h, in_contact, f0, y_new, f_new)
-         import :: embedded_pair_t, model_t, dp
+      subroutine pair_step(self, model, map, y, in_contact, f0, y_new, f_new)
+         import :: embedded_pair_t, model_t, dp, time_map_t
          class(embedded_pair_t), intent(inout) :: self
          type(model_t), intent(in) :: model
-         real(dp), intent(in) :: tau
+         type(time_map_t), intent(in) :: map
          real(dp), intent(in), contiguous :: y(:)
-         real(dp), intent(in) :: h
          logical, intent(in) :: in_contact
          real(dp), intent(in), contiguous :: f0(:)
          real(dp), intent(out), contiguous :: y_new(:)
@@ -95,14 +122,12 @@ module tmafm_embedded_pair
          real(dp) :: ratio
       end function pair_growth
 
-      subroutine pair_prepare(self, model, tau, y, y_new, h, in_contact, f0, f_new)
+      subroutine pair_prepare(self, model, y, y_new, in_contact, f0, f_new)
          import :: embedded_pair_t, model_t, dp
          class(embedded_pair_t), intent(inout) :: self
          type(model_t), intent(in) :: model
-         real(dp), intent(in) :: tau
          real(dp), intent(in), contiguous :: y(:)
          real(dp), intent(in), contiguous :: y_new(:)
-         real(dp), intent(in) :: h
          logical, intent(in) :: in_contact
          real(dp), intent(in), contiguous :: f0(:)
          real(dp), intent(in), contiguous :: f_new(:)
@@ -150,8 +175,8 @@ contains
 
    !> sin and cos of the drive phase Omega (tau + c_i h) at the nodes c_i of a step, with one
    !> sin and cos (of Omega tau) per step instead of one per stage: when every |Omega c_i h| is
-   !> at most taylor_limit, sin and cos of x_i = Omega c_i h are Taylor sums (exact to
-   !> round-off there) and the phase follows by angle addition; otherwise each node calls libm.
+   !> at most taylor_limit, the phase at each node follows by angle addition (add_phase);
+   !> otherwise each node calls libm.
    pure subroutine stage_phases(model, tau, h, nodes, sin_phase, cos_phase)
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: tau
@@ -159,24 +184,13 @@ contains
       real(dp), intent(in) :: nodes(:)
       real(dp), intent(out) :: sin_phase(:)
       real(dp), intent(out) :: cos_phase(:)
-      real(dp) :: omega, sin0, cos0, x, x2, sin_x, cos_x
-      integer :: i, k
+      real(dp) :: omega, sin0, cos0
+      integer :: i
       omega = model%scene%omega
       if (abs(omega*h)*maxval(abs(nodes)) <= taylor_limit) then
          call model%phase(tau, sin0, cos0)
          do i = 1, size(nodes)
-            ! Horner's rule in x^2.
-            x = omega*(nodes(i)*h)
-            x2 = x*x
-            sin_x = sin_series(ubound(sin_series, 1))
-            cos_x = cos_series(ubound(cos_series, 1))
-            do k = ubound(sin_series, 1) - 1, 0, -1
-               sin_x = sin_x*x2 + sin_series(k)
-               cos_x = cos_x*x2 + cos_series(k)
-            end do
-            sin_x = sin_x*x
-            sin_phase(i) = sin0*cos_x + cos0*sin_x
-            cos_phase(i) = cos0*cos_x - sin0*sin_x
+            call add_phase(sin0, cos0, omega*(nodes(i)*h), sin_phase(i), cos_phase(i))
          end do
       else
          do i = 1, size(nodes)
@@ -184,6 +198,97 @@ contains
          end do
       end if
    end subroutine stage_phases
+
+   !> The drive phase at the nodes s0 + c_i h of a step over `map`, and dtau/ds there (factor,
+   !> set on warped steps only: a normal step's is 1 and its stages are not scaled; a normal
+   !> step is stage_phases).  A warped node is at tau_0 + x_i, x_i = c_i h (2 s0 + c_i h),
+   !> tau_0 = origin + s0^2: exact offsets from the step start, added to one sin/cos of
+   !> Omega tau_0 as in stage_phases.
+   pure subroutine stage_clock(model, map, nodes, sin_phase, cos_phase, factor)
+      type(model_t), intent(in) :: model
+      type(time_map_t), intent(in) :: map
+      real(dp), intent(in) :: nodes(:)
+      real(dp), intent(out) :: sin_phase(:)
+      real(dp), intent(out) :: cos_phase(:)
+      real(dp), intent(inout) :: factor(:)
+      real(dp) :: omega, sin0, cos0, tau0, x
+      integer :: i
+      if (.not. map%warped) then
+         call stage_phases(model, map%s0, map%h, nodes, sin_phase, cos_phase)
+         return
+      end if
+      omega = model%scene%omega
+      tau0 = map%time_at(0.0_dp)
+      factor = 2*(map%s0 + nodes*map%h)
+      ! The largest offset is the last node's (the nodes lie in [0, 1]).
+      if (abs(omega*map%h*(2*map%s0 + map%h))*maxval(abs(nodes)) <= taylor_limit) then
+         call model%phase(tau0, sin0, cos0)
+         do i = 1, size(nodes)
+            x = (nodes(i)*map%h)*(2*map%s0 + nodes(i)*map%h)
+            call add_phase(sin0, cos0, omega*x, sin_phase(i), cos_phase(i))
+         end do
+      else
+         do i = 1, size(nodes)
+            x = (nodes(i)*map%h)*(2*map%s0 + nodes(i)*map%h)
+            call model%phase(tau0 + x, sin_phase(i), cos_phase(i))
+         end do
+      end if
+   end subroutine stage_clock
+
+   !> sin and cos of phi0 + x from those of phi0, for |x| <= taylor_limit: sin x and cos x are
+   !> Taylor sums (exact to round-off there, Horner's rule in x^2), then angle addition.
+   pure subroutine add_phase(sin0, cos0, x, sin_phase, cos_phase)
+      real(dp), intent(in) :: sin0
+      real(dp), intent(in) :: cos0
+      real(dp), intent(in) :: x
+      real(dp), intent(out) :: sin_phase
+      real(dp), intent(out) :: cos_phase
+      real(dp) :: x2, sin_x, cos_x
+      integer :: k
+      x2 = x*x
+      sin_x = sin_series(ubound(sin_series, 1))
+      cos_x = cos_series(ubound(cos_series, 1))
+      do k = ubound(sin_series, 1) - 1, 0, -1
+         sin_x = sin_x*x2 + sin_series(k)
+         cos_x = cos_x*x2 + cos_series(k)
+      end do
+      sin_x = sin_x*x
+      sin_phase = sin0*cos_x + cos0*sin_x
+      cos_phase = cos0*cos_x - sin0*sin_x
+   end subroutine add_phase
+
+   elemental function map_time_at(self, theta) result(t)
+      class(time_map_t), intent(in) :: self
+      real(dp), intent(in) :: theta
+      real(dp) :: t
+      if (self%warped) then
+         t = self%origin + (self%s0 + theta*self%h)**2
+      else
+         t = self%s0 + theta*self%h
+      end if
+   end function map_time_at
+
+   elemental function map_theta_at(self, t) result(theta)
+      class(time_map_t), intent(in) :: self
+      real(dp), intent(in) :: t
+      real(dp) :: theta
+      if (self%warped) then
+         theta = (sqrt(max(t - self%origin, 0.0_dp)) - self%s0)/self%h
+      else
+         theta = (t - self%s0)/self%h
+      end if
+   end function map_theta_at
+
+   elemental function map_rate_at(self, theta) result(rate)
+      class(time_map_t), intent(in) :: self
+      real(dp), intent(in) :: theta
+      real(dp) :: rate
+      if (self%warped) then
+         rate = 2*(self%s0 + theta*self%h)*self%h
+      else
+         rate = self%h
+      end if
+   end function map_rate_at
 
    function controller_next_step(self, pair, h, norm) result(h_next)
       class(step_controller_t), intent(inout) :: self

@@ -79,6 +79,7 @@ contains
             call contact%scale%update(y)
             if (found) then
                contact%in_contact = .true.
+               contact%entry_pending = .true.
                call traj%add_switch(tau, s_contact, ierr, errmsg)
                if (ierr /= ok) return
                if (present(observer)) call observer%contact_start(tau)

@@ -3,7 +3,8 @@
 !> T = 2 pi/Omega (docs/observables.md defines each one, with units and signs).
 !>
 !> Integrals (Fourier coefficients of V_T, mean deflection, the powers of model_t%energy_flow,
-!> the virial) use 8-point Gauss-Legendre on each piece (a step, or a flight cut into pieces of
+!> the virial) use 8-point Gauss-Legendre on each piece (in sigma on a pair's warped step after
+!> a contact entry, where the integrands are smooth; a step, or a flight cut into pieces of
 !> at most T/16; 3 points on a fixed rk4_paper step's cubic); contact times come from the located switches; min V_T and the peak normal
 !> force are located on the dense output by a golden-section search around the best node, and so
 !> are max V_T and each mode's max and min over the period's in-contact part and its free part.
@@ -137,7 +138,7 @@ module tmafm_observers
       !> .true. when feeding the step [tau, tau + taken] evaluates the pair's dense output.
       procedure :: needs_dense => observer_needs_dense
       !> Feed an accepted step [tau, tau + taken] of an embedded pair (dense output built when
-      !> needs_dense says so).
+      !> needs_dense says so, read through the pair's time map).
       procedure :: pair_step => observer_pair_step
       !> Feed a free flight [tau, tau + length] of the exact flight solution started at tau.
       procedure :: flight_segment => observer_flight_segment
@@ -286,15 +287,15 @@ contains
                              .or. tau + taken >= (self%n_periods + 1)*self%period_length
    end function observer_needs_dense
 
-   subroutine observer_pair_step(self, model, pair, tau, h, taken, in_contact)
+   subroutine observer_pair_step(self, model, pair, tau, taken, in_contact)
       class(observer_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       class(embedded_pair_t), intent(in) :: pair
       real(dp), intent(in) :: tau
-      real(dp), intent(in) :: h
       real(dp), intent(in) :: taken
       logical, intent(in) :: in_contact
-      call process(self, model, tau, tau + taken, in_contact, tau, h, pair=pair)
+      ! The pair's dense output is read through its time map (pair%map): origin and h unused.
+      call process(self, model, tau, tau + taken, in_contact, tau, 1.0_dp, pair=pair)
    end subroutine observer_pair_step
 
    subroutine observer_flight_segment(self, model, flight, tau, length)
@@ -340,8 +341,8 @@ contains
       self%contacts = self%contacts + 1
    end subroutine observer_contact_start
 
-   !> The state at time t of the current source: the pair's dense output over the step
-   !> [origin, origin + h], or the flight started at origin.
+   !> The state at time t of the current source: the pair's dense output (at its time map's
+   !> fraction of t), the flight started at origin, or the cubic over [origin, origin + h].
    subroutine state_at(model, origin, h, t, y, pair, flight, cubic)
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: origin
@@ -352,7 +353,7 @@ contains
       type(free_flight_t), intent(in), optional :: flight
       type(hermite_t), intent(in), optional :: cubic
       if (present(pair)) then
-         call pair%dense((t - origin)/h, y)
+         call pair%dense(pair%map%theta_at(t), y)
       else if (present(flight)) then
          call flight%state(model, t - origin, y)
       else
@@ -476,7 +477,8 @@ contains
       type(hermite_t), intent(in), optional :: cubic
       real(dp) :: t(0:gl_points + 1), gap(0:gl_points + 1), force(0:gl_points + 1)
       real(dp) :: power(n_powers), energy, weight, half, mid, tip_u, best, s1, c1, sk, ck, next
-      real(dp) :: nodes(gl_points), weights(gl_points)
+      real(dp) :: nodes(gl_points), weights(gl_points), gl_weight(gl_points), theta_nodes(gl_points)
+      real(dp) :: theta_a, theta_b
       type(contact_brackets_t) :: state
       integer :: i, k, n, i_best, m
 
@@ -496,6 +498,18 @@ contains
       t(0) = a
       t(m + 1) = b
       t(1:m) = mid + half*nodes(1:m)
+      gl_weight(1:m) = half*weights(1:m)
+      if (present(pair)) then
+         if (pair%map%warped) then
+            ! A warped step (after a contact entry): the nodes are Gauss-Legendre in sigma, where
+            ! the integrands are smooth, weighted by dtau/dsigma.
+            theta_a = pair%map%theta_at(a)
+            theta_b = pair%map%theta_at(b)
+            theta_nodes(1:m) = (theta_a + theta_b)/2 + (theta_b - theta_a)/2*nodes(1:m)
+            t(1:m) = pair%map%time_at(theta_nodes(1:m))
+            gl_weight(1:m) = (theta_b - theta_a)/2*weights(1:m)*pair%map%rate_at(theta_nodes(1:m))
+         end if
+      end if
       force = 0
       do i = 0, m + 1
          ! The ends serve only the located extrema.
@@ -508,7 +522,7 @@ contains
             force(i) = model%kappa5*state%normal
          end if
          if (i == 0 .or. i == m + 1) cycle
-         weight = half*weights(i)
+         weight = gl_weight(i)
          tip_u = gap(i) - model%scene%delta_hat
          if (self%do_lockin) then
             ! sin(k Omega t), cos(k Omega t) by the angle-addition recurrence.

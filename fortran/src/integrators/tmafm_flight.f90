@@ -23,7 +23,9 @@
 !>
 !> The output samples of a flight are equally spaced (dt = sample_dtau), so `sample` turns each
 !> term from one sample to the next by the fixed factor exp(lambda dt) (set once per run by
-!> `sample_step`) instead of calling exp: O(N^2) multiplications per sample and no libm.  The
+!> `sample_step`) instead of calling exp, and the state is one product of a matrix built in
+!> init, [u | v | Re V | -Im V], with [sin, cos, Re terms, Im terms], a block of rows at a time
+!> (O(N^2) multiplications per sample, vectorised along the rows, and no libm).  The
 !> terms are taken afresh from exp(lambda s) at the first sample of a flight, every
 !> anchor_every samples, and whenever a sample is not dt past the previous one; between
 !> anchors the rounding drifts by a few ulp per sample (tests/test_sampling.py bounds it).
@@ -73,15 +75,21 @@ module tmafm_flight
       real(dp) :: fourth_derivative_bound = 0
       !> Smallest scan step: 2^-10 of a quarter of the shortest time scale of the free system.
       real(dp) :: min_step = 0
-      !> Real and imaginary parts of the eigenvectors (2N x n_terms), for the sample kernel.
-      real(dp), allocatable :: vectors_re(:, :), vectors_im(:, :)
+      !> Blocks of sample_block rows that hold the 2N rows of the state (padding rows are 0).
+      integer :: sample_blocks = 0
+      !> The sample kernel's matrix [u | v | Re V | -Im V], a block of rows at a time:
+      !> sample_block x (2 + 2 n_terms) x sample_blocks.  The state at a sample is this matrix
+      !> times sample_weights.
+      real(dp), allocatable :: sample_matrix(:, :, :)
+      !> [sin, cos, Re running, Im running] at the last sample s_last, where running is
+      !> multiplicity z exp(lambda s) per term.
+      real(dp), allocatable :: sample_weights(:)
       !> Spacing of the samples (0 until sample_step is called), and exp(lambda dt) per term
       !> (real and imaginary parts).
       real(dp) :: sample_dt = 0
       real(dp), allocatable :: rotor_re(:), rotor_im(:)
-      !> multiplicity z exp(lambda s) per term at the last sample s_last (real and imaginary
-      !> parts), and the samples taken since those terms were last computed with exp.
-      real(dp), allocatable :: running_re(:), running_im(:)
+      !> Time of the last sample, and the samples taken since its terms were last computed
+      !> with exp.
       real(dp) :: s_last = 0
       integer :: since_anchor = huge(1)
       !> Real and imaginary parts of the eigenvalues, one per term.
@@ -126,6 +134,9 @@ module tmafm_flight
    integer, parameter :: max_halvings = 30
    !> Most evaluations of V_T one call of first_contact may take before it gives up.
    integer, parameter :: max_scan_evaluations = 10000000
+   !> Rows the sample kernel computes together (a fixed count, so that its inner loop has a
+   !> constant length the compiler vectorises; sample_matrix is padded to a multiple of it).
+   integer, parameter :: sample_block = 8
    !> Samples between two evaluations of exp(lambda s) in `sample`.
    integer, parameter, public :: anchor_every = 32
    !> Scan points between two direct evaluations of V_T (exp, sin, cos) in `first_contact`;
@@ -244,8 +255,7 @@ contains
       k = self%n_terms
       allocate (self%eigenvalue(k), self%multiplicity(k), self%vectors(m, k), self%inverse(k, m), &
                 self%tip_of_vector(k), self%z(k), self%tip_weight(k), self%weight4(k), &
-                self%vectors_re(m, k), self%vectors_im(m, k), self%rotor_re(k), self%rotor_im(k), &
-                self%running_re(k), self%running_im(k), self%eigen_re(k), self%eigen_im(k), &
+                self%rotor_re(k), self%rotor_im(k), self%eigen_re(k), self%eigen_im(k), &
                 self%term_size(k))
       self%rotor_re = 1
       self%rotor_im = 0
@@ -258,8 +268,23 @@ contains
          self%inverse(k, :) = inverse(j, :)
          self%tip_of_vector(k) = sum(model%tip*vectors(1:n, j))
       end do
-      self%vectors_re = real(self%vectors, dp)
-      self%vectors_im = aimag(self%vectors)
+      k = self%n_terms
+      self%sample_blocks = (m + sample_block - 1)/sample_block
+      allocate (self%sample_matrix(sample_block, 2 + 2*k, self%sample_blocks), &
+                self%sample_weights(2 + 2*k))
+      block
+         real(dp) :: columns(sample_block*self%sample_blocks, 2 + 2*k)
+         integer :: b
+         columns = 0
+         columns(1:m, 1) = self%u
+         columns(1:m, 2) = self%v
+         columns(1:m, 3:2 + k) = real(self%vectors, dp)
+         columns(1:m, 3 + k:2 + 2*k) = -aimag(self%vectors)
+         do b = 1, self%sample_blocks
+            self%sample_matrix(:, :, b) = columns((b - 1)*sample_block + 1:b*sample_block, :)
+         end do
+      end block
+      self%sample_weights = 0
       self%min_step = 0.25_dp/max(maxval(abs(self%eigenvalue)), omega, tiny(1.0_dp))/1024
       self%eigen_re = real(self%eigenvalue, dp)
       self%eigen_im = aimag(self%eigenvalue)
@@ -364,22 +389,27 @@ contains
       real(dp), intent(in) :: cos_phase
       real(dp), intent(out) :: y(:)
       complex(dp) :: term
-      integer :: k
-      if (self%since_anchor < anchor_every .and. &
-          abs(s - (self%s_last + self%sample_dt)) <= 16*epsilon(1.0_dp)*(abs(self%tau0) + abs(s))) then
-         call turn(self%n_terms, self%rotor_re, self%rotor_im, self%running_re, self%running_im)
-         self%since_anchor = self%since_anchor + 1
-      else
-         do k = 1, self%n_terms
-            term = self%multiplicity(k)*self%z(k)*exp(self%eigenvalue(k)*s)
-            self%running_re(k) = real(term, dp)
-            self%running_im(k) = aimag(term)
-         end do
-         self%since_anchor = 1
-      end if
+      integer :: k, n_terms
+      n_terms = self%n_terms
+      associate (w => self%sample_weights)
+         if (self%since_anchor < anchor_every .and. &
+             abs(s - (self%s_last + self%sample_dt)) <= 16*epsilon(1.0_dp)*(abs(self%tau0) + abs(s))) then
+            call turn(n_terms, self%rotor_re, self%rotor_im, w(3:2 + n_terms), w(3 + n_terms:2 + 2*n_terms))
+            self%since_anchor = self%since_anchor + 1
+         else
+            do k = 1, n_terms
+               term = self%multiplicity(k)*self%z(k)*exp(self%eigenvalue(k)*s)
+               w(2 + k) = real(term, dp)
+               w(2 + n_terms + k) = aimag(term)
+            end do
+            self%since_anchor = 1
+         end if
+         w(1) = sin_phase
+         w(2) = cos_phase
+      end associate
       self%s_last = s
-      call sum_terms(self%n_state, self%n_terms, self%u, self%v, self%vectors_re, self%vectors_im, &
-                     self%running_re, self%running_im, sin_phase, cos_phase, y)
+      call sum_terms(self%n_state, self%sample_blocks, 2 + 2*n_terms, self%sample_matrix, &
+                     self%sample_weights, y)
    end subroutine flight_sample
 
    !> running = running rotor, term by term (complex numbers as real and imaginary parts).
@@ -396,23 +426,40 @@ contains
       end do
    end subroutine turn
 
-   !> y = u sin + v cos + sum_k Re(V(:, k) running_k): the state from the particular solution
-   !> and the turned terms (the multiplicity is in running).
-   pure subroutine sum_terms(m, n_terms, u, v, vectors_re, vectors_im, running_re, running_im, &
-                             sin_phase, cos_phase, y)
-      integer, intent(in) :: m, n_terms
-      real(dp), intent(in) :: u(m), v(m), vectors_re(m, n_terms), vectors_im(m, n_terms)
-      real(dp), intent(in) :: running_re(n_terms), running_im(n_terms)
-      real(dp), intent(in) :: sin_phase, cos_phase
+   !> y = the first m rows of matrix weights, sample_block rows at a time and two columns per
+   !> pass (columns is even): with matrix = [u | v | Re V | -Im V] (its rows padded to whole
+   !> blocks, each block's columns stored together) and weights = [sin, cos, Re running,
+   !> Im running], the state u sin + v cos + sum_k Re(V(:, k) running_k) (the multiplicity is
+   !> in running).  The block (acc) stays in registers; `omp simd` has gcc vectorise along its rows
+   !> (left to itself it vectorises across the column pairs and shuffles the rows back).
+   pure subroutine sum_terms(m, blocks, columns, matrix, weights, y)
+      integer, intent(in) :: m, blocks, columns
+      real(dp), intent(in) :: matrix(sample_block, columns, blocks)
+      real(dp), intent(in) :: weights(columns)
       real(dp), intent(out) :: y(m)
-      integer :: i, k
-      do i = 1, m
-         y(i) = u(i)*sin_phase + v(i)*cos_phase
-      end do
-      do k = 1, n_terms
-         do i = 1, m
-            y(i) = y(i) + (vectors_re(i, k)*running_re(k) - vectors_im(i, k)*running_im(k))
+      real(dp) :: acc(sample_block), w1, w2
+      integer :: b, i, j, first
+      do b = 1, blocks
+         acc = 0
+         do j = 1, columns - 1, 2
+            w1 = weights(j)
+            w2 = weights(j + 1)
+            !$omp simd
+            do i = 1, sample_block
+               acc(i) = acc(i) + (matrix(i, j, b)*w1 + matrix(i, j + 1, b)*w2)
+            end do
          end do
+         first = (b - 1)*sample_block
+         if (first + sample_block <= m) then
+            !$omp simd
+            do i = 1, sample_block
+               y(first + i) = acc(i)
+            end do
+         else
+            do i = 1, m - first
+               y(first + i) = acc(i)
+            end do
+         end if
       end do
    end subroutine sum_terms
 

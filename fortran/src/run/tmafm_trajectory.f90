@@ -131,7 +131,7 @@ contains
    pure subroutine trajectory_store(self, model, y)
       class(trajectory_t), intent(inout) :: self
       type(model_t), intent(in) :: model
-      real(dp), intent(in) :: y(:)
+      real(dp), contiguous, intent(in) :: y(:)
       real(dp) :: sin_phase, cos_phase
       call self%next_phase(model, sin_phase, cos_phase)
       call self%store_at_phase(model, y, sin_phase, cos_phase)
@@ -158,7 +158,7 @@ contains
    pure subroutine trajectory_store_at_phase(self, model, y, sin_phase, cos_phase)
       class(trajectory_t), intent(inout) :: self
       type(model_t), intent(in) :: model
-      real(dp), intent(in) :: y(:)
+      real(dp), contiguous, intent(in) :: y(:)
       real(dp), intent(in) :: sin_phase
       real(dp), intent(in) :: cos_phase
       integer :: k

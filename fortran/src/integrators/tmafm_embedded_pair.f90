@@ -161,6 +161,9 @@ module tmafm_embedded_pair
       logical :: after_rejection = .false.
       !> .true. once a step of this phase was rejected: the PI gains apply from then on.
       logical :: rejected_in_phase = .false.
+      !> Accepted steps for which the PI gains apply although no step of the phase was rejected
+      !> (set by the caller: the steps after a warped contact entry).
+      integer :: pi_steps = 0
       !> The norm of the last accepted step in this phase (floored at 1e-4, as Hairer's
       !> facold); 0 at a phase start.
       real(dp) :: norm_prev = 0
@@ -303,11 +306,14 @@ contains
       else
          ! pair%growth(x) = x^(-1/k).
          factor = self%safety*pair%growth(norm)
-         if (norm <= 1 .and. self%norm_prev > 0 .and. self%rejected_in_phase) &
+         if (norm <= 1 .and. self%norm_prev > 0 .and. (self%rejected_in_phase .or. self%pi_steps > 0)) &
             factor = factor**self%i_gain/(self%safety*pair%growth(self%norm_prev))**self%p_gain
          factor = min(grow, max(pair%shrink_limit, factor))
       end if
-      if (norm <= 1) self%norm_prev = max(norm, 1.0e-4_dp)
+      if (norm <= 1) then
+         self%norm_prev = max(norm, 1.0e-4_dp)
+         self%pi_steps = self%pi_steps - 1
+      end if
       self%after_rejection = .not. (norm <= 1)
       if (self%after_rejection) self%rejected_in_phase = .true.
       h_next = h*factor
@@ -318,6 +324,7 @@ contains
       self%norm_prev = 0
       self%after_rejection = .false.
       self%rejected_in_phase = .false.
+      self%pi_steps = 0
    end subroutine controller_restart
 
 end module tmafm_embedded_pair

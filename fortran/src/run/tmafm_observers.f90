@@ -3,11 +3,12 @@
 !> T = 2 pi/Omega (docs/observables.md defines each one, with units and signs).
 !>
 !> Integrals (Fourier coefficients of V_T, mean deflection, the powers of model_t%energy_flow,
-!> the virial) use 8-point Gauss-Legendre on each piece (in sigma on a pair's warped step after
-!> a contact entry, where the integrands are smooth; a step, or a flight cut into pieces of
-!> at most T/16; 3 points on a fixed rk4_paper step's cubic); contact times come from the located switches; min V_T and the peak normal
-!> force are located on the dense output by a golden-section search around the best node, and so
-!> are max V_T and each mode's max and min over the period's in-contact part and its free part.
+!> the virial) use 8-point Gauss-Legendre on each piece (a step, or a flight cut into pieces
+!> of at most T/16; 3 points on a fixed rk4_paper step's cubic; on a pair's warped step after
+!> a contact entry the nodes are placed in sigma, where the integrands are smooth); contact
+!> times come from the located switches; min V_T and the peak normal force are located on the
+!> dense output by a golden-section search around the best node, and so are max V_T and each
+!> mode's max and min over the period's in-contact part and its free part.
 !> Every array is allocated in init; feeding steps allocates nothing.
 !>
 !> A run computes only the observable groups it asks for (observer_t%groups, bits group_*):

@@ -189,3 +189,60 @@ def test_any_hostile_value_builds_a_config_or_raises_a_typed_error_naming_the_ke
     assert "\ufffd" not in config.text
     assert pickle.loads(pickle.dumps(config)).text == config.text
 
+
+
+@pytest.fixture(scope="module")
+def model():
+    return tmafm.Model("fig2_n4")
+
+
+def _model_cases(n):
+    zeros, state = np.zeros(n), np.zeros(2 * n)
+    one = (np.zeros(1), np.zeros((1, n)), np.zeros((1, n)))
+    return [
+        # NaN/inf states gave NaN rates silently; a huge int was a raw OverflowError; complex
+        # values lost their imaginary part with only a ComplexWarning
+        ("nan_state", lambda m: m.derivative(0.0, [math.nan] * (2 * n), False), "y"),
+        ("inf_displacement", lambda m: m.matrices(0.0, [math.inf] * n, False), "a"),
+        ("huge_int_state", lambda m: m.derivative(0.0, [10**400] * (2 * n), False), "y"),
+        ("complex_state", lambda m: m.derivative(0.0, state.astype(complex), False), "y"),
+        ("nan_contact_point", lambda m: m.contact(0.0, [math.nan] * n), "a"),
+        ("inf_velocity", lambda m: m.energy_flow(0.0, zeros, [math.inf] * n, True), "adot"),
+        ("huge_int_tau", lambda m: m.derivative(10**400, state, False), "tau"),
+        ("string_tau", lambda m: m.derivative("1.5", state, False), "tau"),
+        # any object was taken as a phase by its truth value ("no" meant contact)
+        ("string_phase", lambda m: m.derivative(0.0, state, "no"), "in_contact"),
+        ("none_phase", lambda m: m.matrices(0.0, zeros, None), "in_contact"),
+        ("two_phase", lambda m: m.energy_flow(0.0, zeros, zeros, 2), "in_contact"),
+        # contact flags were cast to int32: 0.5 became 0, 5 was passed on
+        ("half_contact", lambda m: m.trajectory_energy_flow(*one, [0.5]), "contact"),
+        ("five_contact", lambda m: m.trajectory_energy_flow(*one, [5]), "contact"),
+        ("nan_trajectory", lambda m: m.trajectory_energy_flow(one[0], np.full((1, n), math.nan),
+                                                              one[2], [0]), "a"),
+        ("huge_int_trajectory", lambda m: m.trajectory_energy_flow(one[0], [[10**400] * n],
+                                                                   one[2], [0]), "a"),
+        # already refused before
+        ("wrong_shape", lambda m: m.derivative(0.0, np.zeros((2, n)), False), "y"),
+        ("ragged", lambda m: m.derivative(0.0, [[1.0, 2.0], [3.0]], False), "y"),
+        ("three_d_trajectory", lambda m: m.trajectory_energy_flow(one[0], np.zeros((1, n, 1)),
+                                                                  np.zeros((1, n, 1)), [0]), "a"),
+    ]
+
+
+MODEL_CASES = _model_cases(4)
+
+
+@pytest.mark.parametrize("call, name", [c[1:] for c in MODEL_CASES], ids=[c[0] for c in MODEL_CASES])
+def test_hostile_model_arguments_raise_a_typed_one_line_error(model, call, name):
+    assert model.n_modes == 4
+    with pytest.raises(tmafm.InputError) as info:
+        call(model)
+    _check_message(info.value, name)
+
+
+def test_model_arguments_that_are_fine_still_work(model):
+    n = model.n_modes
+    assert np.array_equal(model.derivative(0.0, np.zeros(2 * n), np.True_),
+                          model.derivative(0, [0] * (2 * n), 1))
+    power, energy, state = model.trajectory_energy_flow([], np.zeros((0, n)), np.zeros((0, n)), [])
+    assert power.shape == (0, 5) and energy.shape == (0,) and state.shape == (0, 6)

@@ -108,7 +108,8 @@ def _value_text(group: str, key: str, value, what: str) -> str:
         return ", ".join(_real_text(where, item) for item in value)
     if isinstance(value, str):
         if kind in (_REAL, _INT, _LIST):
-            raise InputError(f"{where} = {shown(value)}: must be a {kind}, not a string")
+            article = "an" if kind == _INT else "a"
+            raise InputError(f"{where} = {shown(value)}: must be {article} {kind}, not a string")
         if any(ch in value for ch in "\n\r\0"):
             raise InputError(f"{where} = {shown(value)}: a string must be one line")
         return "'" + value.replace("'", "''") + "'"

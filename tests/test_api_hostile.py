@@ -6,6 +6,8 @@ accepted input before the fix named next to it (pywrap/tmafm/_namelist.py, _run.
 import math
 import pickle
 import re
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -246,3 +248,46 @@ def test_model_arguments_that_are_fine_still_work(model):
                           model.derivative(0, [0] * (2 * n), 1))
     power, energy, state = model.trajectory_energy_flow([], np.zeros((0, n)), np.zeros((0, n)), [])
     assert power.shape == (0, 5) and energy.shape == (0,) and state.shape == (0, 6)
+
+
+def test_observe_refuses_a_thread_count_that_crashed_the_interpreter():
+    """observe_batch(threads=100000) asked libgomp for 100000 threads: SIGSEGV.  In a child
+    process, so that a regression fails this test instead of killing the test run."""
+    code = ("import tmafm\n"
+            "from tmafm.observe import observe_states\n"
+            "c = tmafm.Config('fig2_n4', solver={'tau_end': 10.0})\n"
+            "for call in (lambda: tmafm.observe_batch([c], threads=100000, max_periods=2),\n"
+            "             lambda: observe_states(c, [[0.0] * 8], threads=10**5, max_periods=2)):\n"
+            "    try:\n"
+            "        call()\n"
+            "    except tmafm.InputError as exc:\n"
+            "        print(exc)\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, (proc.returncode, proc.stderr[-2000:])
+    lines = proc.stdout.splitlines()
+    assert len(lines) == 2 and all("threads = 100000" in line for line in lines), lines
+
+
+@pytest.mark.parametrize("options, error, name", [
+    ({"harmonics": 10**7, "max_periods": 10**7}, tmafm.SolverError, "harmonics"),  # MemoryError
+    ({"max_periods": _BrokenRepr()}, tmafm.InputTypeError, "max_periods"),         # RuntimeError
+    ({"observables": [_MultilineRepr(1.0)]}, tmafm.InputTypeError, "observables"),
+], ids=["too_much_memory", "broken_repr", "multiline_repr"])
+def test_hostile_observe_options_raise_a_typed_one_line_error(options, error, name):
+    with pytest.raises(error) as info:
+        tmafm.observe("fig2_n4", solver={"tau_end": 10.0}, **options)
+    _check_message(info.value, name)
+
+
+def test_observe_batch_reads_a_config_with_non_ascii_text():
+    """The batch joins the configurations' texts and cuts them at offsets: they count bytes,
+    so a non-ASCII &output file (UTF-8, several bytes per character) must not shift them."""
+    plain = tmafm.Config("fig2_n4", solver={"tau_end": 20.0})
+    accented = tmafm.Config("fig2_n4", solver={"tau_end": 20.0},
+                            output={"file": "\u00e9\u2713.npz"})
+    assert "file = '\u00e9\u2713.npz'" in accented.text
+    first, second, third = tmafm.observe_batch([accented, plain, accented], max_periods=4)
+    for observation in (first, third):
+        assert observation.periods == second.periods
+        assert np.array_equal(observation.per_period["contact_time"],
+                              second.per_period["contact_time"])

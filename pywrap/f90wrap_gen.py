@@ -6,9 +6,12 @@
 Both tools write into the current folder, so each step runs inside OUTDIR, with this
 interpreter (nothing depends on PATH).  After f90wrap, the wrapper of the run entry point
 gets an ``!f2py threadsafe`` line, so the extension releases the GIL while the core integrates.
+After f2py, every wrapper in _fwrapmodule.c loses f90wrap's SIGINT handler and setjmp
+(drop_abort_handler below).
 """
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -40,6 +43,43 @@ def mark_threadsafe(path: Path) -> None:
     path.write_text("".join(out))
 
 
+#: f90wrap's "custom abort handler" around each call in _fwrapmodule.c: it installs a SIGINT
+#: handler that longjmps to ONE global jmp_buf, calls the routine, and puts the saved handler
+#: back.  Around a call that releases the GIL this is wrong three ways: two overlapping calls
+#: save each other's handler, so the last to return can leave f90wrap's handler installed for
+#: good; a Ctrl-C longjmps out of the Fortran without the GIL (Py_END_ALLOW_THREADS skipped) and
+#: crashed the interpreter; and the handler runs in the main thread, but the jmp_buf may be
+#: another thread's, or stale.  Around a short call that holds the GIL it can still jump out of
+#: the middle of a malloc, or into another thread's stack.  The core never calls the abort hook
+#: (no stop in the library; errors come back as ierr), so the only thing the handler does is
+#: turn Ctrl-C into that jump.  Without it, Python's own handler notes the signal and
+#: KeyboardInterrupt is raised when the call returns (docs/model-notes.md, finding 12).
+_ABORT_BLOCK = re.compile(
+    r"/\* setjmp\(\) exception handling added by James Kermode \*/\n"
+    r".*?/\*callfortranroutine\*/\n"
+    r"(?P<call>.*?)"
+    r"\n[ \t]*PyOS_setsig\(SIGINT, _npy_sig_save\);\n[ \t]*\}\n[ \t]*/\* End addition \*/",
+    re.S)
+_SETJMP_DECL = re.compile(r"^[ \t]*int setjmpvalue; /\* James Kermode - for setjmp \*/\n", re.M)
+
+
+def drop_abort_handler(path: Path) -> None:
+    """Replace f90wrap's SIGINT handler + setjmp block around every call by the bare call.
+
+    Fails the build if any trace of it is left (a new f90wrap that writes it differently)."""
+    text = path.read_text()
+    blocks = text.count("/* setjmp() exception handling added by James Kermode */")
+    text, replaced = _ABORT_BLOCK.subn(
+        lambda m: "/* tmafm: no SIGINT handler or setjmp here (f90wrap_gen.py) */\n" + m["call"], text)
+    text = _SETJMP_DECL.sub("", text)
+    left = [s for s in ("PyOS_setsig(SIGINT", "setjmp(environment_buffer)", "setjmpvalue")
+            if s in text]
+    if replaced != blocks or blocks == 0 or left:
+        raise SystemExit(f"f90wrap_gen: {path}: replaced {replaced} of {blocks} abort-handler "
+                         f"blocks, left {left}; has f90wrap changed how it writes them?")
+    path.write_text(text)
+
+
 def main() -> None:
     step, outdir, *rest = sys.argv[1:]
     sources = [str(Path(p).resolve()) for p in rest]
@@ -58,6 +98,7 @@ def main() -> None:
                         "-m", "_fwrap", "--lower", *sources], check=True, stdout=subprocess.DEVNULL)
         for expected in ("_fwrap-f2pywrappers.f",):
             Path(expected).touch()
+        drop_abort_handler(Path("_fwrapmodule.c"))
     else:
         raise SystemExit(f"unknown step {step!r}")
 

@@ -2,11 +2,17 @@
 releases the GIL, so threads give the serial results bit for bit and overlap in time.
 (Throughput is measured in benchmarks/python_overhead.py, not here.)"""
 
+import ctypes
+import signal
+import subprocess
+import sys
+import textwrap
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+import pytest
 
 import tmafm
 
@@ -82,3 +88,80 @@ def test_configs_built_in_threads_read_their_own_text():
         wrong = [k for k, (index, text) in enumerate(pool.map(build, range(1200)))
                  if text != serial[index]]
     assert wrong == [], (len(wrong), wrong[:5])
+
+
+def _os_sigint_handler() -> int:
+    """Address of the SIGINT handler the OS has installed (signal.getsignal only tells the
+    Python-level one, which f90wrap's C handler never changed)."""
+    getsig = ctypes.pythonapi.PyOS_getsig
+    getsig.restype, getsig.argtypes = ctypes.c_void_p, [ctypes.c_int]
+    return getsig(signal.SIGINT)
+
+
+def test_overlapping_released_calls_leave_pythons_sigint_handler():
+    """f90wrap saved the SIGINT handler, installed its own (a longjmp to one global jmp_buf),
+    and put the saved one back around every call.  A call that starts while another is inside
+    the core (GIL released) saved f90wrap's handler; when the first returned first, the second
+    put f90wrap's handler back for good, and the next Ctrl-C jumped into a stale jmp_buf
+    (segmentation fault).  pywrap/f90wrap_gen.py removes that handler from the wrappers."""
+    python_handler = _os_sigint_handler()
+    # Python's own record (signal.default_int_handler, or SIG_IGN when the tests run as a
+    # background job); it never saw f90wrap's handler, so the OS-level check above is the test.
+    python_level = signal.getsignal(signal.SIGINT)
+    short = tmafm.Config("fig2_n4", solver={"tau_end": 20.0})
+    long_ = tmafm.Config("fig2_n4", solver={"tau_end": 200.0})
+    overlapped = 0
+    for _ in range(5):
+        span = {}
+
+        def worker():
+            span["started"] = time.perf_counter()
+            short.run()
+            span["ended"] = time.perf_counter()
+
+        thread = threading.Thread(target=worker)
+        thread.start()
+        time.sleep(0.01)
+        started = time.perf_counter()
+        long_.run()
+        ended = time.perf_counter()
+        thread.join()
+        # The order that left the handler behind: the thread's run started first and ended
+        # first, inside this run.
+        overlapped += span["started"] < started < span["ended"] < ended
+        assert _os_sigint_handler() == python_handler
+        assert signal.getsignal(signal.SIGINT) is python_level
+        if overlapped >= 2:
+            break
+    assert overlapped >= 1
+
+
+def test_ctrl_c_during_a_run_raises_keyboardinterrupt_when_it_returns():
+    """SIGINT while the core integrates (GIL released): Python's handler notes it, the run goes
+    on to its end, and KeyboardInterrupt is raised when the call returns.  f90wrap's handler
+    longjmp'd out of the Fortran without the GIL and the interpreter died (SIGSEGV)."""
+    child = textwrap.dedent("""
+        import signal, sys, time, tmafm
+        signal.signal(signal.SIGINT, signal.default_int_handler)  # also under a SIG_IGN parent
+        config = tmafm.Config("fig2_n4", solver={"tau_end": 1000.0})
+        print("start", flush=True)
+        try:
+            config.run()
+            print("finished", flush=True)
+        except KeyboardInterrupt:
+            print("interrupted", flush=True)
+        print(tmafm.Config("fig2_n4", solver={"tau_end": 1.0}).run().tau[-1], flush=True)
+    """)
+    proc = subprocess.Popen([sys.executable, "-c", child], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "start"
+        time.sleep(0.3)  # inside the core by now: the run takes seconds
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, (proc.returncode, err[-2000:])
+    lines = out.split()
+    assert lines[0] == "interrupted", out
+    assert float(lines[1]) == pytest.approx(1.0, abs=0.05)

@@ -12,6 +12,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ._fortran import api as _api
+from ._namelist import shown
 from ._run import Config
 from .errors import InputError, raise_for
 
@@ -33,24 +34,45 @@ class ContactState(NamedTuple):
     axial: float
 
 
-def _vector(name: str, value, size: int) -> np.ndarray:
+def _finite_array(name: str, value, dtype=np.float64, order="C") -> np.ndarray:
+    """`value` as a float array; InputError for anything that is not finite real numbers."""
     try:
-        array = np.ascontiguousarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{name} must be {size} numbers: {exc}") from exc
+        array = np.asarray(value)
+        if np.iscomplexobj(array):
+            raise TypeError("complex numbers are not real")
+        array = np.require(array, dtype=dtype, requirements=order)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InputError(f"{name} must be real numbers: {shown(str(exc))[1:-1]}") from None
+    if not np.all(np.isfinite(array)):
+        raise InputError(f"{name} must be finite numbers, got {shown(value)}")
+    return array
+
+
+def _vector(name: str, value, size: int) -> np.ndarray:
+    array = _finite_array(name, value)
     if array.shape != (size,):
         raise InputError(f"{name} must have shape ({size},), got {array.shape}")
     return array
 
 
 def _time(tau) -> float:
+    if isinstance(tau, (str, bytes, bool, np.bool_)):
+        raise InputError(f"tau must be a number, got {shown(tau)}")
     try:
         value = float(tau)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"tau must be a number, got {tau!r}") from exc
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"tau must be a finite number, got {shown(tau)}") from None
     if not np.isfinite(value):
-        raise InputError(f"tau = {tau!r}: must be finite")
+        raise InputError(f"tau = {shown(tau)}: must be finite")
     return value
+
+
+def _phase(in_contact) -> bool:
+    """in_contact: a bool (or 0/1); anything else ("no", None, 2) is an InputError."""
+    if isinstance(in_contact, (bool, np.bool_)) or (
+            isinstance(in_contact, (int, np.integer)) and in_contact in (0, 1)):
+        return bool(in_contact)
+    raise InputError(f"in_contact must be True or False, got {shown(in_contact)}")
 
 
 class Model:
@@ -98,7 +120,7 @@ class Model:
         n = self.n_modes
         y = _vector("y", y, 2 * n)
         rate = np.zeros(2 * n)
-        self._f.derivative(_time(tau), y, bool(in_contact), rate)
+        self._f.derivative(_time(tau), y, _phase(in_contact), rate)
         return rate
 
     def matrices(self, tau: float, a, in_contact: bool):
@@ -107,7 +129,7 @@ class Model:
         a = _vector("a", a, n)
         mass, damping, stiffness = (np.zeros((n, n), order="F") for _ in range(3))
         force = np.zeros(n)
-        self._f.matrices(_time(tau), a, bool(in_contact), mass, damping, stiffness, force)
+        self._f.matrices(_time(tau), a, _phase(in_contact), mass, damping, stiffness, force)
         return mass, damping, stiffness, force
 
     def contact(self, tau: float, a) -> ContactState:
@@ -125,20 +147,20 @@ class Model:
         a = _vector("a", a, n)
         adot = _vector("adot", adot, n)
         power = np.zeros(len(POWER_NAMES))
-        energy = self._f.energy_flow(_time(tau), a, adot, bool(in_contact), power)
+        energy = self._f.energy_flow(_time(tau), a, adot, _phase(in_contact), power)
         out = dict(zip(POWER_NAMES, map(float, power)))
         out["energy"] = float(energy)
         return out
 
     def trajectory_energy_flow(self, tau, a, adot, contact):
         """Along samples: (powers samples x 5, energy, contact state samples x 6)."""
-        try:
-            tau = np.ascontiguousarray(tau, dtype=np.float64)
-            a = np.asfortranarray(a, dtype=np.float64)
-            adot = np.asfortranarray(adot, dtype=np.float64)
-            contact = np.ascontiguousarray(contact, dtype=np.int32)
-        except (TypeError, ValueError) as exc:
-            raise InputError(f"tau, a, adot and contact must be numeric arrays: {exc}") from exc
+        tau = _finite_array("tau", tau)
+        a = _finite_array("a", a, order="F")
+        adot = _finite_array("adot", adot, order="F")
+        phases = np.asarray(contact)
+        if phases.dtype.kind not in "biuf" or not np.all((phases == 0) | (phases == 1)):
+            raise InputError(f"contact must be 0 or 1 (or bools) per sample, got {shown(contact)}")
+        contact = np.ascontiguousarray(phases, dtype=np.int32)
         k = tau.size
         if tau.ndim != 1 or a.shape != (k, self.n_modes) or adot.shape != a.shape \
                 or contact.shape != (k,):

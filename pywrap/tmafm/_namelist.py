@@ -12,13 +12,14 @@ from __future__ import annotations
 import math
 import numbers
 import re
+import reprlib
 from collections.abc import Mapping
 
 import numpy as np
 
 from .errors import InputError
 
-__all__ = ["GROUPS", "KEY_TYPES", "check_groups", "merge", "to_text"]
+__all__ = ["GROUPS", "KEY_TYPES", "check_groups", "merge", "shown", "to_text"]
 
 #: The namelist groups, in the order the text is written.
 GROUPS = ("model", "scene", "physical", "initial", "solver", "output")
@@ -45,6 +46,23 @@ KEY_TYPES = {
 
 _KEY = re.compile(r"[a-z][a-z0-9_]*\Z")
 
+_SHORT = reprlib.Repr()
+_SHORT.maxlevel, _SHORT.maxstring, _SHORT.maxother = 3, 80, 80
+_SHORT.maxlist = _SHORT.maxtuple = _SHORT.maxdict = _SHORT.maxset = 8
+
+
+def shown(value) -> str:
+    """A value as an error message shows it: a repr cut to about 80 characters, nested at most
+    3 deep, with control and non-ASCII characters as escapes, so the message stays one short
+    line whatever the value (a 2-D array's repr spans lines, a 10**6-entry list is megabytes,
+    a list nested 10**5 deep exceeds the recursion limit, an object's __repr__ may raise)."""
+    try:
+        text = _SHORT.repr(value)
+    except Exception:  # a broken __repr__ inside a container
+        text = f"<{type(value).__name__} object>"
+    return text.encode("ascii", "backslashreplace").decode("ascii").replace("\n", "\\n").replace(
+        "\r", "\\r").translate({c: f"\\x{c:02x}" for c in [*range(32), 127]})
+
 
 def _is_real(value) -> bool:
     return isinstance(value, (numbers.Real, np.floating, np.integer)) and not isinstance(
@@ -57,9 +75,12 @@ def _is_int(value) -> bool:
 
 
 def _real_text(where: str, value) -> str:
-    number = float(value)
+    try:
+        number = float(value)
+    except (OverflowError, ValueError, TypeError) as exc:
+        raise InputError(f"{where} = {shown(value)}: not a finite double ({exc})") from None
     if not math.isfinite(number):
-        raise InputError(f"{where} = {value!r}: must be a finite number")
+        raise InputError(f"{where} = {shown(value)}: must be a finite number")
     return repr(number)
 
 
@@ -70,38 +91,39 @@ def _value_text(group: str, key: str, value, what: str) -> str:
     if value is None:
         raise InputError(f"{where} = None: give a value (or leave the key out for its default)")
     if isinstance(value, (bool, np.bool_)):
-        raise InputError(f"{where} = {value!r}: a bool is not a {kind or 'value'} here")
+        raise InputError(f"{where} = {shown(value)}: a bool is not a {kind or 'value'} here")
     if isinstance(value, np.ndarray):
         value = value.tolist()
     if isinstance(value, (list, tuple)):
         if kind not in (_LIST, None):
-            raise InputError(f"{where} = {value!r}: must be one {kind}, not a list")
+            raise InputError(f"{where} = {shown(value)}: must be one {kind}, not a list")
         if not value:
             raise InputError(f"{where} = []: give at least one value (or leave the key out)")
         for item in value:
             if isinstance(item, (list, tuple, np.ndarray, Mapping)):
-                raise InputError(f"{where} = {value!r}: nested lists are not allowed")
+                raise InputError(f"{where} = {shown(value)}: nested lists are not allowed")
             if not _is_real(item):
-                raise InputError(f"{where} = {value!r}: every entry must be a number, "
-                                 f"got {item!r}")
+                raise InputError(f"{where} = {shown(value)}: every entry must be a number, "
+                                 f"got {shown(item)}")
         return ", ".join(_real_text(where, item) for item in value)
     if isinstance(value, str):
         if kind in (_REAL, _INT, _LIST):
-            raise InputError(f"{where} = {value!r}: must be a {kind}, not a string")
+            article = "an" if kind == _INT else "a"
+            raise InputError(f"{where} = {shown(value)}: must be {article} {kind}, not a string")
         if any(ch in value for ch in "\n\r\0"):
-            raise InputError(f"{where} = {value!r}: a string must be one line")
+            raise InputError(f"{where} = {shown(value)}: a string must be one line")
         return "'" + value.replace("'", "''") + "'"
     if _is_int(value):
         if kind == _STR:
-            raise InputError(f"{where} = {value!r}: must be a quoted string, not a number")
+            raise InputError(f"{where} = {shown(value)}: must be a quoted string, not a number")
         return str(int(value))
     if _is_real(value):
         if kind == _STR:
-            raise InputError(f"{where} = {value!r}: must be a quoted string, not a number")
+            raise InputError(f"{where} = {shown(value)}: must be a quoted string, not a number")
         if kind == _INT:
-            raise InputError(f"{where} = {value!r}: must be an integer")
+            raise InputError(f"{where} = {shown(value)}: must be an integer")
         return _real_text(where, value)
-    raise InputError(f"{where} = {value!r}: a {type(value).__name__} is not a namelist value")
+    raise InputError(f"{where} = {shown(value)}: a {type(value).__name__} is not a namelist value")
 
 
 def check_groups(groups, what: str = "input") -> dict:
@@ -111,20 +133,26 @@ def check_groups(groups, what: str = "input") -> dict:
     checked: dict = {}
     for group, values in groups.items():
         if not isinstance(group, str):
-            raise InputError(f"{what}: group names must be strings, got {group!r}")
+            raise InputError(f"{what}: group names must be strings, got {shown(group)}")
         name = group.lower()
         if name not in GROUPS:
-            raise InputError(f"{what}: unknown namelist group &{group} "
+            raise InputError(f"{what}: unknown namelist group &{shown(group)[1:-1]} "
                              f"(known: {', '.join('&' + g for g in GROUPS)})")
         if not isinstance(values, Mapping):
-            raise InputError(f"{what}: &{name} must be a dict of keys, not {values!r}")
-        target = checked.setdefault(name, {})
+            raise InputError(f"{what}: &{name} must be a dict of keys, not {shown(values)}")
+        if name in checked:  # as the core refuses a group that appears twice in a file
+            raise InputError(f"{what}: namelist group &{name} appears twice (names differ only "
+                             f"in case)")
+        target = checked[name] = {}
         for key, value in values.items():
             if not isinstance(key, str):
-                raise InputError(f"{what}: &{name}: key names must be strings, got {key!r}")
+                raise InputError(f"{what}: &{name}: key names must be strings, got {shown(key)}")
             low = key.lower()
             if not _KEY.match(low):
-                raise InputError(f"{what}: &{name} key {key!r} is not a namelist name")
+                raise InputError(f"{what}: &{name} key {shown(key)} is not a namelist name")
+            if low in target:
+                raise InputError(f"{what}: &{name} {low}: the key is given twice (names differ "
+                                 f"only in case)")
             target[low] = value
     return checked
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from . import inputs as _inputs
 from ._fortran import api as _api
-from ._namelist import KEY_TYPES, check_groups, merge, to_text
+from ._namelist import KEY_TYPES, check_groups, merge, shown, to_text
 from .errors import InputError, InputFileError, InputTypeError, SolverError, raise_for
 
 __all__ = ["Config", "Result", "run", "resolve", "SCENE_KEYS", "COUNTER_KEYS"]
@@ -35,17 +35,25 @@ NamelistLike = Union[str, os.PathLike, Mapping, "Config"]
 
 def _input_path(nml) -> Path:
     """An existing file, or the packaged input of that name; InputFileError otherwise."""
-    path = Path(nml)
-    if path.is_file():
-        return path
-    if path.exists():
-        raise InputFileError(f"input file '{path}' is not a regular file")
-    if path.suffix in ("", ".nml") and len(path.parts) == 1:
-        try:
-            return _inputs.path(path.name)
-        except InputFileError:
-            pass
-    raise InputFileError(f"input file '{path}' not found, and no packaged input has that name "
+    try:
+        path = Path(nml)
+    except TypeError as exc:  # an os.PathLike whose __fspath__ gives neither str nor bytes
+        raise InputTypeError(f"nml: {exc}") from None
+    name = shown(str(path))
+    try:
+        if path.is_file():
+            return path
+        if path.exists():
+            raise InputFileError(f"input file {name} is not a regular file")
+        if path.suffix in ("", ".nml") and len(path.parts) == 1:
+            try:
+                return _inputs.path(path.name)
+            except InputFileError:
+                pass
+    except (OSError, ValueError) as exc:  # a name too long, or with a NUL byte
+        raise InputFileError(f"input file {name} cannot be used: "
+                             f"{getattr(exc, 'strerror', None) or exc}") from None
+    raise InputFileError(f"input file {name} not found, and no packaged input has that name "
                          f"(tmafm.inputs.names(): {', '.join(_inputs.names())})")
 
 
@@ -53,11 +61,28 @@ def _read_text(path: Path) -> str:
     try:
         data = path.read_bytes()
     except OSError as exc:
-        raise InputFileError(f"input file '{path}' cannot be read: {exc.strerror}") from exc
+        raise InputFileError(f"input file {shown(str(path))} cannot be read: {exc.strerror}") from exc
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise InputError(f"{path}: not a UTF-8 text file (byte {exc.start})") from exc
+        raise InputError(f"{shown(str(path))}: not a UTF-8 text file (byte {exc.start})") from exc
+
+
+def _for_core(text: str) -> bytes:
+    """Text for the core's character arguments: UTF-8 bytes, as the executable reads a file.
+    (f2py turns a str with non-ASCII characters into no argument at all: a TypeError "function
+    takes exactly 5 arguments (1 given)"; the core reports a non-ASCII value in its one-line
+    message as \\xNN escapes.)"""
+    return text.encode("utf-8", "backslashreplace")
+
+
+def _checked_max_switches(max_switches):
+    if max_switches is None:
+        return None
+    if isinstance(max_switches, (bool, np.bool_)) or not isinstance(max_switches, (int, np.integer)) \
+            or max_switches < 0:
+        raise InputError(f"max_switches = {shown(max_switches)}: must be an integer >= 0 or None")
+    return int(max_switches)
 
 
 def _check_known(groups: Mapping, what: str) -> None:
@@ -77,7 +102,7 @@ def _source(nml, overrides: Mapping) -> tuple[str, str, str | None]:
     """
     override_text = None
     if overrides:
-        what = f"override {dict(overrides)!r}"
+        what = f"override {shown(dict(overrides))}"
         overrides = check_groups(overrides, what)
         _check_known(overrides, what)
         override_text = to_text(overrides, what)
@@ -105,10 +130,12 @@ class Config:
     def __init__(self, nml: NamelistLike = None, **overrides):
         text, label, override_text = _source({} if nml is None else nml, overrides)
         if override_text is None:
-            handle, ierr, errmsg = _api.config_from_text(text, label)
+            handle, ierr, errmsg = _api.config_from_text(_for_core(text), _for_core(label))
         else:
             label = f"{label} + overrides"
-            handle, ierr, errmsg = _api.config_from_texts(text, label[:-12], override_text, label)
+            handle, ierr, errmsg = _api.config_from_texts(_for_core(text), _for_core(label[:-12]),
+                                                          _for_core(override_text),
+                                                          _for_core(label))
         raise_for(ierr, errmsg)
         self.label = label
         self._f = handle
@@ -144,7 +171,8 @@ class Config:
         if self._text is None:
             codes = np.zeros(int(_api.config_text_length(self._f)), dtype=np.int32)
             _api.config_text_codes(self._f, codes)
-            self._text = codes.astype(np.uint8).tobytes().decode("ascii", "replace")
+            # UTF-8: the core holds the bytes _for_core gave it (a non-ASCII &output file).
+            self._text = codes.astype(np.uint8).tobytes().decode("utf-8", "replace")
         return self._text
 
     def to_namelist(self) -> f90nml.Namelist:
@@ -159,7 +187,7 @@ class Config:
     def write(self, path) -> Path:
         """Write the resolved input to `path` (atomically: a temporary file, then a rename)."""
         path = Path(path)
-        _atomic_write(path, self.text.encode("ascii"))
+        _atomic_write(path, self.text.encode("utf-8"))
         return path
 
     def model(self):
@@ -169,6 +197,7 @@ class Config:
 
     def run(self, max_switches: int | None = None) -> "Result":
         """Run this configuration; the GIL is released while the core integrates."""
+        max_switches = _checked_max_switches(max_switches)
         handle, ierr, errmsg = _api.run_config(self._f)
         raise_for(ierr, errmsg)
         n_samples, n_modes, n_switches = _api.run_sizes(handle)
@@ -324,7 +353,7 @@ def run(nml: NamelistLike, max_switches: int | None = None, **overrides) -> Resu
 def _config_from_resolved_text(text: str, label: str) -> Config:
     """A Config rebuilt from its resolved text (how a pickled Config is unpickled)."""
     config = Config.__new__(Config)
-    handle, ierr, errmsg = _api.config_from_text(text, label)
+    handle, ierr, errmsg = _api.config_from_text(_for_core(text), _for_core(label))
     raise_for(ierr, errmsg)
     config.label, config._f, config._text, config._scene = label, handle, text, None
     return config

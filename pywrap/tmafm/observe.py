@@ -22,8 +22,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._run import Config
-from .errors import InputError, InputTypeError, raise_for
+from ._namelist import shown
+from ._run import Config, _for_core
+from .errors import InputError, InputTypeError, SolverError, raise_for
 
 __all__ = ["Observation", "observe", "observe_batch", "observe_states", "StatesObservation",
            "OBSERVABLES", "OBSERVABLE_GROUPS", "UNITS", "PHYSICAL_UNITS", "steady_period",
@@ -116,12 +117,12 @@ def observable_groups(observables) -> tuple[str, ...]:
     try:
         names = list(observables)
     except TypeError:
-        raise InputTypeError(f"observables = {observables!r}: must be None or a sequence of "
+        raise InputTypeError(f"observables = {shown(observables)}: must be None or a sequence of "
                              f"names") from None
     chosen = set()
     for name in names:
         if not isinstance(name, str):
-            raise InputTypeError(f"observables: {name!r} is not a name")
+            raise InputTypeError(f"observables: {shown(name)} is not a name")
         if name in OBSERVABLE_GROUPS:
             chosen.add(name)
             continue
@@ -129,7 +130,7 @@ def observable_groups(observables) -> tuple[str, ...]:
         if owner:
             chosen.add(owner[0])
         elif name not in ALWAYS + ("poincare",):
-            raise InputError(f"observables: unknown name {name!r} (groups: "
+            raise InputError(f"observables: unknown name {shown(name)} (groups: "
                              f"{', '.join(OBSERVABLE_GROUPS)}; or an observable: "
                              f"{', '.join(OBSERVABLES)})")
     return tuple(g for g in OBSERVABLE_GROUPS if g in chosen)
@@ -150,19 +151,40 @@ def _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_
     for name, value in (("max_periods", max_periods), ("p_max", p_max),
                         ("steady_repeats", steady_repeats), ("harmonics", harmonics)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-            raise InputTypeError(f"observe {name} = {value!r}: must be an integer")
+            raise InputTypeError(f"observe {name} = {shown(value)}: must be an integer")
         if not 1 <= value <= 10_000_000:
             raise InputError(f"observe {name} = {value}: must be 1 to 10000000")
         checked[name] = int(value)
     if isinstance(steady_tol, bool) or not isinstance(steady_tol, (int, float, np.floating)):
-        raise InputTypeError(f"observe steady_tol = {steady_tol!r}: must be a number")
+        raise InputTypeError(f"observe steady_tol = {shown(steady_tol)}: must be a number")
     if not 0 < float(steady_tol) < 1:
         raise InputError(f"observe steady_tol = {steady_tol}: must be > 0 and < 1")
     if not isinstance(stop_at_steady, (bool, np.bool_)):
-        raise InputTypeError(f"observe stop_at_steady = {stop_at_steady!r}: must be True or False")
+        raise InputTypeError(f"observe stop_at_steady = {shown(stop_at_steady)}: must be True or False")
     checked["steady_tol"] = float(steady_tol)
     checked["stop_at_steady"] = bool(stop_at_steady)
     return checked
+
+
+#: Most OpenMP threads a batch takes: libgomp crashed the interpreter (SIGSEGV) when asked for
+#: 100000 (tests/test_api_hostile.py).
+MAX_THREADS = 1024
+
+
+def _threads(threads, what: str, items: int) -> int:
+    """The OpenMP thread count for the core (0: the OpenMP default), at most one per item."""
+    if threads is None:
+        return 0
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) \
+            or not 1 <= threads <= MAX_THREADS:
+        raise InputError(f"{what} threads = {shown(threads)}: must be an integer from 1 to "
+                         f"{MAX_THREADS}, or None")
+    return max(1, min(int(threads), items))
+
+
+def _no_memory(exc: MemoryError, opts: dict) -> SolverError:
+    return SolverError(f"not enough memory for max_periods = {opts['max_periods']}, harmonics = "
+                       f"{opts['harmonics']}, p_max = {opts['p_max']}: lower them ({exc})")
 
 
 def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods: int = 100,
@@ -180,21 +202,23 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
     if isinstance(configs, (str, os.PathLike, Mapping, Config)):
         raise InputTypeError("observe_batch takes a list of inputs; use tmafm.observe for one")
     configs = [c if isinstance(c, Config) else Config(c) for c in configs]
-    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int)
-                                or threads < 1):
-        raise InputError(f"observe_batch threads = {threads!r}: must be a positive integer or None")
+    threads = _threads(threads, "observe_batch", len(configs))
     if not configs:
         return []
-    texts = [c.text for c in configs]
+    # Bytes: the core's offsets count bytes (a non-ASCII &output file is several per character).
+    texts = [_for_core(c.text) for c in configs]
     offsets = np.cumsum([0] + [len(t) for t in texts]).astype(np.int32)
     n_modes = np.array([c.n_modes for c in configs], dtype=np.int32)
     n_state = 2 * int(n_modes.max())
     h = opts["harmonics"]
-    (values, harm_amp, harm_phase, poincare, max_gap, modal, n_periods, found, factors, has_scales,
-     ierr, errmsg) = _core.observe_texts(
-        "".join(texts), offsets, n_modes, opts["max_periods"], h, opts["p_max"],
-        opts["steady_tol"], opts["steady_repeats"], opts["stop_at_steady"], _group_bits(groups),
-        0 if threads is None else threads, n_state, len(OBSERVABLES), n_configs=len(configs))
+    try:
+        (values, harm_amp, harm_phase, poincare, max_gap, modal, n_periods, found, factors,
+         has_scales, ierr, errmsg) = _core.observe_texts(
+            b"".join(texts), offsets, n_modes, opts["max_periods"], h, opts["p_max"],
+            opts["steady_tol"], opts["steady_repeats"], opts["stop_at_steady"],
+            _group_bits(groups), threads, n_state, len(OBSERVABLES), n_configs=len(configs))
+    except MemoryError as exc:
+        raise _no_memory(exc, opts) from None
     bad = np.flatnonzero(ierr)
     if bad.size:
         k = int(bad[0])
@@ -278,33 +302,41 @@ def observe_states(config, states, *, threads: int | None = None, max_periods: i
     groups = observable_groups(observables)
     config = config if isinstance(config, Config) else Config(config)
     n = config.n_modes
-    states = np.asarray(states, dtype=float)
+    try:
+        states = np.asarray(states, dtype=float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InputError(f"observe_states states: must be real numbers ({shown(str(exc))[1:-1]})") \
+            from None
     if states.ndim != 2 or states.shape[1] != 2 * n:
         raise InputError(f"observe_states states: shape {states.shape}, must be (points, {2 * n})")
     confirm = opts["steady_repeats"] if confirm is None else confirm
     if isinstance(confirm, bool) or not isinstance(confirm, (int, np.integer)) or confirm < 1:
-        raise InputTypeError(f"observe_states confirm = {confirm!r}: must be a positive integer")
+        raise InputTypeError(f"observe_states confirm = {shown(confirm)}: must be a positive integer")
     capture = opts["steady_tol"] if capture is None else capture
     if isinstance(capture, bool) or not isinstance(capture, (int, float, np.floating)) \
             or not 0 < capture < 1:
-        raise InputError(f"observe_states capture = {capture!r}: must be a number > 0 and < 1")
-    orbits = [np.asarray(o, dtype=float).reshape(-1, 2 * n) for o in attractors]
+        raise InputError(f"observe_states capture = {shown(capture)}: must be a number > 0 and < 1")
+    try:
+        orbits = [np.asarray(o, dtype=float).reshape(-1, 2 * n) for o in attractors]
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InputError(f"observe_states attractors: each must be points x {2 * n} real numbers "
+                         f"({shown(str(exc))[1:-1]})") from None
     if orbits:
         points = np.asfortranarray(np.concatenate(orbits).T)
         first = np.cumsum([1] + [len(o) for o in orbits]).astype(np.int32)
     else:
         points = np.zeros((2 * n, 1), order="F")
         first = np.ones(1, dtype=np.int32)
-    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int)
-                                or threads < 1):
-        raise InputError(f"observe_states threads = {threads!r}: must be a positive integer or None")
-    (steady, harm_amp, harm_phase, orbit, n_periods, found, matched, factors, has_scales,
-     run_ierr, ierr, errmsg) = _core.observe_states_text(
-        config.text, n, np.asfortranarray(states), opts["max_periods"], opts["harmonics"],
-        opts["p_max"], opts["steady_tol"], opts["steady_repeats"], opts["stop_at_steady"],
-        _group_bits(groups), points, first, int(confirm), float(capture),
-        0 if threads is None else threads,
-        len(OBSERVABLES))
+    threads = _threads(threads, "observe_states", len(states))
+    try:
+        (steady, harm_amp, harm_phase, orbit, n_periods, found, matched, factors, has_scales,
+         run_ierr, ierr, errmsg) = _core.observe_states_text(
+            _for_core(config.text), n, np.asfortranarray(states), opts["max_periods"],
+            opts["harmonics"], opts["p_max"], opts["steady_tol"], opts["steady_repeats"],
+            opts["stop_at_steady"], _group_bits(groups), points, first, int(confirm),
+            float(capture), threads, len(OBSERVABLES))
+    except MemoryError as exc:
+        raise _no_memory(exc, opts) from None
     message = errmsg.decode("utf-8", "replace") if isinstance(errmsg, bytes) else str(errmsg)
     if ierr:
         raise_for(int(ierr), f"{config.label}: {message.strip()}")

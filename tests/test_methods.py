@@ -129,6 +129,29 @@ def test_grazing_contacts_are_all_found(grazing_scene):
                                    err_msg=method)
 
 
+def free_phase_min_vt(result):
+    """The lowest sampled V_T outside the run's own contact phases (from its switches)."""
+    switches_before = np.searchsorted(result.switches, result.tau, side="right")
+    return float(np.min(result.vt[switches_before % 2 == 0]))
+
+
+@pytest.mark.parametrize("method", ["dop853", "dopri5"])
+@pytest.mark.parametrize("depth", [1e-9, 1e-10])
+@pytest.mark.parametrize("rtol", [1e-7, 1e-8, 1e-5])
+def test_pairs_find_grazing_contacts_at_loose_tolerances(method, depth, rtol):
+    """At the default tolerance a pair's free steps are far longer than these contacts: the cubic
+    test alone let dop853 run through all 20 of them with V_T < 0 in its free phase (down to
+    -1e-9 at rtol 1e-7, -4e-9 at 1e-5).  Whatever the trajectory's own error, no sample of a free
+    phase may lie in contact, and where the trajectory dips (it does at these depths) the
+    contacts are found."""
+    result = tmafm.run(grazing_scene_dict(depth=depth),
+                       solver={"method": method, "tau_end": 10 * math.pi, "rtol": rtol, "atol": rtol * 1e-3},
+                       output={"sample_dtau": 2e-4})
+    assert free_phase_min_vt(result) > 0
+    if rtol <= 1e-7:
+        assert len(result.switches) == 20
+
+
 def test_rk4_paper_misses_short_contacts(grazing_scene):
     paper = run_grazing(grazing_scene, "rk4_paper")
     assert paper.counters["phase_switches"] < 20

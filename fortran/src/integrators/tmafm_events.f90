@@ -5,7 +5,10 @@
 !> check at the step ends misses a contact that begins and ends inside the step.  The cubic
 !> Hermite interpolant of G, from G and dG/dtau at both ends (both come from the state alone,
 !> no right-hand side), locates an interior minimum; the caller then checks the true G there.
-!> A dip shallower than the interpolation error, O(h^4 V_T''''), can still be missed.
+!> A dip shallower than the interpolation error, O(h^4 V_T''''), can still be missed: out of
+!> contact the adaptive pairs bound that error and read their dense output where it does not
+!> clear a step (tmafm_method_adaptive free_dip_search); flight_exact's flights have their own
+!> rigorous scan (tmafm_flight).
 !>
 !> V_T is a sum of terms of size ~1e-3 that cancel at a switch, so near V_T = 0 its value is
 !> round-off noise of a few eps times those terms.  Each phase therefore ends only once

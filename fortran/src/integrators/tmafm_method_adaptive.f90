@@ -25,7 +25,7 @@ module tmafm_method_adaptive
    use tmafm_dopri5, only: dopri5_pair_t
    use tmafm_dop853, only: dop853_pair_t
    use tmafm_events, only: no_event, event_candidate, step_event_test, initial_phase, phase_sign, &
-                           switch_margin
+                           switch_margin, hermite_minimum
    use tmafm_roots, only: bracketed_root_t
    use tmafm_observers, only: observer_t, stop_requested
    implicit none
@@ -61,6 +61,9 @@ module tmafm_method_adaptive
    !> rejection: PI's two real powers per step cost 2 % of the instructions on the tilted
    !> scene at rtol 1e-10 when kept for the whole contact).
    integer, parameter :: warp_pi_steps = 4
+
+   !> Pieces a step (and then a piece) is split into by the dip search out of contact.
+   integer, parameter :: dip_pieces = 8
 
    !> A learned step length is replaced only by a value outside [1/learn_band, learn_band] x it.
    real(dp), parameter :: learn_band = 1.25_dp
@@ -193,7 +196,7 @@ contains
       type(bracketed_root_t) :: root
       type(time_map_t) :: map
       real(dp) :: h, h_time, norm, side, s_test, theta, step_taken, drive, drive1, sin_test, cos_test
-      real(dp) :: ds0, ds1, tau_end, sigma_end, h_next
+      real(dp) :: ds0, ds1, tau_end, sigma_end, h_next, theta_low, g_low, g_test
       ! V_T, its rate and the margin at the step start (0) and end (1); G = side V_T + margin0.
       real(dp) :: vt0, rate0, margin0, vt1, rate1, margin1, vt_test, rate_test, margin_test
       logical :: have_f0, dense_ready, phase_start
@@ -289,17 +292,24 @@ contains
                call gap_state(model, sin_test, cos_test, y_sample, vt_test, rate_test, margin_test, drive)
                if (side*vt_test + margin0 > 0) status = no_event
             end if
+            theta_low = 0
+            g_low = side*vt0 + margin0
+            ! Out of contact the first crossing is wanted: a dip the cubic missed, or one
+            ! before a crossing at the step end or at the cubic's minimum.
+            if (.not. self%in_contact) &
+               call free_dip_search(self, model, traj, map, h, vt0 + margin0, rate0, vt1 + margin0, rate1, &
+                                    margin0, dense_ready, status, theta_low, g_low, s_test)
             if (status == no_event) then
                tau_end = tau + h
                if (self%warped) tau_end = map%time_at(1.0_dp)
                sigma_end = self%sigma + h
             else
-               ! G(theta) = side V_T + margin0 on the dense output: positive at 0, not at s_test/h.
+               ! G(theta) = side V_T + margin0 on the dense output: positive at theta_low (0, or
+               ! the last point the dip search cleared), not at s_test/h.
                call build_dense(self, model, traj, dense_ready)
                call pair%dense(s_test/h, y_sample)
-               call root%start(0.0_dp, side*vt0 + margin0, s_test/h, &
-                               side*model%tip_gap(map%time_at(s_test/h), y_sample) + margin0, &
-                               4*epsilon(1.0_dp)*abs(tau)/h_time)
+               g_test = side*model%tip_gap(map%time_at(s_test/h), y_sample) + margin0
+               call root%start(theta_low, g_low, s_test/h, g_test, 4*epsilon(1.0_dp)*abs(tau)/h_time)
                do while (.not. root%converged())
                   call traj%charge(settings, tau, 1, ierr, errmsg)
                   if (ierr /= ok) return
@@ -414,6 +424,128 @@ contains
          h_next = proposal*(c2 + old_mid**2)/(c2 + (start + h_next/2)**2)
       end do
    end function warp_step
+
+   !> Out of contact, where G = V_T + margin first drops to zero inside an accepted step: a
+   !> dip the cubic test (tmafm_events) missed, or one before the crossing it found (Brent on
+   !> a bracket with three roots may converge to the last).  The cubic Hermite of G over a piece of length l is
+   !> within K l^4/384 of G, K a bound on |d^4 G/dtau^4| (free_fourth_derivative_bound); a
+   !> piece whose cubic stays above that is cleared.  The step is tried whole; if it is not
+   !> cleared, its dense output is read at dip_pieces points (G and G' from the state there),
+   !> and every piece not cleared is split once more the same way; a piece still not cleared
+   !> then is checked at its cubic's minimum (a dip left is below dip_pieces^-8 of the step's
+   !> allowance).  The first point with G <= 0 ends the search: status event_candidate, s_test
+   !> there, and [theta_low, s_test/h] brackets the switch with g_low = G(theta_low) > 0.  A
+   !> step cleared whole keeps the caller's status and bracket.
+   subroutine free_dip_search(self, model, traj, map, h, g0, rate0, g1, rate1, margin, dense_ready, &
+                              status, theta_low, g_low, s_test)
+      type(adaptive_state_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      type(trajectory_t), intent(inout) :: traj
+      type(time_map_t), intent(in) :: map
+      real(dp), intent(in) :: h
+      !> G and dG/dtau at the step's start and end.
+      real(dp), intent(in) :: g0, rate0, g1, rate1
+      !> The margin in G (G = V_T + margin).
+      real(dp), intent(in) :: margin
+      logical, intent(inout) :: dense_ready
+      integer, intent(inout) :: status
+      real(dp), intent(inout) :: theta_low, g_low
+      !> In: the caller's test point (h for a crossing at the end); out: the search's, if found.
+      real(dp), intent(inout) :: s_test
+      real(dp) :: bound, piece, sub, t_left, g_left, r_left, t_right, g_right, r_right
+      real(dp) :: t_sub, g_sub, r_sub, t_inner, g_inner, r_inner, theta_min, cubic_min, g_min, r_min
+      integer :: k, j
+
+      bound = free_fourth_derivative_bound(self, model)
+      if (cleared(g0, h*rate0, g1, h*rate1, bound*h**4)) return
+      call build_dense(self, model, traj, dense_ready)
+      piece = 1.0_dp/dip_pieces
+      sub = piece/dip_pieces
+      t_left = 0
+      g_left = g0
+      r_left = rate0
+      do k = 1, dip_pieces
+         t_right = k*piece
+         call dense_gap(t_right, g_right, r_right)
+         if (g_right <= 0) then
+            call found(t_left, g_left, t_right)
+            return
+         end if
+         if (.not. cleared(g_left, piece*h*r_left, g_right, piece*h*r_right, bound*(piece*h)**4)) then
+            ! Split the piece once more.
+            t_sub = t_left
+            g_sub = g_left
+            r_sub = r_left
+            do j = 1, dip_pieces
+               t_inner = t_left + j*sub
+               call dense_gap(t_inner, g_inner, r_inner)
+               if (g_inner <= 0) then
+                  call found(t_sub, g_sub, t_inner)
+                  return
+               end if
+               if (.not. cleared(g_sub, sub*h*r_sub, g_inner, sub*h*r_inner, bound*(sub*h)**4)) then
+                  call hermite_minimum(g_sub, sub*h*r_sub, g_inner, sub*h*r_inner, theta_min, cubic_min)
+                  if (theta_min > 0) then
+                     call dense_gap(t_sub + theta_min*sub, g_min, r_min)
+                     if (g_min <= 0) then
+                        call found(t_sub, g_sub, t_sub + theta_min*sub)
+                        return
+                     end if
+                  end if
+               end if
+               t_sub = t_inner
+               g_sub = g_inner
+               r_sub = r_inner
+            end do
+         end if
+         t_left = t_right
+         g_left = g_right
+         r_left = r_right
+      end do
+
+   contains
+
+      !> G and dG/dtau at fraction t of the step, from the dense output.
+      subroutine dense_gap(t, g, rate)
+         real(dp), intent(in) :: t
+         real(dp), intent(out) :: g, rate
+         real(dp) :: sin_phase, cos_phase, vt, margin_here, drive
+         call self%pair%dense(t, self%y_sample)
+         call model%phase(map%time_at(t), sin_phase, cos_phase)
+         call gap_state(model, sin_phase, cos_phase, self%y_sample, vt, rate, margin_here, drive)
+         g = vt + margin
+      end subroutine dense_gap
+
+      !> A switch bracketed by [t_pos, t_neg], with G(t_pos) = g_pos > 0.
+      subroutine found(t_pos, g_pos, t_neg)
+         real(dp), intent(in) :: t_pos, g_pos, t_neg
+         status = event_candidate
+         theta_low = t_pos
+         g_low = g_pos
+         s_test = t_neg*h
+      end subroutine found
+
+   end subroutine free_dip_search
+
+   !> Whether the cubic Hermite through (0, g0, d0), (1, g1, d1) (d per unit fraction), less
+   !> its interpolation error allowance/384 (allowance = K l^4), stays positive on [0, 1].
+   pure logical function cleared(g0, d0, g1, d1, allowance)
+      real(dp), intent(in) :: g0, d0, g1, d1, allowance
+      real(dp) :: theta, cubic_min
+      call hermite_minimum(g0, d0, g1, d1, theta, cubic_min)
+      cleared = min(g0, g1, cubic_min) - allowance/384 > 0
+   end function cleared
+
+   !> A bound on |d^4 V_T/dtau^4| out of contact from the running amplitudes S_j of the modes
+   !> (tmafm_error_scale): sum_j |p_j| omega_j^4 S_j, doubled for the mass coupling and the
+   !> damping that the free frequencies omega_j leave out, plus the drive's alpha2 Omega^4.
+   pure function free_fourth_derivative_bound(self, model) result(bound)
+      type(adaptive_state_t), intent(in) :: self
+      type(model_t), intent(in) :: model
+      real(dp) :: bound
+      bound = 2*sum(abs(model%tip)*self%scale%omega**4*self%scale%amplitude) &
+              + abs(model%scene%alpha2)*model%scene%omega**4
+   end function free_fourth_derivative_bound
 
    !> V_T'' from the derivative f = (a', a'') times scale (1, or 1/(2 sigma) for dy/dsigma) and
    !> the drive term of V_T (Omega the drive's).

@@ -261,53 +261,79 @@ contains
       logical, intent(in) :: in_contact
       real(dp), intent(in), contiguous :: f0(:)
       real(dp), intent(in), contiguous :: f_new(:)
+      call dop853_dense_stages(model, size(y), self%map, y, y_new, in_contact, f0, f_new, self%k, &
+                               self%stage, self%y0, self%r)
+   end subroutine dop853_prepare_dense
+
+   !> Stages 14-16 and the dense-output coefficients r(:, 0:6) of dop853_prepare_dense on
+   !> explicit-shape registers, as dop853_stages: the stage sums and the rows of r are
+   !> whole-array expressions the compiler vectorises without array descriptors.
+   pure subroutine dop853_dense_stages(model, n, map, y, y_new, in_contact, f0, f_new, k, stage, y0, r)
+      type(model_t), intent(in) :: model
+      integer, intent(in) :: n
+      type(time_map_t), intent(in) :: map
+      real(dp), intent(in) :: y(n)
+      real(dp), intent(in) :: y_new(n)
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: f0(n)
+      real(dp), intent(in) :: f_new(n)
+      real(dp), intent(inout) :: k(n, 2:16)
+      real(dp), intent(inout) :: stage(n)
+      real(dp), intent(out) :: y0(n)
+      real(dp), intent(out) :: r(n, 0:6)
       real(dp) :: sin_phase(size(dense_nodes)), cos_phase(size(dense_nodes)), factor(size(dense_nodes))
       real(dp) :: h
 
-      h = self%map%h
-      call stage_clock(model, self%map, dense_nodes, sin_phase, cos_phase, factor)
-      associate (k => self%k, stage => self%stage, r => self%r)
-         stage = y + h*(a14_1*f0 + a14_7*k(:, 7) + a14_8*k(:, 8) + a14_9*k(:, 9) + a14_10*k(:, 10) &
-                        + a14_11*k(:, 11) + a14_12*k(:, 12) + a14_13*f_new)
-         call model%derivative_at_phase(stage, in_contact, sin_phase(1), cos_phase(1), k(:, 14))
-         if (self%map%warped) k(:, 14) = factor(1)*k(:, 14)
-         stage = y + h*(a15_1*f0 + a15_6*k(:, 6) + a15_7*k(:, 7) + a15_8*k(:, 8) + a15_11*k(:, 11) &
-                        + a15_12*k(:, 12) + a15_13*f_new + a15_14*k(:, 14))
-         call model%derivative_at_phase(stage, in_contact, sin_phase(2), cos_phase(2), k(:, 15))
-         if (self%map%warped) k(:, 15) = factor(2)*k(:, 15)
-         stage = y + h*(a16_1*f0 + a16_6*k(:, 6) + a16_7*k(:, 7) + a16_8*k(:, 8) + a16_9*k(:, 9) &
-                        + a16_13*f_new + a16_14*k(:, 14) + a16_15*k(:, 15))
-         call model%derivative_at_phase(stage, in_contact, sin_phase(3), cos_phase(3), k(:, 16))
-         if (self%map%warped) k(:, 16) = factor(3)*k(:, 16)
-         self%y0 = y
-         r(:, 0) = y_new - y
-         r(:, 1) = h*f0 - r(:, 0)
-         r(:, 2) = 2*r(:, 0) - h*(f_new + f0)
-         r(:, 3) = h*(d4_1*f0 + d4_6*k(:, 6) + d4_7*k(:, 7) + d4_8*k(:, 8) + d4_9*k(:, 9) &
-                      + d4_10*k(:, 10) + d4_11*k(:, 11) + d4_12*k(:, 12) + d4_13*f_new &
-                      + d4_14*k(:, 14) + d4_15*k(:, 15) + d4_16*k(:, 16))
-         r(:, 4) = h*(d5_1*f0 + d5_6*k(:, 6) + d5_7*k(:, 7) + d5_8*k(:, 8) + d5_9*k(:, 9) &
-                      + d5_10*k(:, 10) + d5_11*k(:, 11) + d5_12*k(:, 12) + d5_13*f_new &
-                      + d5_14*k(:, 14) + d5_15*k(:, 15) + d5_16*k(:, 16))
-         r(:, 5) = h*(d6_1*f0 + d6_6*k(:, 6) + d6_7*k(:, 7) + d6_8*k(:, 8) + d6_9*k(:, 9) &
-                      + d6_10*k(:, 10) + d6_11*k(:, 11) + d6_12*k(:, 12) + d6_13*f_new &
-                      + d6_14*k(:, 14) + d6_15*k(:, 15) + d6_16*k(:, 16))
-         r(:, 6) = h*(d7_1*f0 + d7_6*k(:, 6) + d7_7*k(:, 7) + d7_8*k(:, 8) + d7_9*k(:, 9) &
-                      + d7_10*k(:, 10) + d7_11*k(:, 11) + d7_12*k(:, 12) + d7_13*f_new &
-                      + d7_14*k(:, 14) + d7_15*k(:, 15) + d7_16*k(:, 16))
-      end associate
-   end subroutine dop853_prepare_dense
+      h = map%h
+      call stage_clock(model, map, dense_nodes, sin_phase, cos_phase, factor)
+      stage = y + h*(a14_1*f0 + a14_7*k(:, 7) + a14_8*k(:, 8) + a14_9*k(:, 9) + a14_10*k(:, 10) &
+                     + a14_11*k(:, 11) + a14_12*k(:, 12) + a14_13*f_new)
+      call model%derivative_at_phase(stage, in_contact, sin_phase(1), cos_phase(1), k(:, 14))
+      if (map%warped) k(:, 14) = factor(1)*k(:, 14)
+      stage = y + h*(a15_1*f0 + a15_6*k(:, 6) + a15_7*k(:, 7) + a15_8*k(:, 8) + a15_11*k(:, 11) &
+                     + a15_12*k(:, 12) + a15_13*f_new + a15_14*k(:, 14))
+      call model%derivative_at_phase(stage, in_contact, sin_phase(2), cos_phase(2), k(:, 15))
+      if (map%warped) k(:, 15) = factor(2)*k(:, 15)
+      stage = y + h*(a16_1*f0 + a16_6*k(:, 6) + a16_7*k(:, 7) + a16_8*k(:, 8) + a16_9*k(:, 9) &
+                     + a16_13*f_new + a16_14*k(:, 14) + a16_15*k(:, 15))
+      call model%derivative_at_phase(stage, in_contact, sin_phase(3), cos_phase(3), k(:, 16))
+      if (map%warped) k(:, 16) = factor(3)*k(:, 16)
+      y0 = y
+      r(:, 0) = y_new - y
+      r(:, 1) = h*f0 - r(:, 0)
+      r(:, 2) = 2*r(:, 0) - h*(f_new + f0)
+      r(:, 3) = h*(d4_1*f0 + d4_6*k(:, 6) + d4_7*k(:, 7) + d4_8*k(:, 8) + d4_9*k(:, 9) &
+                   + d4_10*k(:, 10) + d4_11*k(:, 11) + d4_12*k(:, 12) + d4_13*f_new &
+                   + d4_14*k(:, 14) + d4_15*k(:, 15) + d4_16*k(:, 16))
+      r(:, 4) = h*(d5_1*f0 + d5_6*k(:, 6) + d5_7*k(:, 7) + d5_8*k(:, 8) + d5_9*k(:, 9) &
+                   + d5_10*k(:, 10) + d5_11*k(:, 11) + d5_12*k(:, 12) + d5_13*f_new &
+                   + d5_14*k(:, 14) + d5_15*k(:, 15) + d5_16*k(:, 16))
+      r(:, 5) = h*(d6_1*f0 + d6_6*k(:, 6) + d6_7*k(:, 7) + d6_8*k(:, 8) + d6_9*k(:, 9) &
+                   + d6_10*k(:, 10) + d6_11*k(:, 11) + d6_12*k(:, 12) + d6_13*f_new &
+                   + d6_14*k(:, 14) + d6_15*k(:, 15) + d6_16*k(:, 16))
+      r(:, 6) = h*(d7_1*f0 + d7_6*k(:, 6) + d7_7*k(:, 7) + d7_8*k(:, 8) + d7_9*k(:, 9) &
+                   + d7_10*k(:, 10) + d7_11*k(:, 11) + d7_12*k(:, 12) + d7_13*f_new &
+                   + d7_14*k(:, 14) + d7_15*k(:, 15) + d7_16*k(:, 16))
+   end subroutine dop853_dense_stages
 
    pure subroutine dop853_dense(self, theta, y)
       class(dop853_pair_t), intent(in) :: self
       real(dp), intent(in) :: theta
       real(dp), intent(out), contiguous :: y(:)
+      call dense_sum(size(y), theta, self%y0, self%r, y)
+   end subroutine dop853_dense
+
+   !> The dense-output sum of dop853_dense on explicit-shape registers.
+   pure subroutine dense_sum(n, theta, y0, r, y)
+      integer, intent(in) :: n
+      real(dp), intent(in) :: theta
+      real(dp), intent(in) :: y0(n)
+      real(dp), intent(in) :: r(n, 0:6)
+      real(dp), intent(out) :: y(n)
       real(dp) :: rest
       rest = 1 - theta
-      associate (r => self%r)
-         y = self%y0 + theta*(r(:, 0) + rest*(r(:, 1) + theta*(r(:, 2) + rest*(r(:, 3) &
-             + theta*(r(:, 4) + rest*(r(:, 5) + theta*r(:, 6)))))))
-      end associate
-   end subroutine dop853_dense
+      y = y0 + theta*(r(:, 0) + rest*(r(:, 1) + theta*(r(:, 2) + rest*(r(:, 3) &
+          + theta*(r(:, 4) + rest*(r(:, 5) + theta*r(:, 6)))))))
+   end subroutine dense_sum
 
 end module tmafm_dop853

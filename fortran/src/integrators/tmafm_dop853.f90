@@ -237,8 +237,7 @@ contains
       type(error_scale_t), intent(in) :: scale
       real(dp), intent(out) :: norm
       real(dp) :: s5, s3
-      s5 = scale%sum_of_squares(self%err5)
-      s3 = scale%sum_of_squares(self%err3)
+      call scale%sums_of_squares(self%err5, self%err3, s5, s3)
       if (s5 == 0 .and. s3 == 0) then
          norm = 0
       else

@@ -50,6 +50,8 @@ module tmafm_error_scale
       procedure :: update => scale_update
       !> Sum over the 2N + 1 components of (weight * error)^2 for a state-sized error e.
       procedure :: sum_of_squares => scale_sum_of_squares
+      !> The sums of squares of two error estimates of one step (dop853's e5 and e3), in one pass.
+      procedure :: sums_of_squares => scale_sums_of_squares
    end type error_scale_t
 
 contains
@@ -103,5 +105,44 @@ contains
       n = self%n_modes
       total = sum((self%weight*e)**2) + (self%tip_weight*dot_product(self%tip, e(1:n)))**2
    end function scale_sum_of_squares
+
+   !> Both sums in one pass over the weights; each is summed in the order of
+   !> scale_sum_of_squares (components 1..2N, then V_T), so the two agree to the last bit.
+   pure subroutine scale_sums_of_squares(self, e1, e2, total1, total2)
+      class(error_scale_t), intent(in) :: self
+      real(dp), intent(in), contiguous :: e1(:)
+      real(dp), intent(in), contiguous :: e2(:)
+      real(dp), intent(out) :: total1
+      real(dp), intent(out) :: total2
+      call pair_sums(self%n_modes, self%weight, self%tip, self%tip_weight, e1, e2, total1, total2)
+   end subroutine scale_sums_of_squares
+
+   !> scale_sums_of_squares on explicit-shape arrays (no descriptors, unit strides).
+   pure subroutine pair_sums(n, weight, tip, tip_weight, e1, e2, total1, total2)
+      integer, intent(in) :: n
+      real(dp), intent(in) :: weight(2*n)
+      real(dp), intent(in) :: tip(n)
+      real(dp), intent(in) :: tip_weight
+      real(dp), intent(in) :: e1(2*n)
+      real(dp), intent(in) :: e2(2*n)
+      real(dp), intent(out) :: total1
+      real(dp), intent(out) :: total2
+      real(dp) :: tip1, tip2
+      integer :: i
+      total1 = 0
+      total2 = 0
+      do i = 1, 2*n
+         total1 = total1 + (weight(i)*e1(i))**2
+         total2 = total2 + (weight(i)*e2(i))**2
+      end do
+      tip1 = 0
+      tip2 = 0
+      do i = 1, n
+         tip1 = tip1 + tip(i)*e1(i)
+         tip2 = tip2 + tip(i)*e2(i)
+      end do
+      total1 = total1 + (tip_weight*tip1)**2
+      total2 = total2 + (tip_weight*tip2)**2
+   end subroutine pair_sums
 
 end module tmafm_error_scale

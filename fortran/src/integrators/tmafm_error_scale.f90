@@ -74,28 +74,62 @@ contains
       self%amplitude = 0
       self%tip_amplitude = abs(model%scene%alpha2)
       call self%update(y0)
+      ! Whether or not y0 moved an amplitude.
+      call refresh_weights(self)
    end subroutine scale_init
 
+   !> The weights are refreshed only when an amplitude grew (after the first periods of a run
+   !> almost no step moves them): the same values as recomputing them at every step.
    pure subroutine scale_update(self, y)
       class(error_scale_t), intent(inout) :: self
-      real(dp), intent(in) :: y(:)
-      real(dp) :: tip_tolerance, tolerance, size_j
+      real(dp), intent(in), contiguous :: y(:)
+      logical :: grew
+      call grow_amplitudes(self%n_modes, self%tip, self%omega, y, self%tip_amplitude, self%amplitude, grew)
+      if (grew) call refresh_weights(self)
+   end subroutine scale_update
+
+   !> The running amplitudes grown with a state y (explicit shapes: no descriptors); grew tells
+   !> whether any changed.
+   pure subroutine grow_amplitudes(n, tip, omega, y, tip_amplitude, amplitude, grew)
+      integer, intent(in) :: n
+      real(dp), intent(in) :: tip(n)
+      real(dp), intent(in) :: omega(n)
+      real(dp), intent(in) :: y(2*n)
+      real(dp), intent(inout) :: tip_amplitude
+      real(dp), intent(inout) :: amplitude(n)
+      logical, intent(out) :: grew
+      real(dp) :: tip_size, size_j
+      integer :: j
+      tip_size = max(tip_amplitude, abs(dot_product(tip, y(1:n))))
+      ! /= rather than >, so that a NaN amplitude refreshes the weights, as it always did.
+      grew = tip_size /= tip_amplitude
+      tip_amplitude = tip_size
+      do j = 1, n
+         size_j = max(abs(y(j)), abs(y(n + j))/omega(j))
+         if (size_j > amplitude(j)) then
+            amplitude(j) = size_j
+            grew = .true.
+         end if
+      end do
+   end subroutine grow_amplitudes
+
+   !> The inverse weights from the running amplitudes.
+   pure subroutine refresh_weights(self)
+      type(error_scale_t), intent(inout) :: self
+      real(dp) :: tip_tolerance, tolerance
       integer :: j, n
       n = self%n_modes
-      self%tip_amplitude = max(self%tip_amplitude, abs(dot_product(self%tip, y(1:n))))
       ! Floored so that atol = 0 with a tip at rest (and no drive) cannot divide by zero.
       tip_tolerance = max(self%atol + self%rtol*self%tip_amplitude, tiny(1.0_dp))
       self%tip_weight = 1/tip_tolerance
       do j = 1, n
-         size_j = max(abs(y(j)), abs(y(n + j))/self%omega(j))
-         if (size_j > self%amplitude(j)) self%amplitude(j) = size_j
          tolerance = self%atol + self%rtol*self%amplitude(j)
          ! A mode that has not moved yet (with atol = 0) is held to the tip's tolerance.
          if (.not. (tolerance > 0)) tolerance = tip_tolerance
          self%weight(j) = 1/tolerance
          self%weight(n + j) = 1/(self%omega(j)*tolerance)
       end do
-   end subroutine scale_update
+   end subroutine refresh_weights
 
    pure function scale_sum_of_squares(self, e) result(total)
       class(error_scale_t), intent(in) :: self

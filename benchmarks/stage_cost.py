@@ -1,0 +1,158 @@
+"""Instructions of a dop853 contact step besides its right-hand sides, per function, for one or
+more tmafm executables (e.g. a build of main and the working tree's).
+
+    /opt/tmafm-venv/bin/python benchmarks/stage_cost.py OLD/tmafm build-x/tmafm \
+        [--labels 'main c023ff6' 'stages'] [--out /tmp/stage_cost]
+
+Two runs of flight_exact, whose contact phases are dop853 steps (tmafm_method_adaptive):
+  t3    tilted_hertz_3 (benchmarks/period_cost.py's scene: N = 3, state length 6), rtol 1e-10,
+        atol 1e-14, 200 periods, one sample a period;
+  fig2  inputs/fig2_n4.nml (N = 4), flight_exact at its defaults, 100 periods, sample_dtau 0.01
+        (every contact step holds samples, so it builds its dense output).
+Both write the .npz format.  Each executable runs each input once under valgrind's callgrind;
+the self cost of each function below (callgrind_annotate) is divided by the dop853 steps tried
+(contact_steps + rejected_steps of the run's counters), the dense output's too (it is built
+only for the steps that hold a sample or a switch).  The counters of every executable must agree (the steps
+are the same); the script says so.  Writes stage_cost.json and stage_cost.png into --out (default
+benchmarks/).  Instructions, unlike CPU time, do not depend on the load of the shared machine.
+"""
+
+import argparse
+import json
+import math
+import re
+import subprocess
+import tempfile
+from pathlib import Path
+
+import f90nml
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+PERIOD = math.pi   # Omega = 2
+
+INPUTS = {
+    "t3": {"model": {"n_modes": 3, "convention": "paper"},
+           "scene": {"alpha2": 7e-4, "theta": 0.2},
+           "initial": {"a0": [2e-4, 0.0, 0.0]},
+           "solver": {"method": "flight_exact", "rtol": 1e-10, "atol": 1e-14,
+                      "tau_end": 200 * PERIOD},
+           "output": {"sample_dtau": PERIOD}},
+    "fig2": {"solver": {"method": "flight_exact", "tau_end": 100 * PERIOD},
+             "output": {"sample_dtau": 0.01}},
+}
+
+#: Functions whose self cost is reported, by the part of their (LTO-mangled) name to match.
+FUNCTIONS = {
+    "dop853_stages": "dop853_MOD_dop853_stages",
+    "dop853_error_norm": "dop853_MOD_dop853_error_norm",
+    "dop853_step": "dop853_MOD_dop853_step",
+    "scale_update": "error_scale_MOD_scale_update",
+    "controller_next_step": "embedded_pair_MOD_controller_next_step",
+    "prepare_dense": "dop853_MOD_dop853_prepare_dense",   # and dop853_dense_stages below
+    "dense_stages": "dop853_MOD_dop853_dense_stages",
+    "dense": "dop853_MOD_dop853_dense",                   # and dense_sum if not inlined
+    "rhs_kernel": "tmafm_model_MOD_rhs_kernel",
+}
+
+
+def write_input(name, directory):
+    nml = f90nml.read(REPO / "inputs" / "fig2_n4.nml")
+    for group, values in INPUTS[name].items():
+        nml[group].update(values)
+    nml["output"]["file"] = f"{name}.npz"
+    nml["output"]["format"] = "npy"
+    path = directory / f"{name}.nml"
+    nml.write(path, force=True)
+    return path
+
+
+def profile(exe, path, directory, tag):
+    """Total instructions, self cost per function and counters of one run."""
+    out = directory / f"cg.{tag}"
+    proc = subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", str(exe),
+                           "-q", path.name], cwd=directory, check=True, stdout=subprocess.DEVNULL,
+                          stderr=subprocess.PIPE, text=True)
+    total = int(re.search(r"Collected\s*:\s*(\d+)", proc.stderr).group(1))
+    table = subprocess.run(["callgrind_annotate", "--threshold=100", str(out)], check=True,
+                           capture_output=True, text=True).stdout
+    self_cost = {key: 0 for key in FUNCTIONS}
+    for line in table.splitlines():
+        match = re.match(r"\s*([\d,]+)\s+\([^)]*\)\s+\S*:(\S+)", line)
+        if not match:
+            continue
+        cost, symbol = int(match.group(1).replace(",", "")), match.group(2)
+        for key, pattern in FUNCTIONS.items():
+            # dop853_dense matches dop853_dense_stages too: take the longest pattern that fits.
+            if pattern in symbol and not any(p != pattern and p in symbol and len(p) > len(pattern)
+                                             for p in FUNCTIONS.values()):
+                self_cost[key] += cost
+        if "dense_sum" in symbol and "dop853" in symbol:
+            self_cost["dense"] += cost
+    counters = np.load(directory / path.with_suffix(".npz").name)["counters"].tolist()
+    return total, self_cost, counters
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("executables", nargs="+")
+    parser.add_argument("--labels", nargs="+", default=None)
+    parser.add_argument("--out", default=str(REPO / "benchmarks"))
+    args = parser.parse_args()
+    labels = args.labels or args.executables
+    results = {"inputs": INPUTS, "runs": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        directory = Path(tmp)
+        paths = {name: write_input(name, directory) for name in INPUTS}
+        for exe, label in zip(args.executables, labels):
+            entry = {"label": label, "executable": str(exe)}
+            for name, path in paths.items():
+                total, self_cost, counters = profile(Path(exe).resolve(), path, directory,
+                                                     f"{name}.{len(results['runs'])}")
+                steps, contact, rejected, rhs, switches = counters
+                tried = contact + rejected
+                entry[name] = {"instructions": total, "counters": counters, "steps_tried": tried,
+                               "self": self_cost,
+                               "per_step": {k: v / tried for k, v in self_cost.items()}}
+            results["runs"].append(entry)
+    for name in INPUTS:
+        same = all(run[name]["counters"] == results["runs"][0][name]["counters"]
+                   for run in results["runs"])
+        results[f"{name}_counters_agree"] = same
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "stage_cost.json").write_text(json.dumps(results, indent=1) + "\n")
+    for name in INPUTS:
+        print(f"{name}: counters agree: {results[f'{name}_counters_agree']}")
+        print(f"  {'':22s}" + "".join(f"{run['label']:>16s}" for run in results["runs"]))
+        print(f"  {'run instructions':22s}" + "".join(f"{run[name]['instructions'] / 1e6:>15.2f}M"
+                                                       for run in results["runs"]))
+        for key in FUNCTIONS:
+            print(f"  {key + ' /step':22s}" + "".join(f"{run[name]['per_step'][key]:>16.0f}"
+                                                      for run in results["runs"]))
+    plot(results, out / "stage_cost.png")
+
+
+def plot(results, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    keys = [k for k in FUNCTIONS if k != "rhs_kernel"]
+    fig, axes = plt.subplots(1, len(INPUTS), figsize=(11, 4), sharey=True)
+    width = 0.8 / len(results["runs"])
+    for ax, name in zip(axes, INPUTS):
+        for i, run in enumerate(results["runs"]):
+            ax.bar(np.arange(len(keys)) + i * width, [run[name]["per_step"][k] for k in keys],
+                   width, label=f"{run['label']} ({run[name]['instructions'] / 1e6:.1f} M a run)")
+        ax.set_xticks(np.arange(len(keys)) + width * (len(results["runs"]) - 1) / 2, keys,
+                      rotation=45, ha="right")
+        ax.set_title(f"{name}: instructions per dop853 step tried, besides the RHS")
+        ax.title.set_fontsize(9)
+        ax.legend(fontsize=8)
+    axes[0].set_ylabel("instructions (self) / step")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+if __name__ == "__main__":
+    main()

@@ -25,8 +25,8 @@ module tmafm_dop853
 
    !> Rows of the stage registers k: the longest state (2 max_modes), whatever the run's.  With
    !> a leading dimension fixed at compile time the column k(:, j) is at a constant offset, and
-   !> the stage sums need no address arithmetic per stage (-3 M of 164 M instructions on the
-   !> 3-mode scene at rtol 1e-10, docs/performance.md); the rows past the state are never read.
+   !> the stage sums need no address arithmetic per stage (docs/performance.md, "A dop853
+   !> contact step besides its right-hand sides"); the rows past the state are never read.
    integer, parameter :: lead = 2*max_modes
 
    ! Nodes c_i of stages 2-12 and of the dense-output stages 14-16.

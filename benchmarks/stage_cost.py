@@ -12,9 +12,11 @@ Two runs of flight_exact, whose contact phases are dop853 steps (tmafm_method_ad
 Both write the .npz format.  Each executable runs each input once under valgrind's callgrind;
 the self cost of each function below (callgrind_annotate) is divided by the dop853 steps tried
 (contact_steps + rejected_steps of the run's counters), the dense output's too (it is built
-only for the steps that hold a sample or a switch).  The counters of every executable must agree (the steps
-are the same); the script says so.  Writes stage_cost.json and stage_cost.png into --out (default
-benchmarks/).  Instructions, unlike CPU time, do not depend on the load of the shared machine.
+only for the steps that hold a sample or a switch).  The counters of every executable must
+agree (the steps are the same), and it prints the largest difference of each run's arrays
+(tau, V_T, a, a', switches) from the first executable's, relative to each array's largest
+magnitude.  Writes stage_cost.json and stage_cost.png into --out (default benchmarks/).
+Instructions, unlike CPU time, do not depend on the load of the shared machine.
 """
 
 import argparse
@@ -42,18 +44,20 @@ INPUTS = {
              "output": {"sample_dtau": 0.01}},
 }
 
-#: Functions whose self cost is reported, by the part of their (LTO-mangled) name to match.
+#: Functions whose self cost is reported: key -> the parts of their (LTO-mangled) names to
+#: match; a symbol counts for the key of the longest part it contains.  The dense output's
+#: stages moved from prepare_dense into dop853_dense_stages, and its sum into dense_sum.
 FUNCTIONS = {
-    "dop853_stages": "dop853_MOD_dop853_stages",
-    "dop853_error_norm": "dop853_MOD_dop853_error_norm",
-    "dop853_step": "dop853_MOD_dop853_step",
-    "scale_update": "error_scale_MOD_scale_update",
-    "controller_next_step": "embedded_pair_MOD_controller_next_step",
-    "prepare_dense": "dop853_MOD_dop853_prepare_dense",   # and dop853_dense_stages below
-    "dense_stages": "dop853_MOD_dop853_dense_stages",
-    "dense": "dop853_MOD_dop853_dense",                   # and dense_sum if not inlined
-    "rhs_kernel": "tmafm_model_MOD_rhs_kernel",
+    "dop853_stages": ["dop853_MOD_dop853_stages"],
+    "dop853_error_norm": ["dop853_MOD_dop853_error_norm"],
+    "dop853_step": ["dop853_MOD_dop853_step"],
+    "scale_update": ["error_scale_MOD_scale_update"],
+    "controller_next_step": ["embedded_pair_MOD_controller_next_step"],
+    "prepare_dense": ["dop853_MOD_dop853_prepare_dense", "dop853_MOD_dop853_dense_stages"],
+    "dense": ["dop853_MOD_dop853_dense", "dop853_MOD_dense_sum"],
+    "rhs_kernel": ["tmafm_model_MOD_rhs_kernel"],
 }
+PATTERNS = {part: key for key, parts in FUNCTIONS.items() for part in parts}
 
 
 def write_input(name, directory):
@@ -82,15 +86,11 @@ def profile(exe, path, directory, tag):
         if not match:
             continue
         cost, symbol = int(match.group(1).replace(",", "")), match.group(2)
-        for key, pattern in FUNCTIONS.items():
-            # dop853_dense matches dop853_dense_stages too: take the longest pattern that fits.
-            if pattern in symbol and not any(p != pattern and p in symbol and len(p) > len(pattern)
-                                             for p in FUNCTIONS.values()):
-                self_cost[key] += cost
-        if "dense_sum" in symbol and "dop853" in symbol:
-            self_cost["dense"] += cost
-    counters = np.load(directory / path.with_suffix(".npz").name)["counters"].tolist()
-    return total, self_cost, counters
+        parts = [part for part in PATTERNS if part in symbol]
+        if parts:
+            self_cost[PATTERNS[max(parts, key=len)]] += cost
+    arrays = dict(np.load(directory / path.with_suffix(".npz").name))
+    return total, self_cost, arrays
 
 
 def main():
@@ -101,18 +101,27 @@ def main():
     args = parser.parse_args()
     labels = args.labels or args.executables
     results = {"inputs": INPUTS, "runs": []}
+    saved = {}
     with tempfile.TemporaryDirectory() as tmp:
         directory = Path(tmp)
         paths = {name: write_input(name, directory) for name in INPUTS}
         for exe, label in zip(args.executables, labels):
             entry = {"label": label, "executable": str(exe)}
             for name, path in paths.items():
-                total, self_cost, counters = profile(Path(exe).resolve(), path, directory,
-                                                     f"{name}.{len(results['runs'])}")
+                total, self_cost, arrays = profile(Path(exe).resolve(), path, directory,
+                                                   f"{name}.{len(results['runs'])}")
+                counters = arrays["counters"].tolist()
+                first = saved.setdefault(name, arrays)
+                # Largest difference from the first executable's run, in units of each array's
+                # largest magnitude: 0 when the results are equal to the last bit.
+                differences = {key: float(np.max(np.abs(arrays[key] - first[key]))
+                                          / max(np.max(np.abs(first[key])), 1e-300))
+                               for key in ("tau", "vt", "vtdot", "a", "adot", "switches")
+                               if arrays[key].shape == first[key].shape and arrays[key].size}
                 steps, contact, rejected, rhs, switches = counters
                 tried = contact + rejected
                 entry[name] = {"instructions": total, "counters": counters, "steps_tried": tried,
-                               "self": self_cost,
+                               "self": self_cost, "relative_difference": differences,
                                "per_step": {k: v / tried for k, v in self_cost.items()}}
             results["runs"].append(entry)
     for name in INPUTS:
@@ -123,7 +132,9 @@ def main():
     out.mkdir(parents=True, exist_ok=True)
     (out / "stage_cost.json").write_text(json.dumps(results, indent=1) + "\n")
     for name in INPUTS:
-        print(f"{name}: counters agree: {results[f'{name}_counters_agree']}")
+        largest = [max(run[name]["relative_difference"].values()) for run in results["runs"]]
+        print(f"{name}: counters agree: {results[f'{name}_counters_agree']}; largest relative "
+              "difference from the first: " + ", ".join(f"{x:.1e}" for x in largest))
         print(f"  {'':22s}" + "".join(f"{run['label']:>16s}" for run in results["runs"]))
         print(f"  {'run instructions':22s}" + "".join(f"{run[name]['instructions'] / 1e6:>15.2f}M"
                                                        for run in results["runs"]))

@@ -542,3 +542,26 @@ subroutine flight_scan(path, n_modes, tau0, y0, s_max, anchor, found, s_contact,
    end if
    found = merge(1, 0, hit)
 end subroutine flight_scan
+
+!> The resolved input's text of each of values(1:n), twice: as config_text writes it
+!> (shortest_text_padded) and by trial formatted writes and reads (real_text_padded), as the
+!> character codes of 40 blank-padded characters each.  For tests of the fast path.
+subroutine real_texts(values, n, fast, slow)
+   use tmafm_kinds, only: dp
+   use tmafm_text, only: real_text_padded
+   use tmafm_float_format, only: shortest_text_padded
+   implicit none
+   real(dp), intent(in) :: values(n)
+   integer, intent(in) :: n
+   integer, intent(out) :: fast(40, n)
+   integer, intent(out) :: slow(40, n)
+   character(len=40) :: text
+   integer :: j, k
+
+   do j = 1, n
+      text = shortest_text_padded(values(j))
+      fast(:, j) = [(iachar(text(k:k)), k = 1, 40)]
+      text = real_text_padded(values(j))
+      slow(:, j) = [(iachar(text(k:k)), k = 1, 40)]
+   end do
+end subroutine real_texts

@@ -7,12 +7,18 @@
 !> 1e-12 of a unit in the last digit.  When the rounding is that close to a tie (or |v| is
 !> outside [1e-270, 1e290], or not finite) the number goes through Fortran's own es25.16e3,
 !> so the result is always gfortran's.
+!>
+!> shortest_text_padded gives the text tmafm_text's real_text_padded gives (the first of 2 .. 17
+!> significant digits whose correctly rounded text reads back exactly) with the same digits
+!> and a read-back test in double-double arithmetic, instead of up to 16 formatted writes and
+!> reads; where a decision is too close to call it is real_text_padded itself.
 module tmafm_float_format
    use tmafm_kinds, only: dp, i8
+   use tmafm_text, only: real_text_padded
    implicit none
    private
 
-   public :: put_es25, es25_width
+   public :: put_es25, es25_width, shortest_text_padded
 
    !> Characters per number.
    integer, parameter :: es25_width = 25
@@ -25,6 +31,11 @@ module tmafm_float_format
    !> Distance from a rounding tie, in units of the last digit, below which the fast path
    !> defers to Fortran's formatter (the double-double error is below 1e-13).
    real(dp), parameter :: tie_margin = 1.0e-9_dp
+   !> Range of |v| that shortest_text_padded handles itself: 10^(e10 - d + 1) and 10^(d - 1 - e10)
+   !> stay inside the table for every d in 2 .. 17.
+   real(dp), parameter :: short_min = 1.0e-260_dp, short_max = 1.0e260_dp
+   ! Clearing the low 27 of the 52 stored bits leaves 26 significant bits.
+   integer(i8), parameter :: high_bits = not(2_i8**27 - 1)
 
 contains
 
@@ -89,31 +100,22 @@ contains
 
    !> digits = round(a 10^q) for a in [fast_min, fast_max]; exact = .false. when the rounding
    !> is too near a tie to be decided in double-double arithmetic.
-   subroutine scaled_digits(a, q, digits, exact)
+   pure subroutine scaled_digits(a, q, digits, exact)
       real(dp), intent(in) :: a
       integer, intent(in) :: q
       integer(i8), intent(out) :: digits
       logical, intent(out) :: exact
-      integer :: k
-      ! 10^k in double-double: high part split into 26-bit halves, and the low part.
-      real(dp), parameter :: pow_hi(q_min:q_max) = [(real(10.0_qp**k, dp), k = q_min, q_max)]
-      real(dp), parameter :: pow_lo(q_min:q_max) = &
-         [(real(10.0_qp**k - real(real(10.0_qp**k, dp), qp), dp), k = q_min, q_max)]
-      real(dp), parameter :: pow_hh(q_min:q_max) = &
-         scale(anint(scale(pow_hi, 26 - exponent(pow_hi))), exponent(pow_hi) - 26)
-      real(dp), parameter :: pow_hl(q_min:q_max) = pow_hi - pow_hh
-      ! Clearing the low 27 of the 52 stored bits leaves 26 significant bits.
-      integer(i8), parameter :: high_bits = not(2_i8**27 - 1)
-      real(dp) :: ah, al, p, e, s, whole, r, below, fraction
+      real(dp) :: ah, al, p, e, s, whole, r, below, fraction, pow_hi, pow_lo, pow_hh, pow_hl
 
+      call power_of_ten(q, pow_hi, pow_lo, pow_hh, pow_hl)
       ! Exact product a*pow_hi = p + e (Dekker): a = ah + al (26 and 27 bits), pow_hi =
       ! pow_hh + pow_hl (26 bits each), so every partial product is exact (at most 53 bits)
       ! whether or not the compiler fuses multiply-adds.
       ah = transfer(iand(transfer(a, 0_i8), high_bits), 1.0_dp)
       al = a - ah
-      p = a*pow_hi(q)
-      e = ((ah*pow_hh(q) - p) + ah*pow_hl(q) + al*pow_hh(q)) + al*pow_hl(q)
-      e = e + a*pow_lo(q)
+      p = a*pow_hi
+      e = ((ah*pow_hh - p) + ah*pow_hl + al*pow_hh) + al*pow_hl
+      e = e + a*pow_lo
       s = p + e
       e = e - (s - p)
       p = s
@@ -126,5 +128,122 @@ contains
       exact = abs(fraction - 0.5_dp) > tie_margin
       if (fraction > 0.5_dp) digits = digits + 1
    end subroutine scaled_digits
+
+   !> real_text_padded(value): the shortest of the es(d+10).(d-1)e3 texts (d = 2 .. 17 significant
+   !> digits) that reads back to exactly value, left-adjusted in 40 characters.
+   pure function shortest_text_padded(value) result(buffer)
+      real(dp), intent(in) :: value
+      character(len=40) :: buffer
+      real(dp) :: a, half_up, half_down
+      integer(i8) :: digits, ten_d
+      integer :: e10_low, e10, q, d, j, n
+      logical :: exact, back
+
+      a = abs(value)
+      if (a == 0) then
+         buffer = merge('-0.0E+000', ' 0.0E+000', sign(1.0_dp, value) < 0)
+         buffer = adjustl(buffer)
+         return
+      end if
+      if (.not. (a >= short_min .and. a <= short_max)) then
+         buffer = real_text_padded(value)
+         return
+      end if
+      ! Half the gaps to the neighbouring doubles: a text reads back to a when its value is
+      ! nearer to a than these (the gap below a power of two is half the gap above).
+      half_up = spacing(a)/2
+      half_down = merge(half_up/2, half_up, fraction(a) == 0.5_dp)
+      ! The decimal exponent, or one less (as in put_es25).
+      e10_low = int(shifta((ibits(transfer(a, 0_i8), 52, 11) - 1023)*78913_i8, 18))
+      ten_d = 10
+      do d = 2, 17
+         ten_d = ten_d*10
+         e10 = e10_low
+         q = d - 1 - e10
+         call scaled_digits(a, q, digits, exact)
+         if (digits >= ten_d) then
+            e10 = e10 + 1
+            q = q - 1
+            call scaled_digits(a, q, digits, exact)
+         end if
+         if (.not. exact) then
+            buffer = real_text_padded(value)
+            return
+         end if
+         ! 17 significant digits always read back.
+         if (d == 17) exit
+         call reads_back(a, digits, -q, half_up, half_down, back, exact)
+         if (.not. exact) then
+            buffer = real_text_padded(value)
+            return
+         end if
+         if (back) exit
+      end do
+      ! [-]d.ddd...E+xxx: d significant digits, then the exponent in three digits.
+      buffer = ''
+      n = 0
+      if (value < 0) then
+         buffer(1:1) = '-'
+         n = 1
+      end if
+      do j = n + d + 1, n + 3, -1
+         buffer(j:j) = achar(48 + int(mod(digits, 10_i8)))
+         digits = digits/10
+      end do
+      buffer(n + 1:n + 1) = achar(48 + int(digits))
+      buffer(n + 2:n + 2) = '.'
+      n = n + d + 1
+      buffer(n + 1:n + 1) = 'E'
+      buffer(n + 2:n + 2) = merge('-', '+', e10 < 0)
+      j = abs(e10)
+      buffer(n + 3:n + 3) = achar(48 + j/100)
+      buffer(n + 4:n + 4) = achar(48 + mod(j/10, 10))
+      buffer(n + 5:n + 5) = achar(48 + mod(j, 10))
+   end function shortest_text_padded
+
+   !> back = .true. when digits*10^p, read as a double, is a: when it lies within half_up above
+   !> a or half_down below it.  exact = .false. when the distance is too near that bound to be
+   !> decided in double-double arithmetic.  digits < 10^16, p within the table.
+   pure subroutine reads_back(a, digits, p, half_up, half_down, back, exact)
+      real(dp), intent(in) :: a
+      integer(i8), intent(in) :: digits
+      integer, intent(in) :: p
+      real(dp), intent(in) :: half_up, half_down
+      logical, intent(out) :: back, exact
+      real(dp) :: dh, dl, hh, hl, x, e, r, bound, pow_hi, pow_lo, pow_hh, pow_hl
+
+      ! digits = dh + dl exactly (dh holds all of it below 2^53), dh = hh + hl (26 + 27 bits).
+      dh = real(digits, dp)
+      dl = real(digits - int(dh, i8), dp)
+      hh = transfer(iand(transfer(dh, 0_i8), high_bits), 1.0_dp)
+      hl = dh - hh
+      ! x + e = digits 10^p to about 1e-30 relative (Dekker's exact product of dh and pow_hi).
+      call power_of_ten(p, pow_hi, pow_lo, pow_hh, pow_hl)
+      x = dh*pow_hi
+      e = ((hh*pow_hh - x) + hh*pow_hl + hl*pow_hh) + hl*pow_hl
+      e = e + dh*pow_lo + dl*pow_hi
+      ! x is within 5 % of a, so x - a is exact (Sterbenz); r is the distance to about 1e-30 a.
+      r = (x - a) + e
+      bound = merge(half_up, half_down, r >= 0)
+      exact = abs(abs(r) - bound) > tie_margin*bound
+      back = abs(r) < bound
+   end subroutine reads_back
+
+   !> 10^k = hi + lo in double-double (lo rounds the rest), and hi = hh + hl in 26-bit halves.
+   pure subroutine power_of_ten(k, hi, lo, hh, hl)
+      integer, intent(in) :: k
+      real(dp), intent(out) :: hi, lo, hh, hl
+      integer :: j
+      real(dp), parameter :: pow_hi(q_min:q_max) = [(real(10.0_qp**j, dp), j = q_min, q_max)]
+      real(dp), parameter :: pow_lo(q_min:q_max) = &
+         [(real(10.0_qp**j - real(real(10.0_qp**j, dp), qp), dp), j = q_min, q_max)]
+      real(dp), parameter :: pow_hh(q_min:q_max) = &
+         scale(anint(scale(pow_hi, 26 - exponent(pow_hi))), exponent(pow_hi) - 26)
+      real(dp), parameter :: pow_hl(q_min:q_max) = pow_hi - pow_hh
+      hi = pow_hi(k)
+      lo = pow_lo(k)
+      hh = pow_hh(k)
+      hl = pow_hl(k)
+   end subroutine power_of_ten
 
 end module tmafm_float_format

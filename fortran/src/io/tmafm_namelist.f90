@@ -16,6 +16,7 @@ module tmafm_namelist
    use tmafm_kinds, only: dp, i8
    use tmafm_errors, only: ok, err_input
    use tmafm_text, only: real_text, real_text_padded, int_text, lower, short_real_text
+   use tmafm_float_format, only: shortest_text_padded
    use tmafm_modes, only: max_modes
    use tmafm_scene, only: scene_t, physical_t, scene_from_physical, scene_names, scene_values, &
       scene_lower, scene_upper, scene_lower_closed, scene_upper_open, physical_names, &
@@ -966,7 +967,7 @@ contains
       subroutine put(key, value)
          character(len=*), intent(in) :: key
          real(dp), intent(in) :: value
-         call line('    '//key//' = '//trim(real_text_padded(value)))
+         call line('    '//key//' = '//trim(shortest_text_padded(value)))
       end subroutine put
       !> Append to `note` why the chosen N exceeds the N where the search stopped, if it does.
       subroutine search_note(note)
@@ -1023,10 +1024,10 @@ contains
       character(len=list_length(values)) :: text
       character(len=40) :: one
       integer :: j, n
-      text = real_text_padded(values(1))
+      text = shortest_text_padded(values(1))
       n = len_trim(text)
       do j = 2, size(values)
-         one = real_text_padded(values(j))
+         one = shortest_text_padded(values(j))
          text(n + 1:) = ', '//one
          n = n + 2 + len_trim(one)
       end do
@@ -1038,7 +1039,7 @@ contains
       integer :: j
       list_length = 2*(size(values) - 1)
       do j = 1, size(values)
-         list_length = list_length + len_trim(real_text_padded(values(j)))
+         list_length = list_length + len_trim(shortest_text_padded(values(j)))
       end do
    end function list_length
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import tmafm
+from tmafm import _core
 
 from conftest import INPUTS, write_nml
 
@@ -119,3 +120,22 @@ def test_config_text_is_the_header(tmp_path, run_exe):
     resolved, _ = tmafm.resolve(path)
     from_header = f90nml.reads("\n".join(header))
     assert from_header == resolved
+
+
+@pytest.mark.parametrize("indent", [0, 250, 255, 256, 257, 511, 700])
+def test_long_lines_read_in_pieces(tmp_path, indent):
+    """The reader takes a line in pieces of 256 characters (tmafm_input_file): a key, a value or
+    a comment across a piece boundary, and lines of several pieces, read as the short file does."""
+    plain = (INPUTS / "fig2_n4.nml").read_text()
+    padded = plain.replace("    alpha1 =", " " * indent + "alpha1 =").replace(
+        "&model", "&model ! " + "c" * (indent + 300), 1)
+    path = tmp_path / "long.nml"
+    path.write_text(padded)
+    assert max(len(line) for line in padded.splitlines()) > 256
+    resolved = []
+    for source in (path, INPUTS / "fig2_n4.nml"):
+        out = tmp_path / f"resolved-{source.stem}.nml"
+        *_, ierr, errmsg = _core.resolve(str(source), str(out))
+        assert ierr == 0, errmsg
+        resolved.append(out.read_text())
+    assert resolved[0] == resolved[1]

@@ -24,7 +24,8 @@ contains
       character(len=:), allocatable, intent(out) :: text
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
-      character(len=4096) :: chunk
+      ! Short: each read pads the whole chunk with blanks, and a longer line comes in pieces.
+      character(len=256) :: chunk
       character(len=:), allocatable :: buffer
       character(len=256) :: iomsg
       logical :: exists, is_directory, header_only, at_line_start

@@ -105,7 +105,8 @@ def test_rates_at_phase_and_gap_equal_the_old_kernel(tmp_path):
         tip = _core.modes(n, np.array([sv["xi0"]]), 0)[1][0]
         phase = sv["omega"] * case["tau"]
         terms = np.concatenate([tip * case["a"], [sv["alpha2"] * math.sin(phase), sv["delta_hat"]]])
-        rate_terms = np.concatenate([tip * case["adot"], [sv["alpha2"] * sv["omega"] * math.cos(phase)]])
+        rate_terms = np.concatenate([tip * case["adot"],
+                                     [sv["alpha2"] * sv["omega"] * math.cos(phase)]])
         assert abs(vt - terms.sum()) <= 1.5e-14 * np.abs(terms).sum(), (n, vt, terms.sum())
         assert abs(vtdot - rate_terms.sum()) <= 1.5e-14 * np.abs(rate_terms).sum(), (n, vtdot)
         modes_seen.add(n)

@@ -150,6 +150,46 @@ def test_derivative_is_the_solution_of_the_explicit_system(tmp_path, convention)
                     assert np.linalg.norm(free[n:] - rate[n:]) > 1e3 * EXPLICIT_RTOL * np.linalg.norm(expected)
 
 
+def test_rates_and_gap_with_an_offset_sample(tmp_path):
+    """With delta_hat != 0 (the reference scenes have none): V_T of derivative_and_gap includes
+    it, and derivative, derivative_at_phase and derivative_and_gap all give the solution of the
+    explicit system (model%matrices, whose contact state forms V_T on its own), free and in
+    contact, N = 1..30 (N <= 4 and N > 4 take different code)."""
+    rng = np.random.default_rng(11)
+    alpha2, omega, delta_hat = 7e-4, 2.0, -3e-4
+    for n in range(1, 31):
+        path = tmp_path / f"offset_{n}.nml"
+        f90nml.write(f90nml.Namelist({"model": {"n_modes": n},
+                                      "scene": {"xi0": 0.9, "theta": 0.3, "alpha2": alpha2,
+                                                "omega": omega, "delta_hat": delta_hat}}),
+                     str(path), force=True)
+        tip = _core.modes(n, np.array([0.9]), 0)[1][0]
+        j = np.arange(1, n + 1)
+        for in_contact in (False, True):
+            tau = rng.uniform(0, 10)
+            a = 1e-4 * rng.uniform(-1, 1, n) / j**2
+            adot = 1e-3 * rng.uniform(-1, 1, n) / j
+            if in_contact:      # V_T = -1e-4
+                a[0] -= (tip @ a + alpha2 * math.sin(omega * tau) + delta_hat + 1e-4) / tip[0]
+            rate, rate_with_gap, vt, vtdot, ierr, errmsg = _core.model_rates_at_phase(
+                str(path), tau, a, adot, in_contact)
+            assert ierr == 0, errmsg
+            mass, damping, stiffness, force, rate_tau, ierr, errmsg = _core.model_terms(
+                str(path), tau, a, adot, in_contact)
+            assert ierr == 0, errmsg
+            expected = np.linalg.solve(mass, force - damping @ adot - stiffness @ a)
+            for got in (rate, rate_with_gap, rate_tau):
+                np.testing.assert_array_equal(got[:n], adot)
+                error = np.linalg.norm(got[n:] - expected) / np.linalg.norm(expected)
+                assert error <= EXPLICIT_RTOL, (n, in_contact, error)
+            terms = np.concatenate([tip * a, [alpha2 * math.sin(omega * tau), delta_hat]])
+            rate_terms = np.concatenate([tip * adot, [alpha2 * omega * math.cos(omega * tau)]])
+            assert abs(vt - terms.sum()) <= 1.5e-14 * np.abs(terms).sum(), (n, vt, terms.sum())
+            assert abs(vtdot - rate_terms.sum()) <= 1.5e-14 * np.abs(rate_terms).sum(), (n, vtdot)
+            if in_contact:
+                assert abs(vt + 1e-4) < 1e-12
+
+
 # The stage nodes of dop853 (stages 2-12 and the dense-output stages 14-16) and of dopri5.
 DOP853_NODES = [0.05260015195876773, 0.0789002279381516, 0.1183503419072274, 0.2816496580927726,
                 1 / 3, 0.25, 0.3076923076923077, 0.6512820512820513, 0.6, 0.8571428571428571, 1.0,

@@ -129,6 +129,36 @@ subroutine model_terms(path, n_modes, tau, a, adot, in_contact, mass, damping, s
    call model%derivative(tau, [a, adot], in_contact, rate)
 end subroutine model_terms
 
+!> The state derivative of derivative_at_phase, and that of derivative_and_gap with its V_T and
+!> dV_T/dtau, for one state of a namelist's model (the phase from model%phase(tau)).
+subroutine model_rates_at_phase(path, n_modes, tau, a, adot, in_contact, rate, rate_with_gap, vt, vtdot, &
+                                ierr, errmsg)
+   use tmafm, only: model_t, load_model, ok
+   use tmafm_kinds, only: dp
+   implicit none
+   character(len=*), intent(in) :: path
+   integer, intent(in) :: n_modes
+   real(dp), intent(in) :: tau
+   real(dp), intent(in) :: a(n_modes)
+   real(dp), intent(in) :: adot(n_modes)
+   logical, intent(in) :: in_contact
+   real(dp), intent(out) :: rate(2*n_modes)
+   real(dp), intent(out) :: rate_with_gap(2*n_modes)
+   real(dp), intent(out) :: vt
+   real(dp), intent(out) :: vtdot
+   integer, intent(out) :: ierr
+   character(len=512), intent(out) :: errmsg
+   type(model_t) :: model
+   real(dp) :: sin_phase, cos_phase
+
+   rate = 0; rate_with_gap = 0; vt = 0; vtdot = 0
+   call load_model(path, n_modes, model, ierr, errmsg)
+   if (ierr /= ok) return
+   call model%phase(tau, sin_phase, cos_phase)
+   call model%derivative_at_phase([a, adot], in_contact, sin_phase, cos_phase, rate)
+   call model%derivative_and_gap([a, adot], in_contact, sin_phase, cos_phase, rate_with_gap, vt, vtdot)
+end subroutine model_rates_at_phase
+
 !> sin and cos of the drive phase at tau + nodes*h as the embedded pairs' stages take them.
 subroutine stage_phases(path, n_modes, tau, h, n_nodes, nodes, sin_phase, cos_phase, ierr, errmsg)
    use tmafm, only: model_t, load_model, ok

@@ -79,6 +79,40 @@ def test_derivative_equals_the_old_kernel(tmp_path):
     print(f"largest relative difference from the old kernel: {worst:.2e}")
 
 
+def test_rates_at_phase_and_gap_equal_the_old_kernel(tmp_path):
+    """derivative_at_phase and derivative_and_gap (the forms the pairs and the switch search call;
+    N <= 4 and N > 4 take different code) give the old kernel's rate at every reference case,
+    and derivative_and_gap's V_T and dV_T/dtau are p.a + alpha2 sin(Omega tau) + delta_hat and
+    p.a' + alpha2 Omega cos(Omega tau), both phases, for N = 1..30.  The gap is a sum of N + 2
+    terms, so two summation orders differ by at most 2 (N + 2) u sum|terms| <= 1.5e-14 sum|terms|."""
+    scene_values = {}
+    modes_seen = set()
+    for case in _reference_cases():
+        n = case["n"]
+        path = _write_case(tmp_path, n, case["convention"], case["law"], case["scene"])
+        rate, rate_with_gap, vt, vtdot, ierr, errmsg = _core.model_rates_at_phase(
+            str(path), case["tau"], case["a"], case["adot"], case["in_contact"])
+        assert ierr == 0, errmsg
+        for got in (rate, rate_with_gap):
+            error = np.linalg.norm(got - case["rate"]) / np.linalg.norm(case["rate"])
+            assert error <= REFERENCE_RTOL, (n, case["convention"], case["law"],
+                                             case["in_contact"], case["scene"], error)
+        if case["scene"] not in scene_values:
+            scene = _core.resolve(str(path), "")[2]
+            scene_values[case["scene"]] = dict(alpha2=scene[1], omega=scene[7],
+                                               delta_hat=scene[11], xi0=scene[12])
+        sv = scene_values[case["scene"]]
+        tip = _core.modes(n, np.array([sv["xi0"]]), 0)[1][0]
+        phase = sv["omega"] * case["tau"]
+        terms = np.concatenate([tip * case["a"], [sv["alpha2"] * math.sin(phase), sv["delta_hat"]]])
+        rate_terms = np.concatenate([tip * case["adot"],
+                                     [sv["alpha2"] * sv["omega"] * math.cos(phase)]])
+        assert abs(vt - terms.sum()) <= 1.5e-14 * np.abs(terms).sum(), (n, vt, terms.sum())
+        assert abs(vtdot - rate_terms.sum()) <= 1.5e-14 * np.abs(rate_terms).sum(), (n, vtdot)
+        modes_seen.add(n)
+    assert modes_seen == set(range(1, 31))
+
+
 # M is I + alpha1 m m^T with |m|^2 <= 4N, so cond(M) <= 1 + 0.05 * 4 * 30 = 7, and numpy's
 # solve errs by ~cond(M) N u relative to |F| + |C a'| + |K a|, ~3e-14 at N = 30; the kernel
 # errs by ~2N u (see above).  1e-12 norm-wise leaves a factor 30 above both.
@@ -114,6 +148,46 @@ def test_derivative_is_the_solution_of_the_explicit_system(tmp_path, convention)
                 if in_contact:      # the contact terms are really on
                     free = _core.model_terms(str(path), tau, a, adot, False)[4]
                     assert np.linalg.norm(free[n:] - rate[n:]) > 1e3 * EXPLICIT_RTOL * np.linalg.norm(expected)
+
+
+def test_rates_and_gap_with_an_offset_sample(tmp_path):
+    """With delta_hat != 0 (the reference scenes have none): V_T of derivative_and_gap includes
+    it, and derivative, derivative_at_phase and derivative_and_gap all give the solution of the
+    explicit system (model%matrices, whose contact state forms V_T on its own), free and in
+    contact, N = 1..30 (N <= 4 and N > 4 take different code)."""
+    rng = np.random.default_rng(11)
+    alpha2, omega, delta_hat = 7e-4, 2.0, -3e-4
+    for n in range(1, 31):
+        path = tmp_path / f"offset_{n}.nml"
+        f90nml.write(f90nml.Namelist({"model": {"n_modes": n},
+                                      "scene": {"xi0": 0.9, "theta": 0.3, "alpha2": alpha2,
+                                                "omega": omega, "delta_hat": delta_hat}}),
+                     str(path), force=True)
+        tip = _core.modes(n, np.array([0.9]), 0)[1][0]
+        j = np.arange(1, n + 1)
+        for in_contact in (False, True):
+            tau = rng.uniform(0, 10)
+            a = 1e-4 * rng.uniform(-1, 1, n) / j**2
+            adot = 1e-3 * rng.uniform(-1, 1, n) / j
+            if in_contact:      # V_T = -1e-4
+                a[0] -= (tip @ a + alpha2 * math.sin(omega * tau) + delta_hat + 1e-4) / tip[0]
+            rate, rate_with_gap, vt, vtdot, ierr, errmsg = _core.model_rates_at_phase(
+                str(path), tau, a, adot, in_contact)
+            assert ierr == 0, errmsg
+            mass, damping, stiffness, force, rate_tau, ierr, errmsg = _core.model_terms(
+                str(path), tau, a, adot, in_contact)
+            assert ierr == 0, errmsg
+            expected = np.linalg.solve(mass, force - damping @ adot - stiffness @ a)
+            for got in (rate, rate_with_gap, rate_tau):
+                np.testing.assert_array_equal(got[:n], adot)
+                error = np.linalg.norm(got[n:] - expected) / np.linalg.norm(expected)
+                assert error <= EXPLICIT_RTOL, (n, in_contact, error)
+            terms = np.concatenate([tip * a, [alpha2 * math.sin(omega * tau), delta_hat]])
+            rate_terms = np.concatenate([tip * adot, [alpha2 * omega * math.cos(omega * tau)]])
+            assert abs(vt - terms.sum()) <= 1.5e-14 * np.abs(terms).sum(), (n, vt, terms.sum())
+            assert abs(vtdot - rate_terms.sum()) <= 1.5e-14 * np.abs(rate_terms).sum(), (n, vtdot)
+            if in_contact:
+                assert abs(vt + 1e-4) < 1e-12
 
 
 # The stage nodes of dop853 (stages 2-12 and the dense-output stages 14-16) and of dopri5.

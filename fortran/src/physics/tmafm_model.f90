@@ -12,8 +12,9 @@
 !> P2 M^-1 G a and the rank-one tip and moment terms are added, from three dot products
 !> (p.a, (d/L) s.a, p.a') and one call of the contact forces.  The kernel builds a'' four rows
 !> at a time in registers, from copies of the folded terms padded to a multiple of four rows
-!> (loops of constant length, no remainder code), and computes the part that does not depend
-!> on the contact forces while their square roots are under way.  It takes the drive phase
+!> (loops of constant length, no remainder code); for N <= 4 from copies at fixed places in
+!> model_t, in one pass over the modes that also forms the dot products.  It computes the part
+!> that does not depend on the contact forces while their square roots are under way.  It takes the drive phase
 !> as sin/cos(Omega tau) (derivative_at_phase: the pairs compute them once per step), or
 !> takes one sin/cos per evaluation (derivative); none of theta1 (see contact_angle_sin_cos).
 module tmafm_model
@@ -30,6 +31,12 @@ module tmafm_model
    private
 
    public :: model_t, init_model
+
+   !> Rows of a'' the kernel computes together (a fixed count, so that its inner loops have
+   !> constant length and need no remainder code; rows past N are zero and dropped).
+   integer, parameter :: rows_per_block = 4
+   !> The largest n_padded.
+   integer, parameter :: n_max_padded = rows_per_block*((max_modes + rows_per_block - 1)/rows_per_block)
 
    !> Everything fixed for a run: the scene, the Galerkin data and M^-1 applied to them.
    type :: model_t
@@ -83,6 +90,14 @@ module tmafm_model
       real(dp), allocatable :: inv_mass_integral(:)
       !> N rounded up to a whole number of the kernel's row blocks (rows_per_block).
       integer :: n_padded = 0
+      !> For N <= rows_per_block (small_kernel): the folded terms at fixed places in the model,
+      !> zero below row N and past column N of each part: B's halves and M^-1 G (columns 1-4,
+      !> 5-8, 9-12), then w_s, w_c, M^-1 p and the moment term (columns 13-16).
+      real(dp) :: small_fold(rows_per_block, 4*rows_per_block) = 0
+      !> For N <= rows_per_block: (p_j, (d/L) s_j) side by side, the two dot products with a.
+      real(dp) :: small_gap(2, rows_per_block) = 0
+      !> alpha2 Omega: the drive's part of dV_T/dtau is this times cos(Omega tau).
+      real(dp) :: drive_rate = 0
       !> B = -[M^-1 Lambda | alpha3 M^-1]: the free a'' is B (a, a') plus the drive.  Its two
       !> halves, and M^-1 G, as the kernel reads them: n_padded x N, zero below row N.
       real(dp), allocatable :: pass_a(:, :), pass_v(:, :), pass_g(:, :)
@@ -122,11 +137,6 @@ module tmafm_model
       procedure :: energy_flow => model_energy_flow
    end type model_t
 
-   !> Rows of a'' the kernel computes together (a fixed count, so that its inner loops have
-   !> constant length and need no remainder code; rows past N are zero and dropped).
-   integer, parameter :: rows_per_block = 4
-   !> The largest n_padded.
-   integer, parameter :: n_max_padded = rows_per_block*((max_modes + rows_per_block - 1)/rows_per_block)
 
    !> Indices of the powers returned by energy_flow.
    integer, parameter, public :: power_drive = 1, power_beam_damping = 2, &
@@ -246,6 +256,7 @@ contains
          model%pass_a(1:n, :) = -model%inv_mass_eigen
          model%pass_v(1:n, :) = -s%alpha3*model%inv_mass
          model%pass_g(1:n, :) = model%inv_mass_axial
+         model%drive_rate = s%alpha2*s%omega
          model%drive_sin = s%alpha2*s%omega**2*model%inv_mass_inertial
          model%drive_cos = -s%alpha2*s%alpha3*s%omega*model%inv_mass_integral
          if (model%has_moment) then
@@ -270,6 +281,15 @@ contains
       model%pass_terms(1:n, 2) = model%drive_cos
       model%pass_terms(1:n, 3) = model%inv_mass_tip
       model%pass_terms(1:n, 4) = model%moment_force
+      if (n <= rows_per_block) then
+         do j = 1, n
+            model%small_fold(:, j) = model%pass_a(:, j)
+            model%small_fold(:, rows_per_block + j) = model%pass_v(:, j)
+            model%small_fold(:, 2*rows_per_block + j) = model%pass_g(:, j)
+            model%small_gap(:, j) = [model%tip(j), model%scaled_slope(j)]
+         end do
+         model%small_fold(:, 3*rows_per_block + 1:) = model%pass_terms
+      end if
    end subroutine init_model
 
    pure subroutine model_phase(self, tau, sin_phase, cos_phase)
@@ -380,16 +400,113 @@ contains
    end subroutine model_derivative_and_gap
 
    !> The one right-hand side: (a', a'') from y = (a, a') and the drive phase, and V_T and
-   !> dV_T/dtau when want_gap (always in contact, where they are needed anyway).  The contact
-   !> forces first (their square roots are the longest chain), then accumulate.
+   !> dV_T/dtau when want_gap (always in contact, where they are needed anyway).  N > rows_per_block
+   !> goes to general_kernel.  N <= rows_per_block is done here, from small_fold and small_gap
+   !> (fixed places in the model, no array descriptors): one pass over the modes forms p.a,
+   !> (d/L) s.a, p.a' and the parts of a'' that do not depend on the contact forces (the drive,
+   !> B (a, a'), M^-1 G a), all four rows at once, in loops of constant length rows_per_block
+   !> that stop at N (the compiler unrolls them and keeps the rows in vector registers); then the
+   !> contact forces and their two terms.  Every sum runs over the modes in order, from the
+   !> first term.  Explicit-shape y and dydt: the callers pass bare addresses.
    pure subroutine rhs_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
       type(model_t), intent(in) :: self
-      real(dp), intent(in), contiguous :: y(:)
+      real(dp), intent(in) :: y(2*self%n_modes)
       logical, intent(in) :: in_contact
       real(dp), intent(in) :: sin_phase
       real(dp), intent(in) :: cos_phase
       logical, intent(in) :: want_gap
-      real(dp), intent(out), contiguous :: dydt(:)
+      real(dp), intent(out) :: dydt(2*self%n_modes)
+      real(dp), intent(out) :: vt
+      real(dp), intent(out) :: vtdot
+      integer, parameter :: r = rows_per_block
+      real(dp) :: acc(r), stiff(r), gap(2), tip_adot, xa, xv
+      real(dp) :: sin1, cos1, transverse, axial, radius, normal, friction, tip_push
+      integer :: i, j, n
+
+      n = self%n_modes
+      if (n > r) then
+         call general_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
+         return
+      end if
+      associate (f => self%small_fold, g => self%small_gap, s => self%scene)
+         ! Column 1 of every sum, then columns 2..n: the loops have constant length r and stop at n.
+         xa = y(1)
+         xv = y(n + 1)
+         do i = 1, r
+            acc(i) = f(i, 3*r + 1)*sin_phase + f(i, 3*r + 2)*cos_phase
+            acc(i) = acc(i) + (f(i, 1)*xa + f(i, r + 1)*xv)
+         end do
+         if (in_contact .or. want_gap) then
+            ! gap = (p.a, (d/L) s.a).
+            gap = g(:, 1)*xa
+            tip_adot = g(1, 1)*xv
+         end if
+         if (in_contact) then
+            do i = 1, r
+               stiff(i) = f(i, 3*r + 4) + f(i, 2*r + 1)*xa
+            end do
+            do j = 2, r
+               if (j > n) exit
+               xa = y(j)
+               xv = y(n + j)
+               gap = gap + g(:, j)*xa
+               tip_adot = tip_adot + g(1, j)*xv
+               do i = 1, r
+                  acc(i) = acc(i) + (f(i, j)*xa + f(i, r + j)*xv)
+                  stiff(i) = stiff(i) + f(i, 2*r + j)*xa
+               end do
+            end do
+            vt = gap(1) + s%alpha2*sin_phase + s%delta_hat
+            vtdot = tip_adot + self%drive_rate*cos_phase
+            call contact_angle_sin_cos(self%sin_theta, self%cos_theta, gap(2), &
+                                       self%errata%e7_signed_slope, sin1, cos1)
+            call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
+                                transverse, axial, radius, normal, friction)
+            ! Everything that acts along p: P1, the contact damping and its base term.
+            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*sin_phase &
+                       + self%base_cos*cos_phase
+            do i = 1, r
+               acc(i) = acc(i) + tip_push*f(i, 3*r + 3) + axial*stiff(i)
+            end do
+         else
+            do j = 2, r
+               if (j > n) exit
+               xa = y(j)
+               xv = y(n + j)
+               do i = 1, r
+                  acc(i) = acc(i) + (f(i, j)*xa + f(i, r + j)*xv)
+               end do
+            end do
+            vt = 0
+            vtdot = 0
+            if (want_gap) then
+               do j = 2, r
+                  if (j > n) exit
+                  gap(1) = gap(1) + g(1, j)*y(j)
+                  tip_adot = tip_adot + g(1, j)*y(n + j)
+               end do
+               vt = gap(1) + s%alpha2*sin_phase + s%delta_hat
+               vtdot = tip_adot + self%drive_rate*cos_phase
+            end if
+         end if
+      end associate
+      do i = 1, r
+         if (i > n) exit
+         dydt(i) = y(n + i)
+         dydt(n + i) = acc(i)
+      end do
+   end subroutine rhs_kernel
+
+   !> rhs_kernel for N > rows_per_block: the dot products, the contact forces (their square
+   !> roots are the longest chain), then accumulate.
+   pure subroutine general_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in) :: y(2*self%n_modes)
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      logical, intent(in) :: want_gap
+      real(dp), intent(out) :: dydt(2*self%n_modes)
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: vtdot
       real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, radius, normal, friction
@@ -426,14 +543,13 @@ contains
          call accumulate(n, self%n_padded, self%pass_terms, self%pass_a, self%pass_v, self%pass_g, y, &
                          in_contact, sin_phase, cos_phase, tip_push, axial, dydt)
       end associate
-   end subroutine rhs_kernel
+   end subroutine general_kernel
 
    !> dydt = (a', a'') from the folded terms: the drive and the columns of B, which do not
    !> depend on the contact forces (so that they overlap with the contact's square roots),
-   !> then, in contact, tip_push M^-1 p + P2 ((g0/d) M^-1 r + M^-1 G a).  N <= 4 (one block of
-   !> rows_per_block rows) keeps a'' in registers, with inner loops of constant length; larger
-   !> N sweeps whole padded columns (unit stride, vectorised along the rows).  Explicit shapes:
-   !> the compiler knows the strides and that nothing aliases.
+   !> then, in contact, tip_push M^-1 p + P2 ((g0/d) M^-1 r + M^-1 G a), for general_kernel
+   !> (N > rows_per_block): whole padded columns (unit stride, vectorised along the rows).
+   !> Explicit shapes: the compiler knows the strides and that nothing aliases.
    pure subroutine accumulate(n, n_padded, terms, pa, pv, pg, y, in_contact, sin_phase, cos_phase, &
                               tip_push, axial, dydt)
       integer, intent(in) :: n
@@ -449,43 +565,8 @@ contains
       real(dp), intent(in) :: tip_push
       real(dp), intent(in) :: axial
       real(dp), intent(out) :: dydt(2*n)
-      real(dp) :: block(rows_per_block), block_stiff(rows_per_block)
       real(dp) :: acc(n_max_padded), stiff(n_max_padded), xa, xv, xa2, xv2
       integer :: i, j, last
-      if (n_padded == rows_per_block) then
-         do i = 1, rows_per_block
-            block(i) = terms(i, 1)*sin_phase + terms(i, 2)*cos_phase
-         end do
-         if (in_contact) then
-            do i = 1, rows_per_block
-               block_stiff(i) = terms(i, 4)
-            end do
-            do j = 1, n
-               xa = y(j)
-               xv = y(n + j)
-               do i = 1, rows_per_block
-                  block(i) = block(i) + (pa(i, j)*xa + pv(i, j)*xv)
-                  block_stiff(i) = block_stiff(i) + pg(i, j)*xa
-               end do
-            end do
-            do i = 1, rows_per_block
-               block(i) = block(i) + tip_push*terms(i, 3) + axial*block_stiff(i)
-            end do
-         else
-            do j = 1, n
-               xa = y(j)
-               xv = y(n + j)
-               do i = 1, rows_per_block
-                  block(i) = block(i) + (pa(i, j)*xa + pv(i, j)*xv)
-               end do
-            end do
-         end if
-         do i = 1, n
-            dydt(i) = y(n + i)
-            dydt(n + i) = block(i)
-         end do
-         return
-      end if
       do i = 1, n_padded
          acc(i) = terms(i, 1)*sin_phase + terms(i, 2)*cos_phase
       end do

@@ -15,7 +15,9 @@ forms:
 Both use the same error norm (per component, atol + rtol x the component's largest size over
 the run's second half; the Lawson error estimate mapped back by exp(A h)), at rtol 1e-7/atol
 1e-10 and rtol 1e-10/atol 1e-14, and print steps, rejected steps and the end state's error
-against the run's sample.  A study for docs/performance.md, not a method of tmafm: it calls
+against the run's sample; and the largest |eigenvalue| of the free flight's Jacobian against
+that of the contact right-hand side's at the contact's samples (central differences), which
+says how far the contact moves the stiffest mode.  A study for docs/performance.md, not a method of tmafm: it calls
 scipy.linalg.expm per stage, which a real implementation would tabulate.
 """
 
@@ -45,6 +47,19 @@ def free_jacobian(model, n):
         e[k] = 1e-3
         jac[:, k] = (model.derivative(0.3, e, False) - model.derivative(0.3, -e, False)) / 2e-3
     return jac
+
+
+def contact_spectrum(model, states, taus, n):
+    """Largest |eigenvalue| of the in-contact Jacobian at each given state (central differences)."""
+    largest = []
+    for y, tau in zip(states, taus):
+        jac = np.zeros((2 * n, 2 * n))
+        for k in range(2 * n):
+            e = np.zeros(2 * n)
+            e[k] = 1e-7 * max(1e-6, abs(y[k]))
+            jac[:, k] = (model.derivative(tau, y + e, True) - model.derivative(tau, y - e, True)) / (2 * e[k])
+        largest.append(np.max(np.abs(np.linalg.eigvals(jac))))
+    return min(largest), max(largest)
 
 
 def integrate(model, jac, y0, t0, t1, rtol, atol, scale, lawson):
@@ -87,6 +102,7 @@ def main() -> None:
     print("| scene | rtol, atol | span | plain: steps, rejected | Lawson: steps, rejected "
           "| end error / scale, plain, Lawson |")
     print("|---|---|---|---|---|---|")
+    spectra = []
     for name, overrides in SCENES.items():
         cfg = tmafm.Config("fig2_n4", **overrides,
                            solver={"method": "flight_exact", "tau_end": 30 * PERIOD,
@@ -100,12 +116,16 @@ def main() -> None:
         states = np.hstack([run.a, run.adot])
         scale = np.max(np.abs(states[len(states) // 2:]), axis=0)
         t0, t1 = run.tau[first + 2], run.tau[last - 2]
+        low, high = contact_spectrum(model, states[first:last + 1], run.tau[first:last + 1], run.n_modes)
+        spectra.append(f"{name}: largest |eigenvalue| free {np.max(np.abs(np.linalg.eigvals(jac))):.2f}, "
+                       f"in contact {low:.2f} to {high:.2f}")
         for rtol, atol in ((1e-7, 1e-10), (1e-10, 1e-14)):
             out = [integrate(model, jac, states[first + 2], t0, t1, rtol, atol, scale, law)
                    for law in (False, True)]
             errors = [np.max(np.abs(y - states[last - 2]) / scale) for y, _, _ in out]
             print(f"| {name} | {rtol:g}, {atol:g} | {t1 - t0:.2f} | {out[0][1]}, {out[0][2]} | "
                   f"{out[1][1]}, {out[1][2]} | {errors[0]:.1e}, {errors[1]:.1e} |")
+    print("\n".join(spectra))
 
 
 if __name__ == "__main__":

@@ -4,8 +4,8 @@ first of 2 .. 17 significant digits whose correctly rounded es text reads back t
 double, found by trial formatted writes and reads).  Both are checked here against each other
 and against Python's own correctly rounded formatting, on values that stress every branch:
 short decimals, ties near a decimal half-unit, powers of two (whose gap below is half the gap
-above), neighbours of round numbers, random bit patterns, and the values handed back to the
-slow path (zero, infinities, NaN, subnormals, beyond 1e260)."""
+above), neighbours of round numbers, random bit patterns, signed zeros (written directly), and the
+values handed back to the slow path (infinities, NaN, subnormals, beyond 1e260)."""
 
 import math
 

@@ -17,7 +17,9 @@ themselves are left untouched; rerun it after regenerating them):
   more accurate run of the same scene| (the same method at a 16x smaller step, or the adaptive
   methods at a 100x tighter rtol and atol), per column; and the largest difference between the
   stored arrays and the same case computed under each BLAS configuration of BLAS_CONFIGS;
-- analysis_errors.json: the same two estimates for the analysis outputs, plus the trajectory
+  and the round-off spread: the running maximum of |stored - the same run with the drive
+  frequency nudged by a few ulps| (NUDGES), per column;
+- analysis_errors.json: the same three estimates for the analysis outputs, plus the trajectory
   error over the analysed window and the Poincare-section distances that decide the
   classification, for the stored run and the accurate one.
 tests/test_golden.py states how the tolerances follow from them.
@@ -69,15 +71,19 @@ ANALYSIS_KEYS = ("classification", "period", "contact_fraction", "contacts_per_p
                  "vt_max", "max_indentation", "dissipated_per_period", "modal_amplitudes")
 
 
-def analysis_run(name: str, method: str, accurate: bool = False):
+def analysis_run(name: str, method: str, accurate: bool = False, nudge: float = 1.0):
     """The run the golden analysis of one figure input and method reads (tmafm.Result);
-    `accurate` gives the much more accurate run of the same scene (see `more_accurate`)."""
+    `accurate` gives the much more accurate run of the same scene (see `more_accurate`), and
+    `nudge` a factor on the drive frequency (see NUDGES)."""
     period = math.pi  # 2 pi / Omega with Omega = 2 in every figure
     solver = {**ANALYSIS_METHODS[method], "tau_end": ANALYSIS_PERIODS * period}
     output = {"sample_dtau": period / 200}
     if accurate:
         solver = {**solver, **more_accurate(_resolved_solver(f"{name}.nml", solver=solver, output=output))}
-    return tmafm.run(INPUTS / f"{name}.nml", solver=solver, output=output)
+    overrides = {"solver": solver, "output": output}
+    if nudge != 1.0:
+        overrides = nudged(f"{name}.nml", overrides, nudge)
+    return tmafm.run(INPUTS / f"{name}.nml", **overrides)
 
 
 def summarize(result, tol: float | None = None) -> dict:
@@ -99,6 +105,21 @@ def compute_analysis(name: str, method: str) -> dict:
 STEP_DIVISOR = 16
 TOLERANCE_DIVISOR = 100
 
+#: Round-off nudges: the same run with the drive frequency Omega times each factor.  Another
+#: compiler, instruction set (FMA) or libm changes a run by round-off at every step; a nudge of
+#: a few ulps does so on purpose.  Where an adaptive run's accept/reject decision or a located
+#: event's last iteration then goes the other way, the result moves by the method's error, not
+#: by round-off: fig6's located V_T maximum (flight_exact) moves by 2.3e-13 for a one-ulp nudge
+#: while its |stored - accurate| V_T error is 2.2e-14.  The spread over the nudges measures it.
+NUDGES = (1 + 4 * np.finfo(float).eps, 1 - 4 * np.finfo(float).eps)
+
+
+def nudged(file: str, overrides: dict, factor: float) -> dict:
+    """`overrides` with the resolved drive frequency of input `file` (under them) times factor."""
+    resolved = tmafm.resolve(INPUTS / file, **overrides)
+    omega = (resolved[0] if isinstance(resolved, tuple) else resolved)["scene"]["omega"]
+    return {**overrides, "scene": {**overrides.get("scene", {}), "omega": omega * factor}}
+
 
 def _resolved_solver(file: str, **overrides):
     """The resolved &solver group of an input of inputs/ with overrides."""
@@ -113,12 +134,15 @@ def more_accurate(solver) -> dict:
     return {"rtol": solver["rtol"] / TOLERANCE_DIVISOR, "atol": solver["atol"] / TOLERANCE_DIVISOR}
 
 
-def case_run(case: str, accurate: bool = False):
-    """The run of one golden case (tmafm.Result), or its much more accurate twin."""
+def case_run(case: str, accurate: bool = False, nudge: float = 1.0):
+    """The run of one golden case (tmafm.Result), its much more accurate twin, or the same run
+    with the drive frequency times `nudge` (see NUDGES)."""
     file, overrides = CASES[case]
     if accurate:
         more = more_accurate(_resolved_solver(file, **overrides))
         overrides = {**overrides, "solver": {**overrides["solver"], **more}}
+    if nudge != 1.0:
+        overrides = nudged(file, overrides, nudge)
     return tmafm.run(INPUTS / file, **overrides)
 
 
@@ -275,10 +299,13 @@ def write_errors() -> None:
     for case in CASES:
         stored = np.load(HERE / f"{case}.npz")
         accurate = case_run(case, accurate=True)
+        nudges = [case_run(case, nudge=factor) for factor in NUDGES]
         for key in ARRAYS:
             old = np.asarray(stored[key], float)
             if key != "contact":
                 arrays[f"{case}/{key}/method"] = running_max(np.abs(old - np.asarray(getattr(accurate, key), float)))
+                arrays[f"{case}/{key}/roundoff"] = running_max(np.max(
+                    [np.abs(old - np.asarray(getattr(run, key), float)) for run in nudges], axis=0))
             arrays[f"{case}/{key}/blas"] = np.max(
                 [np.abs(np.asarray(d["cases"][case][key], float) - old).max(axis=0) for d in spread.values()]
                 or [np.zeros(old.shape[1:])], axis=0)
@@ -293,22 +320,30 @@ def write_errors() -> None:
             key = f"{name}/{method}"
             stored_run = analysis_run(name, method)
             accurate_run = analysis_run(name, method, accurate=True)
+            nudged_runs = [analysis_run(name, method, nudge=factor) for factor in NUDGES]
             tol = analysis.default_tolerance(stored_run)
             accurate = summarize(accurate_run, tol=tol)
             old = dict(_leaves(stored_table[key]))
             new = dict(_leaves(accurate))
+            nudged_leaves = [dict(_leaves(summarize(run, tol=tol))) for run in nudged_runs]
+            nudged_sections = [section_evidence(run, tol) for run in nudged_runs]
             blas = {path: max([abs(dict(_leaves(d["analysis"][key])).get(path, value) - value)
                                for d in spread.values()], default=0.0)
                     for path, value in old.items()}
             table[key] = {"method": {path: abs(new[path] - value) if path in new else None
                                      for path, value in old.items()},
                           "blas": blas,
+                          "roundoff": {path: max(abs(leaves[path] - value) if leaves.get(path) is not None
+                                                 and value is not None else 0.0 for leaves in nudged_leaves)
+                                       for path, value in old.items()},
                           "trajectory": window_error(stored_run, accurate_run),
                           "classification_tolerance": tol,
                           "sections": section_evidence(stored_run, tol),
                           "sections_blas": {n: max([abs(d["sections"][key][n] - value) for d in spread.values()],
                                                    default=0.0)
                                             for n, value in section_evidence(stored_run, tol).items()},
+                          "sections_roundoff": {n: max(abs(sections[n] - value) for sections in nudged_sections)
+                                                for n, value in section_evidence(stored_run, tol).items()},
                           "sections_accurate": section_evidence(accurate_run, tol),
                           "classification_accurate": accurate["classification"]}
     (HERE / "analysis_errors.json").write_text(json.dumps(table, indent=1, sort_keys=True) + "\n")
@@ -325,13 +360,21 @@ def summarize_errors() -> None:
         for key in ("vt", "a"):
             m = max(float(errors[f"{c}/{key}/method"].max()) for c in cases)
             b = max(float(errors[f"{c}/{key}/blas"].max()) for c in cases)
-            print(f"{method:13s} {key:3s} method error <= {m:.1e}   BLAS spread <= {b:.1e}   ({len(cases)} cases)")
+            r = max(float(errors[f"{c}/{key}/roundoff"].max()) for c in cases)
+            print(f"{method:13s} {key:3s} method error <= {m:.1e}   BLAS spread <= {b:.1e}   "
+                  f"round-off spread <= {r:.1e}   ({len(cases)} cases)")
     table = json.loads((HERE / "analysis_errors.json").read_text())
     for method in ANALYSIS_METHODS:
         rel = [abs(v) / abs(old) for key, t in table.items() if key.endswith(method)
                for path, old in _leaves(json.loads((HERE / "analysis.json").read_text())[key])
                for v in [t["blas"].get(path, 0.0)] if isinstance(old, float) and old]
         print(f"analysis {method}: largest relative BLAS spread {max(rel):.1e}")
+        over = [(t["roundoff"][path] / (t["method"].get(path) or 0.0) if t["method"].get(path) else math.inf,
+                 key + path)
+                for key, t in table.items() if key.endswith(method)
+                for path in t["roundoff"] if t["roundoff"][path] > (t["method"].get(path) or 0.0)]
+        print(f"analysis {method}: {len(over)} numbers whose round-off spread exceeds their method error"
+              + (f", most {max(over)[0]:.0f}x ({max(over)[1]})" if over else ""))
 
 
 def main() -> None:

@@ -68,13 +68,17 @@ module tmafm_embedded_pair
       !> sin and cos of the drive phase Omega (tau + h) at the end of the last step (from
       !> stage_phases, as f_new used them).
       real(dp) :: sin_end = 0, cos_end = 1
+      !> V_T and dV_T/dtau at the end of the last step (from the evaluation of f_new: the
+      !> right-hand side forms them anyway, in the order of model_t's gap_at_phase).
+      real(dp) :: vt_end = 0, rate_end = 0
       !> The time map of the last step (set by `step`): its dense output is in map's theta.
       type(time_map_t) :: map
    contains
       !> Allocate the registers for a state of size n_state.
       procedure(pair_init), deferred :: init
       !> One step over map (stored in self%map); f0 = dy/ds at its start in, f_new = dy/ds at
-      !> its end out (s the step variable: dy/ds = f, or 2 sigma f on a warped step).
+      !> its end out (s the step variable: dy/ds = f, or 2 sigma f on a warped step); sets
+      !> sin_end, cos_end, vt_end and rate_end.
       procedure(pair_step), deferred :: step
       !> The error norm of the last step (accept when <= 1).
       procedure(pair_norm), deferred :: error_norm

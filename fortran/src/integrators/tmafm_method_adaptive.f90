@@ -273,8 +273,12 @@ contains
             end if
             phase_start = .false.
 
-            ! The drive phase at the step end: the pair's, as f_new used it (no sin/cos here).
-            call gap_state(model, pair%sin_end, pair%cos_end, y_new, vt1, rate1, margin1, drive1)
+            ! V_T, its rate and the drive phase at the step end: the pair's, as f_new formed them
+            ! (no sin/cos and no dot products here).
+            vt1 = pair%vt_end
+            rate1 = pair%rate_end
+            drive1 = model%scene%alpha2*pair%sin_end
+            margin1 = switch_margin(model, y_new)
             ! G's rates per unit of the step variable: dtau/ds = 1, or 2 sigma when warped.
             ds0 = 1
             ds1 = 1

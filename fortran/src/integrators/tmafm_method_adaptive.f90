@@ -333,8 +333,10 @@ contains
                traj%contact_steps = traj%contact_steps + 1
                self%h_contact_max = max(self%h_contact_max, h_time)
             end if
-            call check_blowup(model, settings, tau_end, step_taken, self%in_contact, y_new, ierr, errmsg)
-            if (ierr /= ok) return
+            if (.not. state_bounded(size(y)/2, y_new, settings%blowup_limit)) then
+               call check_blowup(model, settings, tau_end, step_taken, self%in_contact, y_new, ierr, errmsg)
+               if (ierr /= ok) return
+            end if
             do while (traj%next_time() <= tau_end)
                call build_dense(self, model, traj, dense_ready)
                call pair%dense(map%theta_at(traj%next_time()), y_sample)
@@ -619,6 +621,22 @@ contains
       real(dp), intent(out) :: to(2*n_modes)
       to = from
    end subroutine copy_state
+
+   !> .true. when check_blowup (tmafm_trajectory) would pass the state (a, a') of n_modes modes:
+   !> every component finite (|x| <= huge is false for NaN and Inf) and every |a_j| <= limit.
+   !> The loop tests the common case in a few vector compares; the caller calls check_blowup,
+   !> which words the error, only when it is .false.
+   pure logical function state_bounded(n_modes, y, limit)
+      integer, intent(in) :: n_modes
+      real(dp), intent(in) :: y(2*n_modes)
+      real(dp), intent(in) :: limit
+      integer :: i
+      state_bounded = .true.
+      do i = 1, n_modes
+         state_bounded = state_bounded .and. abs(y(i)) <= limit .and. abs(y(i)) <= huge(1.0_dp) &
+                         .and. abs(y(n_modes + i)) <= huge(1.0_dp)
+      end do
+   end function state_bounded
 
    !> 1 for the free phase, 2 for contact.
    elemental function phase_index(in_contact) result(k)

@@ -561,10 +561,22 @@ contains
       real(dp), intent(in) :: scale
       real(dp), intent(in) :: drive
       real(dp) :: accel
-      integer :: n
-      n = model%n_modes
-      accel = dot_product(model%tip, f(n + 1:2*n))*scale - model%scene%omega**2*drive
+      accel = tip_dot(model%n_modes, model%tip, f)*scale - model%scene%omega**2*drive
    end function gap_acceleration
+
+   !> p . (second half of f), f = (a', a''): dot_product's sum, in order from the first term, on
+   !> explicit shapes (no array descriptors to build).
+   pure function tip_dot(n, tip, f) result(total)
+      integer, intent(in) :: n
+      real(dp), intent(in) :: tip(n)
+      real(dp), intent(in) :: f(2*n)
+      real(dp) :: total
+      integer :: j
+      total = 0
+      do j = 1, n
+         total = total + tip(j)*f(n + j)
+      end do
+   end function tip_dot
 
    !> In contact, after an accepted step that ends with G = g, G' = rate, G'' = accel (G =
    !> -V_T + margin > 0, derivatives in tau): limit the next step h (its length in tau) so that

@@ -58,8 +58,8 @@ module tmafm_method_adaptive
    real(dp), parameter :: warp_first = 0.8_dp
 
    !> Steps after the warp for which the controller is PI (then classical again until a
-   !> rejection: PI's two real powers per step cost 2 % of the instructions on the tilted
-   !> scene at rtol 1e-10 when kept for the whole contact).
+   !> rejection: when PI still took two real powers a step, keeping it for the whole contact
+   !> cost 2 % of the instructions on the tilted scene at rtol 1e-10).
    integer, parameter :: warp_pi_steps = 4
 
    !> Pieces a step (and then a piece) is split into by the dip search out of contact.

@@ -636,8 +636,8 @@ contains
 
    !> .true. when check_blowup (tmafm_trajectory) would pass the state (a, a') of n_modes modes:
    !> every component finite (|x| <= huge is false for NaN and Inf) and every |a_j| <= limit.
-   !> The loop tests the common case in a few vector compares; the caller calls check_blowup,
-   !> which words the error, only when it is .false.
+   !> A short loop of compares on explicit shapes for the common case; the caller calls
+   !> check_blowup, which words the error, only when it is .false.
    pure logical function state_bounded(n_modes, y, limit)
       integer, intent(in) :: n_modes
       real(dp), intent(in) :: y(2*n_modes)

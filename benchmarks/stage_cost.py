@@ -16,7 +16,9 @@ only for the steps that hold a sample or a switch).  The counters of every execu
 agree (the steps are the same), and it prints the largest difference of each run's arrays
 (tau, V_T, a, a', switches) from the first executable's, relative to each array's largest
 magnitude.  Writes stage_cost.json and stage_cost.png into --out (default benchmarks/).
-Instructions, unlike CPU time, do not depend on the load of the shared machine.
+Instructions, unlike CPU time, do not depend on the load of the shared machine.  The step
+loop's own work (adaptive_advance, gap_state, check_blowup) and libm's pow (the PI
+controller's two real powers until it took square roots) are listed as well.
 """
 
 import argparse
@@ -55,6 +57,10 @@ FUNCTIONS = {
     "controller_next_step": ["embedded_pair_MOD_controller_next_step"],
     "prepare_dense": ["dop853_MOD_dop853_prepare_dense", "dop853_MOD_dop853_dense_stages"],
     "dense": ["dop853_MOD_dop853_dense", "dop853_MOD_dense_sum"],
+    "adaptive_advance": ["method_adaptive_MOD_adaptive_advance"],
+    "gap_state": ["method_adaptive_MOD_gap_state"],
+    "check_blowup": ["trajectory_MOD_check_blowup"],
+    "pow (libm)": ["pow@@GLIBC", "__ieee754_pow"],
     "rhs_kernel": ["tmafm_model_MOD_rhs_kernel"],
 }
 PATTERNS = {part: key for key, parts in FUNCTIONS.items() for part in parts}

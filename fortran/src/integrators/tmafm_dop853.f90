@@ -155,17 +155,17 @@ contains
       real(dp), intent(out), contiguous :: f_new(:)
       self%map = map
       call dop853_stages(model, size(y)/2, map, y, in_contact, f0, self%k, self%stage, y_new, f_new, &
-                         self%err5, self%err3, self%sin_end, self%cos_end)
+                         self%err5, self%err3, self%sin_end, self%cos_end, self%vt_end, self%rate_end)
    end subroutine dop853_step
 
    !> The stages of dop853_step on explicit-shape registers (the compiler sees unit strides
    !> and no aliasing; their length 2 n_modes is even, so the vectorised sums have no odd
    !> remainder): k(:n, 2:12), the new state, f_new, the fifth- and third-order error
    !> estimates (in the pass that forms the new state: they weigh the same stages) and the
-   !> drive phase at the step end.  On a warped step each stage derivative is scaled by its
-   !> dtau/dsigma as soon as it is formed.
+   !> drive phase, V_T and dV_T/dtau at the step end.  On a warped step each stage derivative
+   !> is scaled by its dtau/dsigma as soon as it is formed.
    pure subroutine dop853_stages(model, n_modes, map, y, in_contact, f0, k, stage, y_new, f_new, &
-                                 err5, err3, sin_end, cos_end)
+                                 err5, err3, sin_end, cos_end, vt_end, rate_end)
       type(model_t), intent(in) :: model
       integer, intent(in) :: n_modes
       type(time_map_t), intent(in) :: map
@@ -180,6 +180,8 @@ contains
       real(dp), intent(out) :: err3(2*n_modes)
       real(dp), intent(out) :: sin_end
       real(dp), intent(out) :: cos_end
+      real(dp), intent(out) :: vt_end
+      real(dp), intent(out) :: rate_end
       real(dp) :: sin_phase(size(step_nodes)), cos_phase(size(step_nodes)), factor(size(step_nodes))
       real(dp) :: h
       integer :: n
@@ -235,7 +237,7 @@ contains
          err3(i) = e3_1*f0(i) + e3_6*k(i, 6) + e3_7*k(i, 7) + e3_8*k(i, 8) + e3_9*k(i, 9) &
                    + e3_10*k(i, 10) + e3_11*k(i, 11) + e3_12*k(i, 12)
       end do
-      call model%derivative_at_phase(y_new, in_contact, sin_phase(11), cos_phase(11), f_new)
+      call model%derivative_and_gap(y_new, in_contact, sin_phase(11), cos_phase(11), f_new, vt_end, rate_end)
       if (map%warped) f_new = factor(11)*f_new
    end subroutine dop853_stages
 

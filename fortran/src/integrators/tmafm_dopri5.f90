@@ -108,7 +108,8 @@ contains
          call model%derivative_at_phase(stage, in_contact, sin_phase(5), cos_phase(5), k6)
          if (map%warped) k6 = factor(5)*k6
          y_new = y + h*(a71*f0 + a73*k3 + a74*k4 + a75*k5 + a76*k6)
-         call model%derivative_at_phase(y_new, in_contact, sin_phase(5), cos_phase(5), f_new)
+         call model%derivative_and_gap(y_new, in_contact, sin_phase(5), cos_phase(5), f_new, self%vt_end, &
+                                       self%rate_end)
          if (map%warped) f_new = factor(5)*f_new
       end associate
    end subroutine dopri5_step

@@ -17,7 +17,7 @@
 !> The controller turns an error norm (and, once a phase had a rejection, the last accepted
 !> one) into the next step from norm^(-1/(q+1)), q the order of the error estimate; each
 !> pair computes its own norm^(-1/(q+1)) (dop853: three square roots for 1/8; dopri5: one
-!> log and one exp for 1/5), see `growth`.
+!> log and one exp for 1/5), see `growth`; the PI law's powers of it are square roots.
 module tmafm_embedded_pair
    use tmafm_kinds, only: dp
    use tmafm_model, only: model_t
@@ -68,13 +68,17 @@ module tmafm_embedded_pair
       !> sin and cos of the drive phase Omega (tau + h) at the end of the last step (from
       !> stage_phases, as f_new used them).
       real(dp) :: sin_end = 0, cos_end = 1
+      !> V_T and dV_T/dtau at the end of the last step (from the evaluation of f_new: the
+      !> right-hand side forms them anyway, in the order of model_t's gap_at_phase).
+      real(dp) :: vt_end = 0, rate_end = 0
       !> The time map of the last step (set by `step`): its dense output is in map's theta.
       type(time_map_t) :: map
    contains
       !> Allocate the registers for a state of size n_state.
       procedure(pair_init), deferred :: init
       !> One step over map (stored in self%map); f0 = dy/ds at its start in, f_new = dy/ds at
-      !> its end out (s the step variable: dy/ds = f, or 2 sigma f on a warped step).
+      !> its end out (s the step variable: dy/ds = f, or 2 sigma f on a warped step); sets
+      !> sin_end, cos_end, vt_end and rate_end.
       procedure(pair_step), deferred :: step
       !> The error norm of the last step (accept when <= 1).
       procedure(pair_norm), deferred :: error_norm
@@ -143,18 +147,25 @@ module tmafm_embedded_pair
 
    !> The step-size controller: classical (Hairer's DOP853/DOPRI5: safety 0.9, the pair's
    !> growth and shrink limits, no growth after a rejection) until the first rejection of a
-   !> phase, then PI (Gustafsson; Hairer and Wanner II, Sec. IV.2).  With r(x) = safety
-   !> x^(-1/k), k = q + 1, the classical factor of an accepted step is r(norm) and the PI
-   !> factor r(norm)^i_gain / r(norm_prev)^p_gain, norm_prev the last accepted step's.  In a
-   !> steady state both are 1 at the same norm (safety^k), but the PI factor damps the
-   !> accept/reject cycle of a step held at the stability boundary (a stiff contact, a high
-   !> mode), where the classical law rejects every few steps; used from the start it would
-   !> slow the ramp after a contact entry, whose norms are tiny.  A rejection uses r(norm).
+   !> phase, then PI (Gustafsson 1991; Hairer and Wanner II, Sec. IV.2; Soderlind 2002 calls
+   !> it PI3040).  With r(x) = safety x^(-1/k), k = q + 1, the classical factor of an accepted
+   !> step is r(norm) and the PI factor r(norm)^i_gain / r(norm_prev)^p_gain, norm_prev the
+   !> last accepted step's: in Soderlind's terms k_I = i_gain - p_gain and k_P = p_gain (in
+   !> units of 1/k).  The gains are dyadic, 21/32 and 12/32 (k_I = 0.28, k_P = 0.375, near
+   !> Gustafsson's 0.3 and 0.4), so that the powers are chains of square roots
+   !> (dyadic_power: eight square roots, where two real powers cost about 500 instructions);
+   !> on the four scenes of benchmarks/contact_steps.py they keep the steps and rejections of
+   !> his gains (docs/performance.md), which other dyadic gains near them did not: the step
+   !> pattern of a contact is sensitive to the gains.  In a steady state
+   !> both laws are 1 at the same norm (safety^k), but the PI factor damps the accept/reject
+   !> cycle of a step held at the stability boundary (a stiff contact, a high mode), where the
+   !> classical law rejects every few steps; used from the start it would slow the ramp after
+   !> a contact entry, whose norms are tiny.  A rejection uses r(norm).
    type :: step_controller_t
       !> Safety factor on the optimal step.
       real(dp) :: safety = 0.9_dp
-      !> Integral and proportional gains, in units of 1/k.
-      real(dp) :: i_gain = 0.7_dp, p_gain = 0.4_dp
+      !> Integral and proportional gains, in 32nds of 1/k (0 to 32: dyadic_power's exponents).
+      integer :: i_gain = 21, p_gain = 12
       !> Smallest step before the run fails (relative to max(1, tau)).
       real(dp) :: h_min_relative = 1.0e-14_dp
       !> .true. after a rejection: the next step may not grow (Hairer's DOPRI5/DOP853).
@@ -164,9 +175,9 @@ module tmafm_embedded_pair
       !> Accepted steps for which the PI gains apply although no step of the phase was rejected
       !> (set by the caller: the steps after a warped contact entry).
       integer :: pi_steps = 0
-      !> The norm of the last accepted step in this phase (floored at 1e-4, as Hairer's
-      !> facold); 0 at a phase start.
-      real(dp) :: norm_prev = 0
+      !> r(norm_prev) = safety norm_prev^(-1/k) of the last accepted step in this phase, its norm
+      !> floored at 1e-4 (as Hairer's facold); 0 at a phase start.
+      real(dp) :: ratio_prev = 0
    contains
       !> The next step after an attempt of length h with error norm `norm` by `pair`.
       procedure :: next_step => controller_next_step
@@ -298,20 +309,25 @@ contains
       class(embedded_pair_t), intent(in) :: pair
       real(dp), intent(in) :: h
       real(dp), intent(in) :: norm
-      real(dp) :: h_next, factor, grow
+      !> The floor of norm_prev (Hairer's facold >= 1e-4).
+      real(dp), parameter :: norm_floor = 1.0e-4_dp
+      real(dp) :: h_next, factor, grow, ratio
       grow = pair%grow_limit
       if (self%after_rejection) grow = 1
+      ratio = 0
       if (norm <= 0) then
          factor = grow
       else
          ! pair%growth(x) = x^(-1/k).
-         factor = self%safety*pair%growth(norm)
-         if (norm <= 1 .and. self%norm_prev > 0 .and. (self%rejected_in_phase .or. self%pi_steps > 0)) &
-            factor = factor**self%i_gain/(self%safety*pair%growth(self%norm_prev))**self%p_gain
+         ratio = self%safety*pair%growth(norm)
+         factor = ratio
+         if (norm <= 1 .and. self%ratio_prev > 0 .and. (self%rejected_in_phase .or. self%pi_steps > 0)) &
+            factor = dyadic_power(ratio, self%i_gain)/dyadic_power(self%ratio_prev, self%p_gain)
          factor = min(grow, max(pair%shrink_limit, factor))
       end if
       if (norm <= 1) then
-         self%norm_prev = max(norm, 1.0e-4_dp)
+         if (norm < norm_floor) ratio = self%safety*pair%growth(norm_floor)
+         self%ratio_prev = ratio
          self%pi_steps = self%pi_steps - 1
       end if
       self%after_rejection = .not. (norm <= 1)
@@ -319,9 +335,27 @@ contains
       h_next = h*factor
    end function controller_next_step
 
+   !> x^(m/32) for x > 0 and 0 <= m <= 32, from the square roots x^(1/2), ..., x^(1/32) that
+   !> the bits of m pick (no pow: at most five square roots and five products).
+   pure function dyadic_power(x, m) result(power)
+      real(dp), intent(in) :: x
+      integer, intent(in) :: m
+      real(dp) :: power, root
+      integer :: bit
+      power = 1
+      if (m >= 32) power = x
+      root = x
+      do bit = 4, 0, -1
+         ! No square root past the last bit of m.
+         if (iand(m, 2*2**bit - 1) == 0) exit
+         root = sqrt(root)
+         if (btest(m, bit)) power = power*root
+      end do
+   end function dyadic_power
+
    pure subroutine controller_restart(self)
       class(step_controller_t), intent(inout) :: self
-      self%norm_prev = 0
+      self%ratio_prev = 0
       self%after_rejection = .false.
       self%rejected_in_phase = .false.
       self%pi_steps = 0

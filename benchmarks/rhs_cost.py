@@ -41,8 +41,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-import f90nml
-import numpy as np
+from _builds import build, callgrind, export_revision, link_flags, process_cpu, scene_file
 
 REPO = Path(__file__).resolve().parent.parent
 HERE = Path(__file__).resolve().parent
@@ -71,21 +70,7 @@ SCENES = {
     "fig2": ({"solver": {"method": "flight_exact", "tau_end": 100 * PERIOD},
               "output": {"sample_dtau": 0.01}}),
 }
-COUNTERS = ("steps", "contact_steps", "rejected_steps", "rhs_evaluations", "switches")
 
-
-def build(source: Path, build_dir: Path, options: list[str]) -> None:
-    subprocess.run(["meson", "setup", str(build_dir), str(source), "-Dbuildtype=release", *options],
-                   check=True, capture_output=True)
-    subprocess.run(["ninja", "-C", str(build_dir), "-j", "2"], check=True, capture_output=True)
-
-
-def link_flags(build_dir: Path) -> list[str]:
-    """The LAPACK and BLAS the build itself linked the executable with (from build.ninja)."""
-    lines = (build_dir / "build.ninja").read_text().splitlines()
-    start = next(k for k, l in enumerate(lines) if l.startswith("build tmafm:"))
-    line = next(l for l in lines[start:] if "LINK_ARGS" in l)
-    return [w for w in line.split("=", 1)[1].split() if "lapack" in w or "blas" in w]
 
 
 def kernel_costs(build_dir: Path, work: Path) -> dict:
@@ -131,44 +116,11 @@ def start_cost(exe: str) -> float:
     return cpu / STARTS * 1e3
 
 
-def scene_file(name: str, work: Path) -> Path:
-    nml = f90nml.read(str(REPO / "inputs" / "fig2_n4.nml"))
-    for group, values in SCENES[name].items():
-        for key, value in values.items():
-            nml[group][key] = value
-    nml["output"]["file"] = str(work / f"{name}.npz")
-    nml["output"]["format"] = "npy"
-    path = work / f"{name}.nml"
-    f90nml.write(nml, str(path), force=True)
-    return path
-
-
-def process_cpu(exe: str, nml: Path) -> tuple[float, dict]:
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    subprocess.run([exe, "-q", str(nml)], check=True, cwd=nml.parent)
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    with np.load(nml.with_suffix(".npz")) as npz:
-        counters = dict(zip(COUNTERS, (int(c) for c in npz["counters"])))
-    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), counters
-
-
-def instructions(exe: str, nml: Path) -> int | None:
-    """Instructions of one whole process under callgrind, or None without valgrind."""
-    try:
-        out = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", exe,
-                              "-q", str(nml)], check=True, capture_output=True, text=True,
-                             cwd=nml.parent).stderr
-    except FileNotFoundError:
-        return None
-    line = next(l for l in out.splitlines() if "Collected :" in l)
-    return int(line.split(":")[-1])
-
-
 def run_costs(builds: dict[str, Path], work: Path) -> dict:
     """Whole-process CPU of each scene with each build, RUNS interleaved rounds."""
     result = {}
     for name in SCENES:
-        nml = scene_file(name, work)
+        nml = scene_file(name, SCENES[name], work)
         seconds = {label: [] for label in builds}
         counters = {}
         for _ in range(RUNS):
@@ -180,7 +132,8 @@ def run_costs(builds: dict[str, Path], work: Path) -> dict:
                                 "counters": counters[label]} for label in builds}
         if name == "tilted_hertz_3":
             for label, build_dir in builds.items():
-                result[name][label]["instructions"] = instructions(str(build_dir / "tmafm"), nml)
+                result[name][label]["instructions"] = callgrind([str(build_dir / "tmafm"), "-q", str(nml)],
+                                                                nml.parent)
     return result
 
 
@@ -218,11 +171,7 @@ def chart(data: dict, path: Path) -> None:
 def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        old_src = tmp / "old-src"
-        old_src.mkdir()
-        archive = subprocess.run(["git", "-C", str(REPO), "archive", OLD_REV], check=True,
-                                 capture_output=True).stdout
-        subprocess.run(["tar", "-x", "-C", str(old_src)], input=archive, check=True)
+        old_src = export_revision(OLD_REV, tmp / "old-src")
         variants = {"old": (OLD_REV, old_src, []),
                     "new_no_lto": ("working tree, -Db_lto=false", REPO, ["-Db_lto=false"]),
                     "new": ("working tree", REPO, [])}

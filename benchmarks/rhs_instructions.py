@@ -28,14 +28,12 @@ from __future__ import annotations
 import json
 import math
 import os
-import resource
 import statistics
 import subprocess
 import tempfile
 from pathlib import Path
 
-import f90nml
-import numpy as np
+from _builds import build, callgrind, export_revision, link_flags, process_cpu, scene_file
 
 REPO = Path(__file__).resolve().parent.parent
 HERE = Path(__file__).resolve().parent
@@ -54,29 +52,7 @@ SCENES = {
     "fig2": {"solver": {"method": "flight_exact", "tau_end": 100 * PERIOD},
              "output": {"sample_dtau": 0.01}},
 }
-COUNTERS = ("steps", "contact_steps", "rejected_steps", "rhs_evaluations", "switches")
 
-
-def build(source: Path, build_dir: Path) -> None:
-    subprocess.run(["meson", "setup", str(build_dir), str(source), "-Dbuildtype=release"],
-                   check=True, capture_output=True)
-    subprocess.run(["ninja", "-C", str(build_dir), "-j", "2"], check=True, capture_output=True)
-
-
-def link_flags(build_dir: Path) -> list[str]:
-    """The LAPACK and BLAS the build itself linked the executable with (from build.ninja)."""
-    lines = (build_dir / "build.ninja").read_text().splitlines()
-    start = next(k for k, l in enumerate(lines) if l.startswith("build tmafm:"))
-    line = next(l for l in lines[start:] if "LINK_ARGS" in l)
-    return [w for w in line.split("=", 1)[1].split() if "lapack" in w or "blas" in w]
-
-
-def callgrind(command: list[str], cwd: Path) -> int:
-    """Instructions of one process under callgrind."""
-    out = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", *command],
-                         check=True, capture_output=True, text=True, cwd=cwd).stderr
-    line = next(l for l in out.splitlines() if "Collected :" in l)
-    return int(line.split(":")[-1])
 
 
 def kernel_instructions(build_dir: Path, work: Path) -> dict:
@@ -96,36 +72,15 @@ def kernel_instructions(build_dir: Path, work: Path) -> dict:
     return result
 
 
-def scene_file(name: str, work: Path) -> Path:
-    nml = f90nml.read(str(REPO / "inputs" / "fig2_n4.nml"))
-    for group, values in SCENES[name].items():
-        for key, value in values.items():
-            nml[group][key] = value
-    nml["output"]["file"] = f"{name}.npz"
-    nml["output"]["format"] = "npy"
-    path = work / f"{name}.nml"
-    f90nml.write(nml, str(path), force=True)
-    return path
-
-
-def process(exe: Path, nml: Path) -> tuple[float, dict]:
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    subprocess.run([str(exe), "-q", str(nml)], check=True, cwd=nml.parent)
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    with np.load(nml.with_suffix(".npz")) as npz:
-        counters = dict(zip(COUNTERS, (int(c) for c in npz["counters"])))
-    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), counters
-
-
 def run_costs(builds: dict[str, Path], work: Path) -> dict:
     result = {}
     for name in SCENES:
-        nml = scene_file(name, work)
+        nml = scene_file(name, SCENES[name], work)
         seconds = {label: [] for label in builds}
         counters = {}
         for _ in range(RUNS):
             for label, build_dir in builds.items():
-                cpu, counters[label] = process(build_dir / "tmafm", nml)
+                cpu, counters[label] = process_cpu(build_dir / "tmafm", nml)
                 seconds[label].append(cpu)
         result[name] = {label: {"median_ms": 1e3 * statistics.median(seconds[label]),
                                 "counters": counters[label],
@@ -170,11 +125,7 @@ def chart(data: dict, path: Path) -> None:
 def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        old_src = tmp / "old-src"
-        old_src.mkdir()
-        archive = subprocess.run(["git", "-C", str(REPO), "archive", OLD_REV], check=True,
-                                 capture_output=True).stdout
-        subprocess.run(["tar", "-x", "-C", str(old_src)], input=archive, check=True)
+        old_src = export_revision(OLD_REV, tmp / "old-src")
         builds, results = {}, {}
         for key, label, source in (("old", OLD_REV, old_src), ("new", "working tree", REPO)):
             work = tmp / key

@@ -1,0 +1,60 @@
+"""A base input patched by overrides (``tmafm.Config(path_or_config, **overrides)``) reads every
+value exactly as the base alone does.  The core rebuilds the merged text from the base's syntax
+tree (tmafm_api config_from_texts); it used the values' text kept for messages, which is cut
+after 100 characters, so a long value was refused ("not a number") or, worse, silently read as
+its first 100 characters: a file name with a quote in it, or a number with many digits."""
+
+import pytest
+
+import tmafm
+
+
+def _line(config, key):
+    return [line.strip() for line in config.text.splitlines() if line.strip().startswith(key + " =")]
+
+
+@pytest.mark.parametrize("n", [8, 30])
+def test_a_config_with_long_initial_lists_takes_overrides(n):
+    """A resolved Config with N nonzero initial values (17 digits each) writes a0 on one line
+    of far more than 100 characters; any override refused it."""
+    a0 = [1.0e-3 / 3.0 * (j + 1) for j in range(n)]
+    adot0 = [0.1234567891234567 / (j + 1) for j in range(n)]
+    base = tmafm.Config({"model": {"n_modes": n}, "initial": {"a0": a0, "adot0": adot0},
+                         "solver": {"tau_end": 1.0}})
+    assert len(_line(base, "a0")[0]) > 100
+    patched = tmafm.Config(base, solver={"tau_end": 0.5})
+    assert _line(patched, "a0") == _line(base, "a0")
+    assert _line(patched, "adot0") == _line(base, "adot0")
+    again = tmafm.Config(base, model={"n_modes": n}, initial={"a0": a0, "adot0": adot0})
+    assert _line(again, "a0") == _line(base, "a0")
+
+
+def test_a_long_file_name_with_a_quote_is_not_cut():
+    """'a' * 99 + "'b.dat" was read as 'aaa...a' (the quote doubled by the writer closed the
+    cut string): a silently different &output file."""
+    name = "a" * 99 + "'b.dat"
+    direct = tmafm.Config({"output": {"file": name}})
+    patched = tmafm.Config("fig2_n4", output={"file": name})
+    assert direct.to_dict()["output"]["file"] == name
+    assert patched.to_dict()["output"]["file"] == name
+    assert tmafm.Config(patched, solver={"tau_end": 1.0}).to_dict()["output"]["file"] == name
+
+
+def test_a_long_number_in_the_base_file_reads_the_same_with_overrides(tmp_path):
+    """theta = 1.000...0e-2 (110 zeros) is 0.01; with an override it was read as its first 100
+    characters, 1.000...0 = 1.0 rad, which is in range: a silently different tilt."""
+    path = tmp_path / "long.nml"
+    path.write_text("&scene theta = 1." + "0" * 110 + "e-2 /\n&solver tau_end = 1 /\n")
+    alone = tmafm.Config(path)
+    assert alone.scene["theta"] == 0.01
+    patched = tmafm.Config(path, solver={"tau_end": 0.5})
+    assert patched.scene["theta"] == 0.01
+
+
+def test_a_list_written_over_several_lines_with_comments_keeps_its_values(tmp_path):
+    path = tmp_path / "lines.nml"
+    path.write_text("&model n_modes = 4 /\n&initial\n  a0 = 1e-3, ! first mode\n"
+                    "       2e-3,  3e-3 ! more\n       4e-3\n/\n&solver tau_end = 1 /\n")
+    patched = tmafm.Config(path, solver={"tau_end": 0.5})
+    assert _line(patched, "a0") == _line(tmafm.Config(path), "a0")
+    assert patched.to_dict()["initial"]["a0"] == [1e-3, 2e-3, 3e-3, 4e-3]

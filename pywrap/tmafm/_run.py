@@ -9,7 +9,6 @@ with f90nml only when ``.resolved`` is asked for.
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Union
@@ -185,7 +184,8 @@ class Config:
                 if not g.startswith("_")}
 
     def write(self, path) -> Path:
-        """Write the resolved input to `path` (atomically: a temporary file, then a rename)."""
+        """Write the resolved input to `path` (atomically: a temporary file, then a rename; a
+        device or FIFO is written directly; InputFileError if it cannot be written)."""
         path = Path(path)
         _atomic_write(path, self.text.encode("utf-8"))
         return path
@@ -225,22 +225,10 @@ class Config:
 
 
 def _atomic_write(path: Path, data: bytes) -> None:
-    """Write `data` to a temporary file next to `path`, then rename it over `path`."""
-    folder = path.parent if str(path.parent) else Path(".")
-    try:
-        fd, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=folder)
-    except OSError as exc:
-        raise InputFileError(f"cannot write '{path}': {exc.strerror}") from exc
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-        os.replace(temporary, path)
-    except BaseException:
-        try:
-            os.unlink(temporary)
-        except OSError:
-            pass
-        raise
+    """Write `data` to `path` as the executable writes its output: through a temporary and a
+    rename for a file, directly for a device or FIFO (tmafm._safefile)."""
+    from ._safefile import write_bytes
+    write_bytes(path, data)
 
 
 class Result:

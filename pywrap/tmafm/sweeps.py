@@ -1141,17 +1141,11 @@ def main(argv=None) -> int:
 
 
 def write_dataset(ds, path) -> Path:
-    """Write a sweep Dataset to NetCDF (atomically: a temporary file, then a rename)."""
-    path = Path(path)
-    temporary = path.with_name(f".{path.name}.partial")
-    try:
-        ds.to_netcdf(temporary)
-        os.replace(temporary, path)
-    except OSError as exc:
-        if temporary.exists():
-            temporary.unlink()
-        raise InputFileError(f"cannot write '{path}': {exc}") from exc
-    return path
+    """Write a sweep Dataset to NetCDF as the executable writes its output: a new temporary
+    file, synced and renamed (a device or FIFO is written directly); InputFileError if it
+    cannot be written.  Nothing is left behind on a failure or a KeyboardInterrupt."""
+    from ._safefile import write_with
+    return write_with(path, ds.to_netcdf, what="NetCDF file")
 
 
 if __name__ == "__main__":

@@ -1,0 +1,141 @@
+"""Files written from Python (Result.save, Config.write, sweeps.write_dataset, the sweep
+plots) follow the executable's output rules (docs/reliability.md#output).  Before, they were
+written with mkstemp + os.replace: ``r.save('/dev/null')`` replaced the device with a regular
+file (as root: the system's /dev/null), a symbolic link was replaced, a directory raised a raw
+IsADirectoryError, files got mode 0600 whatever the umask, and write_dataset wrote through a
+symbolic link planted at its fixed temporary name ``.NAME.partial``."""
+
+import os
+import stat
+
+import numpy as np
+import pytest
+
+import tmafm
+from tmafm import sweeps
+
+
+@pytest.fixture(scope="module")
+def result():
+    return tmafm.run("fig2_n4", solver={"tau_end": 0.5})
+
+
+def _writers(result):
+    config = result.config
+    return {
+        "save": lambda path: result.save(path),
+        "write": lambda path: config.write(path),
+    }
+
+
+def _device(tmp_path, name, minor):
+    path = tmp_path / name
+    try:
+        os.mknod(path, 0o666 | stat.S_IFCHR, os.makedev(1, minor))
+        with open(path, "wb") as handle:
+            handle.write(b"")
+    except OSError as error:  # not root, or a nodev mount
+        pytest.skip(f"cannot make a device node here: {error}")
+    return path
+
+
+def _leftovers(folder):
+    return sorted(p.name for p in folder.iterdir() if "partial" in p.name)
+
+
+@pytest.mark.parametrize("how", ["save", "write"])
+def test_a_device_stays_a_device(tmp_path, result, how):
+    null = _device(tmp_path, "null", 3)
+    _writers(result)[how](null)
+    assert stat.S_ISCHR(os.lstat(null).st_mode)
+    full = _device(tmp_path, "full", 7)
+    with pytest.raises(tmafm.InputFileError, match="No space left on device"):
+        _writers(result)[how](full)
+    assert stat.S_ISCHR(os.lstat(full).st_mode)
+    assert _leftovers(tmp_path) == []
+
+
+@pytest.mark.parametrize("how", ["save", "write"])
+def test_a_symbolic_link_or_a_directory_is_refused(tmp_path, result, how):
+    victim = tmp_path / "victim"
+    victim.write_text("precious\n")
+    os.symlink(victim, tmp_path / "link.npz")
+    with pytest.raises(tmafm.InputFileError, match="symbolic link"):
+        _writers(result)[how](tmp_path / "link.npz")
+    assert (tmp_path / "link.npz").is_symlink() and victim.read_text() == "precious\n"
+    (tmp_path / "folder.npz").mkdir()
+    with pytest.raises(tmafm.InputFileError, match="is a directory"):
+        _writers(result)[how](tmp_path / "folder.npz")
+    with pytest.raises(tmafm.InputFileError, match="No such file or directory"):
+        _writers(result)[how](tmp_path / "missing" / "r.npz")
+    assert _leftovers(tmp_path) == []
+
+
+@pytest.mark.parametrize("how", ["save", "write"])
+def test_a_new_file_has_the_umask_permissions_and_replaces_atomically(tmp_path, result, how):
+    target = tmp_path / "r.npz"
+    target.write_text("old\n")
+    inode = os.stat(target).st_ino
+    previous = os.umask(0o022)
+    try:
+        with open(target) as old_reader:
+            _writers(result)[how](target)
+            assert old_reader.read() == "old\n"
+    finally:
+        os.umask(previous)
+    assert os.stat(target).st_ino != inode
+    assert stat.S_IMODE(os.stat(target).st_mode) == 0o644
+    assert _leftovers(tmp_path) == []
+
+
+def test_an_interrupted_save_leaves_nothing(tmp_path, result, monkeypatch):
+    import tmafm._safefile as safefile
+
+    def interrupted(fd, data):
+        os.write(fd, b"half")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(safefile, "_write_all", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        result.save(tmp_path / "r.npz")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.fixture(scope="module")
+def dataset():
+    xr = pytest.importorskip("xarray")
+    return xr.Dataset({"x": ("i", np.arange(3.0))})
+
+
+def test_write_dataset_never_writes_through_a_planted_link(tmp_path, dataset):
+    victim = tmp_path / "victim"
+    victim.write_text("precious\n")
+    os.symlink(victim, tmp_path / ".grid.nc.partial")  # the old fixed temporary name
+    path = sweeps.write_dataset(dataset, tmp_path / "grid.nc")
+    assert victim.read_text() == "precious\n"
+    xr = pytest.importorskip("xarray")
+    with xr.open_dataset(path) as back:
+        assert np.array_equal(back["x"].values, dataset["x"].values)
+    assert _leftovers(tmp_path) == [".grid.nc.partial"]
+
+
+def test_write_dataset_refuses_a_link_and_keeps_a_device(tmp_path, dataset):
+    os.symlink(tmp_path / "elsewhere.nc", tmp_path / "link.nc")
+    with pytest.raises(tmafm.InputFileError, match="symbolic link"):
+        sweeps.write_dataset(dataset, tmp_path / "link.nc")
+    null = _device(tmp_path, "null", 3)
+    sweeps.write_dataset(dataset, null)
+    assert stat.S_ISCHR(os.lstat(null).st_mode)
+    assert _leftovers(tmp_path) == []
+
+
+def test_write_dataset_interrupted_leaves_nothing(tmp_path, dataset, monkeypatch):
+    def interrupted(self, path, *args, **kwargs):
+        open(path, "wb").write(b"half")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(type(dataset), "to_netcdf", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        sweeps.write_dataset(dataset, tmp_path / "grid.nc")
+    assert list(tmp_path.iterdir()) == []
+

@@ -139,3 +139,22 @@ def test_write_dataset_interrupted_leaves_nothing(tmp_path, dataset, monkeypatch
         sweeps.write_dataset(dataset, tmp_path / "grid.nc")
     assert list(tmp_path.iterdir()) == []
 
+
+@pytest.mark.parametrize("content", [None, b"hello\n", "dataset"], ids=["missing", "text", "not_a_sweep"])
+def test_summarize_of_a_file_that_is_not_a_sweep_is_one_error_line(tmp_path, dataset, content):
+    """`python -m tmafm.sweeps --summarize x.nc` ended in a raw traceback (ValueError from
+    xarray, FileNotFoundError from h5py, KeyError for a NetCDF file of another kind)."""
+    import subprocess
+    import sys
+
+    path = tmp_path / "x.nc"
+    if content == "dataset":
+        sweeps.write_dataset(dataset, path)
+    elif content is not None:
+        path.write_bytes(content)
+    proc = subprocess.run([sys.executable, "-m", "tmafm.sweeps", "--summarize", str(path)],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("tmafm.sweeps: error: "), proc.stderr
+    assert "x.nc" in lines[0]

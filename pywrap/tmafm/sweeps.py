@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._namelist import GROUPS, KEY_TYPES
+from ._namelist import GROUPS, KEY_TYPES, shown
 from ._run import Config
 from .errors import InputError, InputFileError, InputTypeError, SolverError, TmafmError
 
@@ -1117,13 +1117,11 @@ def main(argv=None) -> int:
     parser.add_argument("--summarize", action="store_true", help="FILE is a sweep NetCDF file: "
                         "print its summary (jumps, attractors, periods) as JSON")
     args = parser.parse_args(argv)
-    if args.summarize:
-        import json
-        import xarray as xr
-        with xr.open_dataset(args.file) as ds:
-            print(json.dumps(summarize(ds.load()), indent=1))
-        return 0
     try:
+        if args.summarize:
+            import json
+            print(json.dumps(summarize(read_dataset(args.file)), indent=1))
+            return 0
         spec = read_sweep_file(args.file)
         out = Path(args.output or spec.get("output") or Path(args.file).with_suffix(".nc"))
         ds = run_sweep_file(args.file, workers=args.workers, progress=args.progress)
@@ -1138,6 +1136,24 @@ def main(argv=None) -> int:
         print(f"tmafm.sweeps: error: {exc}", file=sys.stderr)
         return 2
     return 0
+
+
+def read_dataset(path):
+    """A sweep NetCDF file, loaded into memory; InputFileError if it is missing, InputError if
+    it is not a sweep dataset (what ``--summarize`` reads)."""
+    import xarray as xr
+    if not Path(path).is_file():
+        raise InputFileError(f"sweep dataset {shown(str(path))} not found")
+    try:
+        with xr.open_dataset(path) as ds:
+            ds = ds.load()
+    except Exception as exc:  # the NetCDF back ends raise many kinds
+        raise InputError(f"{shown(str(path))}: not a readable NetCDF file: "
+                         f"{shown(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)[1:-1]}") from None
+    if "tmafm_kind" not in ds.attrs or "period" not in ds:
+        raise InputError(f"{shown(str(path))}: not a tmafm sweep dataset (no tmafm_kind "
+                         f"attribute or period variable)")
+    return ds
 
 
 def write_dataset(ds, path) -> Path:

@@ -59,6 +59,7 @@ program tmafm_main
       case ('-o', '--output')
          if (i == n_args) call fail(1, 'option '//argument//' needs a file name (or - for standard output)')
          i = i + 1
+         if (have_output) call fail(1, 'option '//argument//' given twice: give one output file')
          call get_argument(i, output_override)
          call check_path_length(output_override, 'output file name')
          if (len(output_override) == 0) call fail(1, 'option '//argument//' needs a file name, not ''''')
@@ -86,7 +87,7 @@ program tmafm_main
    ! The target is checked before anything is integrated.  The check creates and removes a
    ! temporary: signals wait meanwhile, so none can leave it behind.
    call tmafm_signals_hold()
-   call prepare_output(trim(config%output_file), output_format, sink, ierr, errmsg)
+   call prepare_output(trim(config%output_file), output_format, sink, ierr, errmsg, input_path=input_path)
    call tmafm_signals_release()
    if (ierr /= ok) call fail(ierr, errmsg)
 

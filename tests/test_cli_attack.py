@@ -1,0 +1,62 @@
+"""The executable's command line against mistakes that lost data or were ignored silently:
+``-o`` given twice used the last one; an output name that is the input file itself (by any
+path: the same name, a symbolic or a hard link, an output file rerun from its own header)
+replaced the user's input with the output."""
+
+import os
+
+import pytest
+
+from conftest import INPUTS, write_nml
+
+
+def short_input(tmp_path, name="short.nml", **groups):
+    groups.setdefault("solver", {}).setdefault("tau_end", 1.0)
+    groups.setdefault("output", {}).setdefault("file", "short.dat")
+    return write_nml(tmp_path / name, base=INPUTS / "fig2_n4.nml", **groups)
+
+
+def _one_error(proc):
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("tmafm: error: "), proc.stderr
+    return lines[0]
+
+
+def test_output_option_twice_is_refused(tmp_path, run_exe):
+    path = short_input(tmp_path)
+    proc = run_exe(path, "-q", "-o", "a.dat", "--output", "b.dat")
+    assert proc.returncode == 1
+    assert "given twice" in _one_error(proc)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["short.nml"]
+
+
+@pytest.mark.parametrize("how", ["same", "dot", "symlink", "hardlink", "absolute"])
+def test_output_over_the_input_file_is_refused(tmp_path, run_exe, how):
+    path = short_input(tmp_path)
+    before = path.read_bytes()
+    if how == "symlink":
+        os.symlink(path.name, tmp_path / "link.nml")
+        args = ["link.nml", "-o", path.name]
+    elif how == "hardlink":
+        os.link(path, tmp_path / "hard.nml")
+        args = [path.name, "-o", "hard.nml"]
+    else:
+        target = {"same": path.name, "dot": f"./{path.name}", "absolute": str(path)}[how]
+        args = [path.name, "-o", target]
+    proc = run_exe(*args, "-q")
+    assert proc.returncode == 3
+    line = _one_error(proc)
+    assert "is the input file" in line
+    assert path.read_bytes() == before
+    assert not [p for p in tmp_path.iterdir() if "partial" in p.name]
+
+
+def test_an_output_file_rerun_from_its_own_header_keeps_itself(tmp_path, run_exe):
+    """`tmafm out.dat` (its header says file = 'out.dat') replaced itself; a new name works."""
+    assert run_exe(short_input(tmp_path), "-q").returncode == 0
+    out = tmp_path / "short.dat"
+    before = out.read_bytes()
+    proc = run_exe("short.dat", "-q")
+    assert proc.returncode == 3 and "is the input file" in _one_error(proc)
+    assert out.read_bytes() == before
+    assert run_exe("short.dat", "-q", "-o", "again.dat").returncode == 0

@@ -60,3 +60,19 @@ def test_an_output_file_rerun_from_its_own_header_keeps_itself(tmp_path, run_exe
     assert proc.returncode == 3 and "is the input file" in _one_error(proc)
     assert out.read_bytes() == before
     assert run_exe("short.dat", "-q", "-o", "again.dat").returncode == 0
+
+
+@pytest.mark.parametrize("name", ["  lead.dat", "trail.dat  "])
+def test_blanks_around_a_file_name_are_refused_not_dropped(tmp_path, run_exe, name):
+    """&output file = '  lead.dat' wrote lead.dat (and the header said so): a value silently
+    changed.  -o 'x.dat ' wrote x.dat."""
+    path = short_input(tmp_path, output={"file": name})
+    proc = run_exe(path, "-q")
+    assert proc.returncode == 2
+    line = _one_error(proc)
+    assert "&output file" in line and "blank" in line
+    proc = run_exe(short_input(tmp_path, name="plain.nml"), "-q", "-o", name)
+    assert proc.returncode == 1 and "blank" in _one_error(proc)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plain.nml", "short.nml"]
+    inner = run_exe(short_input(tmp_path, name="inner.nml"), "-q", "-o", "in ner.dat")
+    assert inner.returncode == 0 and (tmp_path / "in ner.dat").is_file()

@@ -63,6 +63,10 @@ program tmafm_main
          call get_argument(i, output_override)
          call check_path_length(output_override, 'output file name')
          if (len(output_override) == 0) call fail(1, 'option '//argument//' needs a file name, not ''''')
+         ! A blank around the name would be dropped (Fortran strings): refused, not changed.
+         if (output_override(1:1) == ' ' .or. output_override(len(output_override):) == ' ') &
+            call fail(1, 'option '//argument//' '''//output_override//''': the name begins or ends with a '// &
+                      'blank, which tmafm would not keep')
          have_output = .true.
       case default
          if (len(argument) > 0) then

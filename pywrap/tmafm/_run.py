@@ -56,22 +56,38 @@ def _input_path(nml) -> Path:
                          f"(tmafm.inputs.names(): {', '.join(_inputs.names())})")
 
 
-def _read_text(path: Path) -> str:
+#: Largest input file, as the executable reads it (tmafm_input_file max_input_bytes).
+MAX_INPUT_BYTES = 2**20
+
+
+def _read_text(path: Path) -> bytes:
+    """The bytes of an input file, read as the executable reads them: at most 1 MiB, no NUL
+    byte (f2py would end the text there, silently), and no decoding (a non-UTF-8 comment is
+    fine; the core checks the bytes outside strings and comments)."""
+    name = shown(str(path))
     try:
-        data = path.read_bytes()
+        with open(path, "rb") as handle:
+            data = handle.read(MAX_INPUT_BYTES + 1)
     except OSError as exc:
-        raise InputFileError(f"input file {shown(str(path))} cannot be read: {exc.strerror}") from exc
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise InputError(f"{shown(str(path))}: not a UTF-8 text file (byte {exc.start})") from exc
+        raise InputFileError(f"input file {name} cannot be read: {exc.strerror}") from exc
+    if len(data) > MAX_INPUT_BYTES:
+        raise InputError(f"input file {name} is larger than {MAX_INPUT_BYTES} bytes: not a tmafm "
+                         f"namelist")
+    nul = data.find(b"\0")
+    if nul >= 0 and not data.startswith((b"\xff\xfe", b"\xfe\xff")):  # UTF-16: the core says so
+        line = data.count(b"\n", 0, nul) + 1
+        raise InputError(f"{name}: line {line}: a NUL byte: the input is not a text file")
+    return data
 
 
-def _for_core(text: str) -> bytes:
-    """Text for the core's character arguments: UTF-8 bytes, as the executable reads a file.
+def _for_core(text) -> bytes:
+    """Text for the core's character arguments: UTF-8 bytes, as the executable reads a file
+    (the bytes of a file are passed as they are).
     (f2py turns a str with non-ASCII characters into no argument at all: a TypeError "function
     takes exactly 5 arguments (1 given)"; the core reports a non-ASCII value in its one-line
     message as \\xNN escapes.)"""
+    if isinstance(text, bytes):
+        return text
     return text.encode("utf-8", "backslashreplace")
 
 
@@ -93,7 +109,7 @@ def _check_known(groups: Mapping, what: str) -> None:
                                  f"{', '.join(KEY_TYPES[group])})")
 
 
-def _source(nml, overrides: Mapping) -> tuple[str, str, str | None]:
+def _source(nml, overrides: Mapping) -> tuple[str | bytes, str, str | None]:
     """(namelist text, label for messages, override text or None) of any accepted input.
 
     A text base (a file or a Config) keeps its own text; the core patches it with the

@@ -1,0 +1,63 @@
+"""A namelist file read from Python (tmafm.Config(path)) is read as the executable reads it
+(docs/reliability.md#input).  Before, Python decoded the file as UTF-8 and handed it to f2py
+as a C string: a file with a NUL byte was silently read up to the NUL (the rest ignored), a
+Latin-1 comment that the executable accepts was refused, and a file of any size was read
+whole into memory (the executable stops at 1 MiB)."""
+
+import subprocess
+
+import pytest
+
+import tmafm
+
+
+def _executable_accepts(exe, path):
+    proc = subprocess.run([exe, str(path), "-q", "-o", "/dev/null"], capture_output=True,
+                          text=True, timeout=120)
+    return proc.returncode == 0, proc.stderr
+
+
+def test_a_nul_byte_is_refused_as_the_executable_refuses_it(tmp_path, exe):
+    path = tmp_path / "nul.nml"
+    path.write_bytes(b"&solver tau_end = 1 /\n\0\n&model bogus = 1 /\n")
+    ok, stderr = _executable_accepts(exe, path)
+    assert not ok and "NUL byte" in stderr
+    with pytest.raises(tmafm.InputError, match=r"line 2: a NUL byte"):
+        tmafm.Config(path)
+
+
+def test_a_latin1_comment_is_accepted_as_the_executable_accepts_it(tmp_path, exe):
+    path = tmp_path / "latin1.nml"
+    path.write_bytes(b"! caf\xe9: a Latin-1 comment\n&solver tau_end = 1 /\n")
+    assert _executable_accepts(exe, path) == (True, "")
+    config = tmafm.Config(path, solver={"dtau": 1e-3})
+    assert config.to_dict()["solver"]["tau_end"] == 1.0
+    assert tmafm.Config(path).text == tmafm.Config({"solver": {"tau_end": 1.0}}).text
+
+
+def test_a_latin1_byte_outside_comments_is_refused_by_name(tmp_path):
+    path = tmp_path / "latin1.nml"
+    path.write_bytes(b"&solver tau_end = 1\xe9 /\n")
+    with pytest.raises(tmafm.InputError, match="tau_end"):
+        tmafm.Config(path)
+
+
+def test_a_huge_file_is_refused_without_reading_it(tmp_path, exe):
+    path = tmp_path / "huge.nml"
+    with open(path, "wb") as handle:  # sparse: 64 GiB of zeros that take no disk
+        handle.truncate(64 * 2**30)
+    ok, stderr = _executable_accepts(exe, path)
+    assert not ok and "larger than 1048576 bytes" in stderr
+    with pytest.raises(tmafm.InputError, match="larger than 1048576 bytes"):
+        tmafm.Config(path)
+    just = tmp_path / "just.nml"
+    just.write_bytes(b"&solver tau_end = 1 /\n" + b" " * (2**20 - 22))
+    assert just.stat().st_size == 2**20
+    assert tmafm.Config(just).to_dict()["solver"]["tau_end"] == 1.0
+
+
+def test_utf16_gets_the_cores_message(tmp_path):
+    path = tmp_path / "utf16.nml"
+    path.write_bytes("&solver tau_end = 1 /\n".encode("utf-16"))
+    with pytest.raises(tmafm.InputError, match="UTF-16"):
+        tmafm.Config(path)

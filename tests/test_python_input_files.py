@@ -61,3 +61,24 @@ def test_utf16_gets_the_cores_message(tmp_path):
     path.write_bytes("&solver tau_end = 1 /\n".encode("utf-16"))
     with pytest.raises(tmafm.InputError, match="UTF-16"):
         tmafm.Config(path)
+
+
+def test_a_latin1_file_name_keeps_its_bytes(tmp_path, exe):
+    """The executable writes &output file = 'caf\\xe9.dat' (one Latin-1 byte) under that byte;
+    a Config of the same file, its pickle and its written text keep the byte (the resolved text
+    was decoded with U+FFFD: Config.write and a pickled copy named another file)."""
+    import pickle
+
+    path = tmp_path / "latin1.nml"
+    path.write_bytes(b"&solver tau_end = 0.1 /\n&output file = 'caf\xe9.dat' /\n")
+    config = tmafm.Config(path)
+    copy = pickle.loads(pickle.dumps(config))
+    assert copy.text == config.text and "\ufffd" not in config.text
+    written = config.write(tmp_path / "written.nml")
+    assert b"file = 'caf\xe9.dat'" in written.read_bytes()
+    proc = subprocess.run([exe, str(written), "-q"], cwd=tmp_path, capture_output=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "caf\udce9.dat").is_file()  # os.fsencode: the byte 0xe9
+    result = config.run()
+    loaded = tmafm.load(result.save(tmp_path / "r.npz"))
+    assert loaded.resolved_text == config.text

@@ -40,7 +40,7 @@ def save(result, path) -> Path:
         "adot": np.asfortranarray(result.adot, dtype="<f8"),
         "switches": np.asarray(result.switches, dtype="<f8"),
         "counters": np.array([result.counters.get(k, 0) for k in COUNTER_KEYS], dtype="<i8"),
-        "resolved": np.array(result.resolved_text.encode("utf-8"), dtype="S"),
+        "resolved": np.array(result.resolved_text.encode("utf-8", "surrogateescape"), dtype="S"),
         "version": np.array(_version().encode("ascii"), dtype="S"),
     }
     buffer = io.BytesIO()
@@ -106,11 +106,10 @@ def _check(name: str, members: dict) -> None:
         raise InputError(f"{name}: member counters holds negative counts")
 
 
-def _text(name: str, member: str, value) -> str:
-    try:
-        return value.item().decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise InputError(f"{name}: member {member} is not UTF-8 text (byte {exc.start})") from None
+def _text(member: str, value) -> str:
+    """A text member; bytes that are not UTF-8 (a Latin-1 file name) stay surrogate escapes, as
+    in Config.text, and the core judges them."""
+    return value.item().decode("ascii" if member == "version" else "utf-8", "surrogateescape")
 
 
 def load(path):
@@ -134,8 +133,8 @@ def load(path):
         raise InputFileError(f"result file {name} not found")
     members = _members(path, name)
     _check(name, members)
-    resolved = _text(name, "resolved", members["resolved"])
-    version = _text(name, "version", members["version"])
+    resolved = _text("resolved", members["resolved"])
+    version = _text("version", members["version"])
     if not version.startswith("tmafm "):
         raise InputError(f"{name}: member version is {shown(version)}, not 'tmafm <version>'")
     try:

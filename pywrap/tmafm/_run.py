@@ -88,7 +88,10 @@ def _for_core(text) -> bytes:
     message as \\xNN escapes.)"""
     if isinstance(text, bytes):
         return text
-    return text.encode("utf-8", "backslashreplace")
+    try:  # the bytes of a non-UTF-8 file come back from Config.text as surrogate escapes
+        return text.encode("utf-8", "surrogateescape")
+    except UnicodeEncodeError:
+        return text.encode("utf-8", "backslashreplace")
 
 
 def _checked_max_switches(max_switches):
@@ -186,8 +189,10 @@ class Config:
         if self._text is None:
             codes = np.zeros(int(_api.config_text_length(self._f)), dtype=np.int32)
             _api.config_text_codes(self._f, codes)
-            # UTF-8: the core holds the bytes _for_core gave it (a non-ASCII &output file).
-            self._text = codes.astype(np.uint8).tobytes().decode("utf-8", "replace")
+            # UTF-8: the core holds the bytes _for_core gave it (a non-ASCII &output file);
+            # bytes that are not UTF-8 (a Latin-1 file name) stay surrogate escapes, so that the
+            # text gives back the same bytes (_for_core, write, pickles).
+            self._text = codes.astype(np.uint8).tobytes().decode("utf-8", "surrogateescape")
         return self._text
 
     def to_namelist(self) -> f90nml.Namelist:
@@ -203,7 +208,7 @@ class Config:
         """Write the resolved input to `path` (atomically: a temporary file, then a rename; a
         device or FIFO is written directly; InputFileError if it cannot be written)."""
         path = Path(path)
-        _atomic_write(path, self.text.encode("utf-8"))
+        _atomic_write(path, self.text.encode("utf-8", "surrogateescape"))
         return path
 
     def model(self):

@@ -158,3 +158,28 @@ def test_summarize_of_a_file_that_is_not_a_sweep_is_one_error_line(tmp_path, dat
     lines = proc.stderr.splitlines()
     assert len(lines) == 1 and lines[0].startswith("tmafm.sweeps: error: "), proc.stderr
     assert "x.nc" in lines[0]
+
+
+def test_figures_and_reports_follow_the_same_rules(tmp_path):
+    """The sweep plots, tmafm.figures and tmafm.workprecision saved with fig.savefig(path) and
+    Path.write_text: through a symbolic link, and in place (a partial file on a failure)."""
+    matplotlib = pytest.importorskip("matplotlib")
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    from tmafm._safefile import save_figure, write_text
+
+    victim = tmp_path / "victim"
+    victim.write_text("precious\n")
+    for name in ("plot.png", "summary.json"):
+        os.symlink(victim, tmp_path / name)
+    fig = Figure()
+    fig.add_subplot().plot([0, 1], [1, 0])
+    with pytest.raises(tmafm.InputFileError, match="symbolic link"):
+        save_figure(fig, tmp_path / "plot.png", dpi=50)
+    with pytest.raises(tmafm.InputFileError, match="symbolic link"):
+        write_text(tmp_path / "summary.json", "{}")
+    assert victim.read_text() == "precious\n"
+    assert save_figure(fig, tmp_path / "p.png", dpi=50).read_bytes().startswith(b"\x89PNG")
+    assert save_figure(fig, tmp_path / "p.svg").read_bytes().lstrip().startswith(b"<?xml")
+    assert _leftovers(tmp_path) == []

@@ -22,7 +22,7 @@ from typing import Callable
 from ._namelist import shown
 from .errors import InputFileError
 
-__all__ = ["write_bytes", "write_with"]
+__all__ = ["write_bytes", "write_with", "write_text", "save_figure"]
 
 _ALPHABET = string.ascii_letters + string.digits
 _DIRECT, _REPLACE = "direct", "replace"
@@ -154,3 +154,19 @@ def write_with(path, writer: Callable[[Path], None], what: str = "output file") 
         # replace it: it is synced by name too.
         _replace(path, lambda fd, name: (writer(name), _sync_name(name)), what)
     return path
+
+
+def write_text(path, text: str, what: str = "output file") -> Path:
+    """Write `text` (UTF-8) to `path` by the rules above; return the path."""
+    return write_bytes(path, text.encode("utf-8", "surrogateescape"), what)
+
+
+def save_figure(fig, path, what: str = "plot file", **options) -> Path:
+    """``fig.savefig(path, **options)`` by the rules above (the format from the name's suffix,
+    as savefig picks it, PNG otherwise); return the path."""
+    import io
+    suffix = Path(path).suffix.lower()[1:]
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format=suffix if suffix in fig.canvas.get_supported_filetypes() else "png",
+                **options)
+    return write_bytes(path, buffer.getvalue(), what)

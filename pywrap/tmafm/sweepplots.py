@@ -27,17 +27,12 @@ def _label(ds, name: str) -> str:
 
 
 def _save(fig, path) -> Path:
-    """Save as PNG by the executable's output rules (tmafm._safefile: a temporary and a rename)."""
-    import io
-    from ._safefile import write_bytes
-    buffer = io.BytesIO()
-    suffix = Path(path).suffix.lower()[1:]  # as savefig(path) picks the format
+    """Save by the executable's output rules (tmafm._safefile: a temporary and a rename)."""
+    from ._safefile import save_figure
     try:
-        fig.savefig(buffer, dpi=110,
-                    format=suffix if suffix in fig.canvas.get_supported_filetypes() else "png")
+        return save_figure(fig, path, dpi=110)
     finally:
         _pyplot().close(fig)
-    return write_bytes(path, buffer.getvalue(), what="plot file")
 
 
 def _continuation_panels(ds, path, names):

@@ -76,3 +76,26 @@ def test_blanks_around_a_file_name_are_refused_not_dropped(tmp_path, run_exe, na
     assert sorted(p.name for p in tmp_path.iterdir()) == ["plain.nml", "short.nml"]
     inner = run_exe(short_input(tmp_path, name="inner.nml"), "-q", "-o", "in ner.dat")
     assert inner.returncode == 0 and (tmp_path / "in ner.dat").is_file()
+
+
+@pytest.mark.parametrize("fmt", ["text", "npy"])
+def test_a_file_size_limit_is_a_write_error_not_a_crash(tmp_path, exe, fmt):
+    """Under `ulimit -f` (RLIMIT_FSIZE) the write past the limit raised SIGXFSZ: the process
+    died with a gfortran backtrace (exit 153 from a shell) and left .out.dat.partial-* behind."""
+    import resource
+    import subprocess
+
+    name = "out.npz" if fmt == "npy" else "out.dat"
+    path = short_input(tmp_path, solver={"tau_end": 20.0}, output={"format": fmt, "file": name})
+    previous = tmp_path / name
+    previous.write_text("previous result\n")
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (20480, 20480))
+
+    proc = subprocess.run([exe, str(path), "-q"], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=120, preexec_fn=limit)
+    assert proc.returncode == 3, (proc.returncode, proc.stderr)
+    assert "File too large" in _one_error(proc)
+    assert previous.read_text() == "previous result\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([name, "short.nml"])

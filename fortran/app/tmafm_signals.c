@@ -1,6 +1,6 @@
 /* Signal handling of the tmafm executable: SIGINT, SIGTERM or SIGHUP while an output
  * temporary exists removes it, then the process dies of the same signal (the shell sees
- * 128 + signo).  The one piece of global state, the temporary's name, lives here in the
+ * 128 + signo).  SIGXFSZ is ignored: a file-size limit is a write error (EFBIG).  The one piece of global state, the temporary's name, lives here in the
  * executable, never in the library.
  *
  * Use: tmafm_signals_install() once; tmafm_signals_hold() before the temporary is created;
@@ -31,10 +31,14 @@ static void mask_of_handled(sigset_t *set)
     for (int i = 0; i < n_handled; ++i) sigaddset(set, handled[i]);
 }
 
-/* Install the handler for each handled signal that is not ignored (nohup keeps its SIG_IGN). */
+/* Install the handler for each handled signal that is not ignored (nohup keeps its SIG_IGN).
+ * SIGXFSZ (a write past the file-size limit, ulimit -f) is ignored, so that the write fails with
+ * EFBIG, an error the writer reports and cleans up after, instead of killing the process with
+ * the temporary left behind. */
 void tmafm_signals_install(void)
 {
     struct sigaction action, previous;
+    signal(SIGXFSZ, SIG_IGN);
     memset(&action, 0, sizeof action);
     action.sa_handler = on_signal;
     mask_of_handled(&action.sa_mask);

@@ -183,3 +183,25 @@ def test_figures_and_reports_follow_the_same_rules(tmp_path):
     assert save_figure(fig, tmp_path / "p.png", dpi=50).read_bytes().startswith(b"\x89PNG")
     assert save_figure(fig, tmp_path / "p.svg").read_bytes().lstrip().startswith(b"<?xml")
     assert _leftovers(tmp_path) == []
+
+
+def test_a_full_disk_fails_with_a_typed_error_and_leaves_the_previous_file(tmp_path):
+    """Result.save on a 64 KiB tmpfs (about 100 kB of .npz): InputFileError, no temporary,
+    the previous file untouched."""
+    import subprocess
+
+    mount = tmp_path / "full"
+    mount.mkdir()
+    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mount)],
+                          capture_output=True, text=True)
+    if proc.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs: {proc.stderr.strip()}")
+    try:
+        (mount / "r.npz").write_text("previous\n")
+        result = tmafm.run("fig2_n4", solver={"tau_end": 10.0})
+        with pytest.raises(tmafm.InputFileError, match="No space left on device"):
+            result.save(mount / "r.npz")
+        assert sorted(p.name for p in mount.iterdir()) == ["r.npz"]
+        assert (mount / "r.npz").read_text() == "previous\n"
+    finally:
+        subprocess.run(["umount", str(mount)], check=True)

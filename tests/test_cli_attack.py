@@ -99,3 +99,41 @@ def test_a_file_size_limit_is_a_write_error_not_a_crash(tmp_path, exe, fmt):
     assert "File too large" in _one_error(proc)
     assert previous.read_text() == "previous result\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([name, "short.nml"])
+
+
+@pytest.mark.parametrize("signo", ["SIGQUIT", "SIGXCPU", "SIGALRM", "SIGUSR1"])
+def test_other_terminating_signals_while_writing_leave_no_temporary(tmp_path, exe, signo):
+    """Only SIGINT, SIGTERM and SIGHUP removed the temporary: SIGQUIT (Ctrl-\\), SIGXCPU (a
+    CPU-time limit, ulimit -t), SIGALRM and SIGUSR1 killed the run while it wrote its ~56 MB
+    output and left .big.dat.partial-* behind."""
+    import resource
+    import signal
+    import subprocess
+    import time
+
+    signo = getattr(signal, signo)
+    path = short_input(tmp_path, "big.nml", solver={"tau_end": 100.0, "method": "dopri5"},
+                       output={"file": "big.dat", "sample_dtau": 5e-4})
+
+    def start():
+        signal.signal(signo, signal.SIG_DFL)
+        resource.setrlimit(resource.RLIMIT_CORE, (0, 0))  # SIGQUIT and SIGXCPU dump core
+
+    for _ in range(3):
+        proc = subprocess.Popen([exe, str(path), "-q"], cwd=tmp_path, preexec_fn=start,
+                                stderr=subprocess.DEVNULL)
+        caught = False
+        while proc.poll() is None:
+            if any("partial" in p.name for p in tmp_path.iterdir()):
+                proc.send_signal(signo)
+                caught = True
+                break
+            time.sleep(0.0005)
+        returncode = proc.wait(timeout=300)
+        if caught and not (tmp_path / "big.dat").exists():
+            break
+        (tmp_path / "big.dat").unlink(missing_ok=True)
+    else:
+        pytest.fail("never caught the run while it was writing")
+    assert returncode == -signo
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["big.nml"]

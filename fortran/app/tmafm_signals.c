@@ -1,7 +1,9 @@
-/* Signal handling of the tmafm executable: SIGINT, SIGTERM or SIGHUP while an output
- * temporary exists removes it, then the process dies of the same signal (the shell sees
- * 128 + signo).  SIGXFSZ is ignored: a file-size limit is a write error (EFBIG).  The one piece of global state, the temporary's name, lives here in the
- * executable, never in the library.
+/* Signal handling of the tmafm executable: a terminating signal (SIGINT, SIGTERM, SIGHUP,
+ * SIGQUIT, SIGALRM, SIGUSR1, SIGUSR2, or SIGXCPU at a CPU-time limit) while an output temporary
+ * exists removes it, then the process dies of the same signal (the shell sees 128 + signo;
+ * SIGQUIT and SIGXCPU still dump core where cores are on).  SIGXFSZ is ignored: a file-size
+ * limit is a write error (EFBIG).  SIGPROF and SIGVTALRM are left to profilers.  The one piece
+ * of global state, the temporary's name, lives here in the executable, never in the library.
  *
  * Use: tmafm_signals_install() once; tmafm_signals_hold() before the temporary is created;
  * tmafm_signals_guard(name) right after (this also releases the hold); tmafm_signals_release()
@@ -12,7 +14,7 @@
 #include <string.h>
 #include <unistd.h>
 
-static const int handled[] = {SIGINT, SIGTERM, SIGHUP};
+static const int handled[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGALRM, SIGUSR1, SIGUSR2, SIGXCPU};
 enum { n_handled = sizeof handled / sizeof handled[0] };
 
 static char guarded_name[16384];

@@ -205,3 +205,13 @@ def test_a_full_disk_fails_with_a_typed_error_and_leaves_the_previous_file(tmp_p
         assert (mount / "r.npz").read_text() == "previous\n"
     finally:
         subprocess.run(["umount", str(mount)], check=True)
+
+
+@pytest.mark.parametrize("how", ["save", "write"])
+@pytest.mark.parametrize("path", [b"r.npz", 3, None], ids=["bytes", "int", "none"])
+def test_a_path_of_the_wrong_type_is_a_typed_error(tmp_path, result, how, path, monkeypatch):
+    """Path(b'r.npz') raised a raw TypeError from save and write."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(tmafm.InputTypeError):
+        _writers(result)[how](path)
+    assert list(tmp_path.iterdir()) == []

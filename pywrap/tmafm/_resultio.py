@@ -30,7 +30,6 @@ def _version() -> str:
 def save(result, path) -> Path:
     """Write `result` to `path` (.npz), atomically: a temporary file, then a rename."""
     from ._run import COUNTER_KEYS, _atomic_write
-    path = Path(path)
     arrays = {
         "tau": np.asarray(result.tau, dtype="<f8"),
         "vt": np.asarray(result.vt, dtype="<f8"),
@@ -45,8 +44,7 @@ def save(result, path) -> Path:
     }
     buffer = io.BytesIO()
     np.savez(buffer, **arrays)
-    _atomic_write(path, buffer.getvalue())
-    return path
+    return _atomic_write(path, buffer.getvalue())
 
 
 #: The dtype kind and item size of each member (either byte order: a big-endian host writes >f8).

@@ -207,9 +207,7 @@ class Config:
     def write(self, path) -> Path:
         """Write the resolved input to `path` (atomically: a temporary file, then a rename; a
         device or FIFO is written directly; InputFileError if it cannot be written)."""
-        path = Path(path)
-        _atomic_write(path, self.text.encode("utf-8", "surrogateescape"))
-        return path
+        return _atomic_write(path, self.text.encode("utf-8", "surrogateescape"))
 
     def model(self):
         """The model of this configuration (a tmafm.Model)."""
@@ -245,11 +243,11 @@ class Config:
         return f"tmafm.Config({self.label!r}, n_modes={self.n_modes})"
 
 
-def _atomic_write(path: Path, data: bytes) -> None:
+def _atomic_write(path, data: bytes) -> Path:
     """Write `data` to `path` as the executable writes its output: through a temporary and a
     rename for a file, directly for a device or FIFO (tmafm._safefile)."""
     from ._safefile import write_bytes
-    write_bytes(path, data)
+    return write_bytes(path, data)
 
 
 class Result:

@@ -20,12 +20,21 @@ from pathlib import Path
 from typing import Callable
 
 from ._namelist import shown
-from .errors import InputFileError
+from .errors import InputFileError, InputTypeError
 
 __all__ = ["write_bytes", "write_with", "write_text", "save_figure"]
 
 _ALPHABET = string.ascii_letters + string.digits
 _DIRECT, _REPLACE = "direct", "replace"
+
+
+def as_path(path, what: str = "output file") -> Path:
+    """`path` (a str or an os.PathLike) as a Path; InputTypeError for anything else."""
+    try:
+        return Path(path)
+    except TypeError:
+        raise InputTypeError(f"{what} name must be a str or an os.PathLike, not "
+                             f"{type(path).__name__}") from None
 
 
 def _target(path: Path, what: str) -> str:
@@ -129,7 +138,7 @@ def _direct(path: Path, data, what: str) -> None:
 
 def write_bytes(path, data, what: str = "output file") -> Path:
     """Write `data` (bytes) to `path` by the rules above; return the path."""
-    path = Path(path)
+    path = as_path(path, what)
     if _target(path, what) == _DIRECT:
         _direct(path, data, what)
     else:
@@ -140,7 +149,7 @@ def write_bytes(path, data, what: str = "output file") -> Path:
 def write_with(path, writer: Callable[[Path], None], what: str = "output file") -> Path:
     """Write `path` with `writer(name)`, a function that writes a whole file by its name (a
     NetCDF or PNG writer), by the rules above; return the path."""
-    path = Path(path)
+    path = as_path(path, what)
     if _target(path, what) == _DIRECT:
         # A device or FIFO: the writer works on a private file, whose bytes are then copied.
         with tempfile.TemporaryDirectory() as folder:
@@ -165,7 +174,7 @@ def save_figure(fig, path, what: str = "plot file", **options) -> Path:
     """``fig.savefig(path, **options)`` by the rules above (the format from the name's suffix,
     as savefig picks it, PNG otherwise); return the path."""
     import io
-    suffix = Path(path).suffix.lower()[1:]
+    suffix = as_path(path, what).suffix.lower()[1:]
     buffer = io.BytesIO()
     fig.savefig(buffer, format=suffix if suffix in fig.canvas.get_supported_filetypes() else "png",
                 **options)

@@ -1,8 +1,9 @@
 !> The tmafm command: run a namelist file and write the sampled trajectory.
 !>
 !> Exit status: 0 success, 1 bad command line, 2 bad input, 3 file error,
-!> 4 blow-up, 5 other run failure.  Errors go to stderr as one line.  SIGINT, SIGTERM and
-!> SIGHUP remove the output's temporary file (tmafm_signals.c) before the process dies.
+!> 4 blow-up, 5 other run failure.  Errors go to stderr as one line.  A terminating signal
+!> (SIGINT, SIGTERM, SIGHUP, ...) removes the output's temporary file (tmafm_signals.c) before
+!> the process dies.
 program tmafm_main
    use, intrinsic :: iso_c_binding, only: c_char, c_size_t
    use, intrinsic :: iso_fortran_env, only: error_unit, output_unit

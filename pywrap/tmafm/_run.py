@@ -97,8 +97,8 @@ def _for_core(text) -> bytes:
 def _checked_max_switches(max_switches):
     if max_switches is None:
         return None
-    if isinstance(max_switches, (bool, np.bool_)) or not isinstance(max_switches, (int, np.integer)) \
-            or max_switches < 0:
+    if isinstance(max_switches, (bool, np.bool_, np.timedelta64)) \
+            or not isinstance(max_switches, (int, np.integer)) or max_switches < 0:
         raise InputError(f"max_switches = {shown(max_switches)}: must be an integer >= 0 or None")
     return int(max_switches)
 

@@ -58,3 +58,21 @@ def test_a_list_written_over_several_lines_with_comments_keeps_its_values(tmp_pa
     patched = tmafm.Config(path, solver={"tau_end": 0.5})
     assert _line(patched, "a0") == _line(tmafm.Config(path), "a0")
     assert patched.to_dict()["initial"]["a0"] == [1e-3, 2e-3, 3e-3, 4e-3]
+
+
+def test_an_output_file_with_long_lists_takes_overrides(tmp_path, exe):
+    """The base is read through an output file's '# ' header (the span is taken from the
+    header text with the prefixes dropped)."""
+    import subprocess
+
+    n = 12
+    base = tmafm.Config({"model": {"n_modes": n},
+                         "initial": {"a0": [1e-4 / 7 * (j + 1) for j in range(n)]},
+                         "solver": {"tau_end": 0.2}, "output": {"file": "out.dat"}})
+    base.write(tmp_path / "in.nml")
+    proc = subprocess.run([exe, "in.nml", "-q"], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    patched = tmafm.Config(tmp_path / "out.dat", solver={"tau_end": 0.1})
+    assert _line(patched, "a0") == _line(base, "a0")
+    assert patched.to_dict()["solver"]["tau_end"] == 0.1

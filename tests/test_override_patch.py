@@ -76,3 +76,58 @@ def test_an_output_file_with_long_lists_takes_overrides(tmp_path, exe):
     patched = tmafm.Config(tmp_path / "out.dat", solver={"tau_end": 0.1})
     assert _line(patched, "a0") == _line(base, "a0")
     assert patched.to_dict()["solver"]["tau_end"] == 0.1
+
+
+hypothesis = pytest.importorskip("hypothesis")
+st = hypothesis.strategies
+
+
+@st.composite
+def number_texts(draw, low, high):
+    """A number in [low, high] and one of many ways to write it (long ones included)."""
+    x = draw(st.floats(low, high, allow_nan=False, allow_infinity=False))
+    form = draw(st.integers(0, 3))
+    if form == 0:
+        return x, repr(x)
+    if form == 1:  # padded with zeros past 100 characters
+        text = repr(x)
+        mantissa, _, exponent = text.partition("e")
+        if "." not in mantissa:
+            mantissa += "."
+        return x, mantissa + "0" * draw(st.integers(0, 150)) + ("e" + exponent if exponent else "")
+    if form == 2:  # a Fortran d exponent
+        return x, f"{x:.17e}".replace("e", "d")
+    digits = f"{x:.17e}"  # all the digits before the point, then a compensating exponent
+    mantissa, exponent = digits.split("e")
+    sign = "-" if mantissa.startswith("-") else ""
+    whole = mantissa.lstrip("-").replace(".", "")
+    return x, f"{sign}{whole}e{int(exponent) - 17}"
+
+
+file_names = st.text(st.sampled_from("ab'\"!/&$ ,=*x1."), min_size=1, max_size=300).filter(
+    lambda s: s.strip() == s and s.strip("/") and "\n" not in s)
+
+
+def _quoted(text):
+    return "'" + text.replace("'", "''") + "'"
+
+
+@hypothesis.settings(max_examples=100, deadline=None, derandomize=True,
+                     suppress_health_check=list(hypothesis.HealthCheck))
+@hypothesis.given(theta=number_texts(0.0, 1.5), a0=st.lists(number_texts(-1e-3, 1e-3), min_size=6, max_size=6),
+                  name=file_names, split=st.booleans())
+def test_any_base_reads_the_same_alone_and_patched(tmp_path_factory, theta, a0, name, split):
+    """The values of a base file are the same whether it is read alone or under an override
+    of another key: the merged text carries each value exactly as written."""
+    separator = ", ! a comment\n      " if split else ", "
+    text = ("&model n_modes = 6 /\n"
+            f"&scene theta = {theta[1]} /\n"
+            f"&initial a0 = {separator.join(t for _, t in a0)} /\n"
+            f"&output file = {_quoted(name)} /\n&solver tau_end = 1 /\n")
+    path = tmp_path_factory.mktemp("base") / "base.nml"
+    path.write_text(text)
+    alone = tmafm.Config(path)
+    patched = tmafm.Config(path, solver={"tau_end": 0.5}, scene={"omega": 2.0})
+    assert alone.scene["theta"] == theta[0] == patched.scene["theta"]
+    assert alone.to_dict()["initial"]["a0"] == [x for x, _ in a0] == patched.to_dict()["initial"]["a0"]
+    assert alone.to_dict()["output"]["file"] == name == patched.to_dict()["output"]["file"]

@@ -58,6 +58,21 @@ def _input_path(nml) -> Path:
 
 #: Largest input file, as the executable reads it (tmafm_input_file max_input_bytes).
 MAX_INPUT_BYTES = 2**20
+#: The first bytes of a tmafm output file (tmafm_nml_syntax output_header_mark).
+_OUTPUT_MARK = b"# tmafm "
+
+
+def _header_end(data: bytes) -> int:
+    """Where the header of an output file ends in `data`: the start of the first line after the
+    first that does not start with '#' (an empty one included), or len(data) if none does."""
+    start = 0
+    while True:
+        end = data.find(b"\n", start)
+        if end < 0 or end + 1 >= len(data):
+            return len(data)
+        start = end + 1
+        if data[start:start + 1] != b"#":
+            return start
 
 
 def _read_text(path: Path) -> bytes:
@@ -70,6 +85,10 @@ def _read_text(path: Path) -> bytes:
             data = handle.read(MAX_INPUT_BYTES + 1)
     except OSError as exc:
         raise InputFileError(f"input file {name} cannot be read: {exc.strerror}") from exc
+    if data.startswith(_OUTPUT_MARK):
+        # A tmafm output file: only its header is input (it ends at the first line that does
+        # not start with '#'), however long the rows after it.
+        data = data[:_header_end(data)]
     if len(data) > MAX_INPUT_BYTES:
         raise InputError(f"input file {name} is larger than {MAX_INPUT_BYTES} bytes: not a tmafm "
                          f"namelist")

@@ -31,7 +31,7 @@ import numpy as np
 
 from ._namelist import GROUPS, KEY_TYPES, shown
 from ._run import Config
-from .errors import InputError, InputFileError, InputTypeError, SolverError, TmafmError
+from .errors import InputError, InputFileError, InputTypeError, SolverError, TmafmError, raise_for
 
 __all__ = ["sweep", "approach", "frequency_sweep", "bifurcation", "basin", "read_sweep_file",
            "run_sweep_file", "write_dataset", "summarize", "mark_jumps", "label_attractors",
@@ -983,32 +983,95 @@ _FILE_KEYS = {"kind": str, "base": str, "key": str, "start": float, "stop": floa
 _KINDS = ("grid", "approach", "frequency", "bifurcation", "basin")
 
 
+#: Keys whose list entries are numbers, and those whose entries are strings.
+_NUMBER_LISTS, _STRING_LISTS = ("values", "curve_values"), ("observables",)
+#: Value kinds of the strict reader (tmafm_nml_syntax value_*).
+_INTEGER, _REAL, _LOGICAL, _STRING, _WORD = 1, 2, 3, 4, 5
+
+
+def _sweep_groups(path: Path) -> dict:
+    """{group: {key: [values]}} of a sweep file, parsed by tmafm's strict reader (the one the
+    executable uses): text outside a group, an empty value, an indexed key, an unquoted
+    string, a NUL byte, a key or a group given twice are errors, never skipped or merged."""
+    from . import _core
+    from ._run import _read_text
+    label = shown(str(path))[1:-1]
+    data = _read_text(path)
+    max_codes = 8 * len(data) + 1024
+    codes, length, ierr, errmsg = _core.namelist_syntax(data, label.encode("utf-8", "backslashreplace"),
+                                                        max_codes)
+    raise_for(ierr, errmsg)
+    if length < 0:
+        raise InputError(f"{label}: the file is too complex to read")
+    groups: dict = {}
+    seen_groups: dict = {}
+    entries: dict = {}
+    record: list = []
+    field: list = []
+    for code in codes[:length].tolist():
+        if code >= 0:
+            field.append(code)
+            continue
+        if code == -1:
+            record.append(bytes(field).decode("utf-8", "surrogateescape"))
+            field = []
+            continue
+        ordinal, group, entry, key, kind, repeat, text = record
+        record = []
+        if seen_groups.setdefault(group, ordinal) != ordinal:
+            raise InputError(f"{label}: &{group} appears twice: give one &{group} group")
+        where = f"{label}: &{group} {key}"
+        if entries.setdefault((group, key), entry) != entry:
+            raise InputError(f"{where}: the key is given twice")
+        kind = int(kind)
+        if kind == _INTEGER:
+            value = int(text)
+        elif kind == _REAL:
+            value = float(text.replace("d", "e").replace("D", "E"))
+        elif kind == _LOGICAL:
+            value = text.lstrip(".")[:1].lower() == "t"
+        elif kind == _STRING:
+            value = text
+        elif kind == _WORD:
+            raise InputError(f"{where} = {text}: a string must be quoted: write {key} = '{text}'")
+        else:
+            raise InputError(f"{where} = {shown(text)}: not a number, a logical or a quoted string")
+        groups.setdefault(group, {}).setdefault(key, []).extend([value] * int(repeat))
+    return groups
+
+
 def read_sweep_file(path) -> dict:
     """The &sweep group of a sweep file, checked: a dict of its keys (docs/sweeps.md)."""
-    import f90nml
     path = Path(path)
     if not path.is_file():
         raise InputFileError(f"sweep file '{path}' not found")
-    try:
-        groups = f90nml.read(str(path))
-    except Exception as exc:
-        raise InputError(f"{path}: cannot parse namelist: {exc}") from exc
+    groups = _sweep_groups(path)
     if "sweep" not in groups:
         raise InputError(f"{path}: no &sweep group")
     extra = [g for g in groups if g != "sweep"]
     if extra:
         raise InputError(f"{path}: unknown group(s) &{', &'.join(extra)} (a sweep file has &sweep)")
-    spec = dict(groups["sweep"])
-    for key, value in spec.items():
+    spec = {}
+    for key, values in groups["sweep"].items():
         if key not in _FILE_KEYS:
             raise InputError(f"{path}: &sweep {key}: unknown key (known: {', '.join(_FILE_KEYS)})")
         kind = _FILE_KEYS[key]
         if kind is list:
-            spec[key] = list(value) if isinstance(value, list) else [value]
-        elif kind is float and isinstance(value, int) and not isinstance(value, bool):
-            spec[key] = float(value)
-        elif not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+            item = str if key in _STRING_LISTS else (int, float)
+            if any(isinstance(v, bool) or not isinstance(v, item) for v in values):
+                raise InputError(f"{path}: &sweep {key} = {shown(values)}: every entry must be a "
+                                 f"{'quoted string' if item is str else 'number'}")
+            spec[key] = list(values)
+            continue
+        if len(values) != 1:
+            raise InputError(f"{path}: &sweep {key} = {shown(values)}: give one value")
+        value = values[0]
+        if kind is float and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if not isinstance(value, kind) or (kind is int and isinstance(value, bool)) or (
+                kind is float and isinstance(value, bool)):
             raise InputError(f"{path}: &sweep {key} = {value!r}: must be a {kind.__name__}")
+        spec[key] = value
     for key in ("kind", "base"):
         if key not in spec:
             raise InputError(f"{path}: &sweep {key}: missing (required)")

@@ -215,3 +215,12 @@ def test_a_path_of_the_wrong_type_is_a_typed_error(tmp_path, result, how, path, 
     with pytest.raises(tmafm.InputTypeError):
         _writers(result)[how](path)
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("how", ["save", "write"])
+def test_a_name_ending_in_a_slash_is_refused(tmp_path, result, how):
+    """Path('out/') is Path('out'): save('out/') wrote a file named out (the executable
+    refuses -o out/)."""
+    with pytest.raises(tmafm.InputFileError, match="ends in /"):
+        _writers(result)[how](str(tmp_path / "out") + "/")
+    assert list(tmp_path.iterdir()) == []

@@ -31,10 +31,15 @@ _DIRECT, _REPLACE = "direct", "replace"
 def as_path(path, what: str = "output file") -> Path:
     """`path` (a str or an os.PathLike) as a Path; InputTypeError for anything else."""
     try:
-        return Path(path)
+        raw = os.fspath(path)
+        result = Path(path)
     except TypeError:
         raise InputTypeError(f"{what} name must be a str or an os.PathLike, not "
                              f"{type(path).__name__}") from None
+    if isinstance(raw, str) and raw.endswith(os.sep):
+        # Path('out/') is Path('out'): the slash, which asks for a folder, would be dropped.
+        raise InputFileError(f"{what} {shown(raw)} ends in {os.sep}: give a file name")
+    return result
 
 
 def _target(path: Path, what: str) -> str:

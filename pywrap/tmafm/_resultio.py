@@ -90,8 +90,9 @@ def _check(name: str, members: dict) -> None:
     shapes["a"] = shapes["adot"] = (n, members["a"].shape[1] if members["a"].ndim == 2 else -1)
     for member, shape in shapes.items():
         if members[member].shape != shape:
+            modes = ", N modes" if member in ("a", "adot") else ""
             raise InputError(f"{name}: member {member} has shape {members[member].shape}, not "
-                             f"{shape} (n = {n} samples{', N modes' if member in ('a', 'adot') else ''})")
+                             f"{shape} (n = {n} samples{modes})")
     if members["switches"].ndim != 1:
         raise InputError(f"{name}: member switches has shape {members['switches'].shape}, not "
                          f"(n_switches,)")
@@ -121,7 +122,8 @@ def load(path):
     try:
         path = Path(path)
     except TypeError as exc:
-        raise InputTypeError(f"path must be a file name, not {type(path).__name__}: {exc}") from None
+        raise InputTypeError(f"path must be a file name, not {type(path).__name__}: "
+                             f"{exc}") from None
     name = shown(str(path))
     try:
         is_file = path.is_file()

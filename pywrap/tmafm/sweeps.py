@@ -998,8 +998,8 @@ def _sweep_groups(path: Path) -> dict:
     label = shown(str(path))[1:-1]
     data = _read_text(path)
     max_codes = 8 * len(data) + 1024
-    codes, length, ierr, errmsg = _core.namelist_syntax(data, label.encode("utf-8", "backslashreplace"),
-                                                        max_codes)
+    codes, length, ierr, errmsg = _core.namelist_syntax(
+        data, label.encode("utf-8", "backslashreplace"), max_codes)
     raise_for(ierr, errmsg)
     if length < 0:
         raise InputError(f"{label}: the file is too complex to read")
@@ -1211,8 +1211,9 @@ def read_dataset(path):
         with xr.open_dataset(path) as ds:
             ds = ds.load()
     except Exception as exc:  # the NetCDF back ends raise many kinds
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise InputError(f"{shown(str(path))}: not a readable NetCDF file: "
-                         f"{shown(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)[1:-1]}") from None
+                         f"{shown(first)[1:-1]}") from None
     if "tmafm_kind" not in ds.attrs or "period" not in ds:
         raise InputError(f"{shown(str(path))}: not a tmafm sweep dataset (no tmafm_kind "
                          f"attribute or period variable)")

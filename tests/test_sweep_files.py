@@ -65,3 +65,25 @@ def test_a_good_sweep_file_reads_every_kind_of_value(tmp_path):
 def test_the_shipped_sweep_files_still_read(name):
     spec = sweeps.read_sweep_file(INPUTS / "sweeps" / f"{name}.nml")
     assert spec["kind"] in ("approach", "basin", "bifurcation", "frequency")
+
+
+@pytest.mark.parametrize("args, words", [
+    (["-o", "sweep.nml"], "is the input"),
+    (["-o", "bistable_n2.nml"], "is the input"),
+    (["--plot", "sweep.nml"], "is the input"),
+    (["-o", "out.png"], "both"),
+], ids=["output_is_the_sweep_file", "output_is_the_base", "plot_is_the_sweep_file", "plot_is_the_output"])
+def test_the_sweep_command_never_replaces_its_inputs(tmp_path, args, words):
+    """`python -m tmafm.sweeps sweep.nml -o sweep.nml` ran the sweep and replaced the sweep file
+    with the NetCDF file (and -o out.png wrote the plot over the NetCDF file)."""
+    import subprocess
+    import sys
+
+    path = _file(tmp_path, f"&sweep {GOOD} values = 0.0, max_periods = 2 /\n")
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    proc = subprocess.run([sys.executable, "-m", "tmafm.sweeps", "sweep.nml", *args, "--workers", "1"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2, (proc.returncode, proc.stderr[-500:])
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1 and words in lines[0], proc.stderr
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before

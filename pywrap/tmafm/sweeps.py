@@ -1187,18 +1187,43 @@ def main(argv=None) -> int:
             return 0
         spec = read_sweep_file(args.file)
         out = Path(args.output or spec.get("output") or Path(args.file).with_suffix(".nc"))
+        png = None if args.no_plot else Path(args.plot) if args.plot else out.with_suffix(".png")
+        _check_targets(out, png, [Path(args.file), Path(spec["base"])])
         ds = run_sweep_file(args.file, workers=args.workers, progress=args.progress)
         write_dataset(ds, out)
         print(f"wrote {out}")
-        if not args.no_plot:
+        if png is not None:
             from .sweepplots import plot
-            png = Path(args.plot) if args.plot else out.with_suffix(".png")
             plot(ds, png)
             print(f"wrote {png}")
     except TmafmError as exc:
         print(f"tmafm.sweeps: error: {exc}", file=sys.stderr)
         return 2
     return 0
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether two names are one file: the same inode if both exist, else the same absolute
+    path."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return os.path.abspath(a) == os.path.abspath(b)
+
+
+def _check_targets(out: Path, png, inputs) -> None:
+    """Before the sweep runs: the NetCDF file and the plot are neither an input (the sweep
+    file, its base) nor each other, so that nothing the run read is replaced."""
+    for target, what in ((out, "the NetCDF file"), (png, "the plot")):
+        if target is None:
+            continue
+        for source in inputs:
+            if _same_file(target, source):
+                raise InputFileError(f"{what} {shown(str(target))} is the input "
+                                     f"{shown(str(source))}: give another name (-o, --plot)")
+    if png is not None and _same_file(out, png):
+        raise InputFileError(f"the NetCDF file and the plot are both {shown(str(out))}: give "
+                             f"another name (-o, --plot)")
 
 
 def read_dataset(path):

@@ -595,3 +595,69 @@ subroutine real_texts(values, n, fast, slow)
       slow(:, j) = [(iachar(text(k:k)), k = 1, 40)]
    end do
 end subroutine real_texts
+
+!> The syntax tree of namelist text, as tmafm's strict reader parses it (tmafm_nml_syntax), for
+!> files that Python reads itself (sweep files): one record per value, the fields group ordinal,
+!> group name, entry ordinal, key, value kind (value_* constant), repeat count and value text
+!> (a string's contents), as character codes; -1 ends a field, -2 a record.  codes(1:length)
+!> are in use; length = -1 if max_codes is too small.
+subroutine namelist_syntax(text, label, max_codes, codes, length, ierr, errmsg)
+   use tmafm_nml_syntax, only: nml_document_t, parse_namelist
+   use tmafm_text, only: int_text
+   implicit none
+   character(len=*), intent(in) :: text
+   character(len=*), intent(in) :: label
+   integer, intent(in) :: max_codes
+   integer, intent(out) :: codes(max_codes)
+   integer, intent(out) :: length
+   integer, intent(out) :: ierr
+   character(len=1024), intent(out) :: errmsg
+   type(nml_document_t) :: doc
+   integer :: g, e, v
+
+   codes = 0
+   length = 0
+   call parse_namelist(text, label, doc, ierr, errmsg)
+   if (ierr /= 0) return
+   do g = 1, doc%n_groups
+      associate (group => doc%groups(g))
+         do e = 1, group%n_entries
+            associate (entry => group%entries(e))
+               do v = 1, size(entry%values)
+                  call put(int_text(g))
+                  call put(group%name)
+                  call put(int_text(e))
+                  call put(entry%key)
+                  call put(int_text(entry%values(v)%kind))
+                  call put(int_text(entry%values(v)%repeat))
+                  call put(entry%values(v)%text)
+                  call mark(-2)
+               end do
+            end associate
+         end do
+      end associate
+   end do
+contains
+   subroutine put(field)
+      character(len=*), intent(in) :: field
+      integer :: k
+      if (length < 0) return
+      if (length + len(field) + 1 > max_codes) then
+         length = -1
+         return
+      end if
+      codes(length + 1:length + len(field)) = [(iachar(field(k:k)), k = 1, len(field))]
+      length = length + len(field)
+      call mark(-1)
+   end subroutine put
+   subroutine mark(code)
+      integer, intent(in) :: code
+      if (length < 0) return
+      if (length + 1 > max_codes) then
+         length = -1
+         return
+      end if
+      length = length + 1
+      codes(length) = code
+   end subroutine mark
+end subroutine namelist_syntax

@@ -1,8 +1,9 @@
 !> The tmafm command: run a namelist file and write the sampled trajectory.
 !>
 !> Exit status: 0 success, 1 bad command line, 2 bad input, 3 file error,
-!> 4 blow-up, 5 other run failure.  Errors go to stderr as one line.  SIGINT, SIGTERM and
-!> SIGHUP remove the output's temporary file (tmafm_signals.c) before the process dies.
+!> 4 blow-up, 5 other run failure.  Errors go to stderr as one line.  A terminating signal
+!> (SIGINT, SIGTERM, SIGHUP, ...) removes the output's temporary file (tmafm_signals.c) before
+!> the process dies.
 program tmafm_main
    use, intrinsic :: iso_c_binding, only: c_char, c_size_t
    use, intrinsic :: iso_fortran_env, only: error_unit, output_unit
@@ -59,9 +60,14 @@ program tmafm_main
       case ('-o', '--output')
          if (i == n_args) call fail(1, 'option '//argument//' needs a file name (or - for standard output)')
          i = i + 1
+         if (have_output) call fail(1, 'option '//argument//' given twice: give one output file')
          call get_argument(i, output_override)
          call check_path_length(output_override, 'output file name')
          if (len(output_override) == 0) call fail(1, 'option '//argument//' needs a file name, not ''''')
+         ! A blank around the name would be dropped (Fortran strings): refused, not changed.
+         if (output_override(1:1) == ' ' .or. output_override(len(output_override):) == ' ') &
+            call fail(1, 'option '//argument//' '''//output_override//''': the name begins or ends with a '// &
+                      'blank, which tmafm would not keep')
          have_output = .true.
       case default
          if (len(argument) > 0) then
@@ -86,7 +92,7 @@ program tmafm_main
    ! The target is checked before anything is integrated.  The check creates and removes a
    ! temporary: signals wait meanwhile, so none can leave it behind.
    call tmafm_signals_hold()
-   call prepare_output(trim(config%output_file), output_format, sink, ierr, errmsg)
+   call prepare_output(trim(config%output_file), output_format, sink, ierr, errmsg, input_path=input_path)
    call tmafm_signals_release()
    if (ierr /= ok) call fail(ierr, errmsg)
 

@@ -1,7 +1,9 @@
-/* Signal handling of the tmafm executable: SIGINT, SIGTERM or SIGHUP while an output
- * temporary exists removes it, then the process dies of the same signal (the shell sees
- * 128 + signo).  The one piece of global state, the temporary's name, lives here in the
- * executable, never in the library.
+/* Signal handling of the tmafm executable: a terminating signal (SIGINT, SIGTERM, SIGHUP,
+ * SIGQUIT, SIGALRM, SIGUSR1, SIGUSR2, or SIGXCPU at a CPU-time limit) while an output temporary
+ * exists removes it, then the process dies of the same signal (the shell sees 128 + signo;
+ * SIGQUIT and SIGXCPU still dump core where cores are on).  SIGXFSZ is ignored: a file-size
+ * limit is a write error (EFBIG).  SIGPROF and SIGVTALRM are left to profilers.  The one piece
+ * of global state, the temporary's name, lives here in the executable, never in the library.
  *
  * Use: tmafm_signals_install() once; tmafm_signals_hold() before the temporary is created;
  * tmafm_signals_guard(name) right after (this also releases the hold); tmafm_signals_release()
@@ -12,7 +14,7 @@
 #include <string.h>
 #include <unistd.h>
 
-static const int handled[] = {SIGINT, SIGTERM, SIGHUP};
+static const int handled[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGALRM, SIGUSR1, SIGUSR2, SIGXCPU};
 enum { n_handled = sizeof handled / sizeof handled[0] };
 
 static char guarded_name[16384];
@@ -31,10 +33,14 @@ static void mask_of_handled(sigset_t *set)
     for (int i = 0; i < n_handled; ++i) sigaddset(set, handled[i]);
 }
 
-/* Install the handler for each handled signal that is not ignored (nohup keeps its SIG_IGN). */
+/* Install the handler for each handled signal that is not ignored (nohup keeps its SIG_IGN).
+ * SIGXFSZ (a write past the file-size limit, ulimit -f) is ignored, so that the write fails with
+ * EFBIG, an error the writer reports and cleans up after, instead of killing the process with
+ * the temporary left behind. */
 void tmafm_signals_install(void)
 {
     struct sigaction action, previous;
+    signal(SIGXFSZ, SIG_IGN);
     memset(&action, 0, sizeof action);
     action.sa_handler = on_signal;
     mask_of_handled(&action.sa_mask);

@@ -64,14 +64,18 @@ def shown(value) -> str:
         "\r", "\\r").translate({c: f"\\x{c:02x}" for c in [*range(32), 127]})
 
 
+#: Types that pass for numbers but are not: np.timedelta64 is a subclass of np.signedinteger.
+_NOT_NUMBERS = (bool, np.bool_, np.timedelta64, np.datetime64)
+
+
 def _is_real(value) -> bool:
     return isinstance(value, (numbers.Real, np.floating, np.integer)) and not isinstance(
-        value, (bool, np.bool_))
+        value, _NOT_NUMBERS)
 
 
 def _is_int(value) -> bool:
     return isinstance(value, (numbers.Integral, np.integer)) and not isinstance(
-        value, (bool, np.bool_))
+        value, _NOT_NUMBERS)
 
 
 def _real_text(where: str, value) -> str:
@@ -92,6 +96,9 @@ def _value_text(group: str, key: str, value, what: str) -> str:
         raise InputError(f"{where} = None: give a value (or leave the key out for its default)")
     if isinstance(value, (bool, np.bool_)):
         raise InputError(f"{where} = {shown(value)}: a bool is not a {kind or 'value'} here")
+    if isinstance(value, (np.timedelta64, np.datetime64)):
+        raise InputError(f"{where} = {shown(value)}: a {type(value).__name__} is not a "
+                         f"{kind or 'value'}")
     if isinstance(value, np.ndarray):
         value = value.tolist()
     if isinstance(value, (list, tuple)):

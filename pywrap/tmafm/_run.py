@@ -9,7 +9,6 @@ with f90nml only when ``.resolved`` is asked for.
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Union
@@ -57,30 +56,68 @@ def _input_path(nml) -> Path:
                          f"(tmafm.inputs.names(): {', '.join(_inputs.names())})")
 
 
-def _read_text(path: Path) -> str:
+#: Largest input file, as the executable reads it (tmafm_input_file max_input_bytes).
+MAX_INPUT_BYTES = 2**20
+#: The first bytes of a tmafm output file (tmafm_nml_syntax output_header_mark).
+_OUTPUT_MARK = b"# tmafm "
+
+
+def _header_end(data: bytes) -> int:
+    """Where the header of an output file ends in `data`: the start of the first line after the
+    first that does not start with '#' (an empty one included), or len(data) if none does."""
+    start = 0
+    while True:
+        end = data.find(b"\n", start)
+        if end < 0 or end + 1 >= len(data):
+            return len(data)
+        start = end + 1
+        if data[start:start + 1] != b"#":
+            return start
+
+
+def _read_text(path: Path) -> bytes:
+    """The bytes of an input file, read as the executable reads them: at most 1 MiB, no NUL
+    byte (f2py would end the text there, silently), and no decoding (a non-UTF-8 comment is
+    fine; the core checks the bytes outside strings and comments)."""
+    name = shown(str(path))
     try:
-        data = path.read_bytes()
+        with open(path, "rb") as handle:
+            data = handle.read(MAX_INPUT_BYTES + 1)
     except OSError as exc:
-        raise InputFileError(f"input file {shown(str(path))} cannot be read: {exc.strerror}") from exc
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise InputError(f"{shown(str(path))}: not a UTF-8 text file (byte {exc.start})") from exc
+        raise InputFileError(f"input file {name} cannot be read: {exc.strerror}") from exc
+    if data.startswith(_OUTPUT_MARK):
+        # A tmafm output file: only its header is input (it ends at the first line that does
+        # not start with '#'), however long the rows after it.
+        data = data[:_header_end(data)]
+    if len(data) > MAX_INPUT_BYTES:
+        raise InputError(f"input file {name} is larger than {MAX_INPUT_BYTES} bytes: not a tmafm "
+                         f"namelist")
+    nul = data.find(b"\0")
+    if nul >= 0 and not data.startswith((b"\xff\xfe", b"\xfe\xff")):  # UTF-16: the core says so
+        line = data.count(b"\n", 0, nul) + 1
+        raise InputError(f"{name}: line {line}: a NUL byte: the input is not a text file")
+    return data
 
 
-def _for_core(text: str) -> bytes:
-    """Text for the core's character arguments: UTF-8 bytes, as the executable reads a file.
+def _for_core(text) -> bytes:
+    """Text for the core's character arguments: UTF-8 bytes, as the executable reads a file
+    (the bytes of a file are passed as they are).
     (f2py turns a str with non-ASCII characters into no argument at all: a TypeError "function
     takes exactly 5 arguments (1 given)"; the core reports a non-ASCII value in its one-line
     message as \\xNN escapes.)"""
-    return text.encode("utf-8", "backslashreplace")
+    if isinstance(text, bytes):
+        return text
+    try:  # the bytes of a non-UTF-8 file come back from Config.text as surrogate escapes
+        return text.encode("utf-8", "surrogateescape")
+    except UnicodeEncodeError:
+        return text.encode("utf-8", "backslashreplace")
 
 
 def _checked_max_switches(max_switches):
     if max_switches is None:
         return None
-    if isinstance(max_switches, (bool, np.bool_)) or not isinstance(max_switches, (int, np.integer)) \
-            or max_switches < 0:
+    if isinstance(max_switches, (bool, np.bool_, np.timedelta64)) \
+            or not isinstance(max_switches, (int, np.integer)) or max_switches < 0:
         raise InputError(f"max_switches = {shown(max_switches)}: must be an integer >= 0 or None")
     return int(max_switches)
 
@@ -94,7 +131,7 @@ def _check_known(groups: Mapping, what: str) -> None:
                                  f"{', '.join(KEY_TYPES[group])})")
 
 
-def _source(nml, overrides: Mapping) -> tuple[str, str, str | None]:
+def _source(nml, overrides: Mapping) -> tuple[str | bytes, str, str | None]:
     """(namelist text, label for messages, override text or None) of any accepted input.
 
     A text base (a file or a Config) keeps its own text; the core patches it with the
@@ -171,8 +208,10 @@ class Config:
         if self._text is None:
             codes = np.zeros(int(_api.config_text_length(self._f)), dtype=np.int32)
             _api.config_text_codes(self._f, codes)
-            # UTF-8: the core holds the bytes _for_core gave it (a non-ASCII &output file).
-            self._text = codes.astype(np.uint8).tobytes().decode("utf-8", "replace")
+            # UTF-8: the core holds the bytes _for_core gave it (a non-ASCII &output file);
+            # bytes that are not UTF-8 (a Latin-1 file name) stay surrogate escapes, so that the
+            # text gives back the same bytes (_for_core, write, pickles).
+            self._text = codes.astype(np.uint8).tobytes().decode("utf-8", "surrogateescape")
         return self._text
 
     def to_namelist(self) -> f90nml.Namelist:
@@ -185,10 +224,9 @@ class Config:
                 if not g.startswith("_")}
 
     def write(self, path) -> Path:
-        """Write the resolved input to `path` (atomically: a temporary file, then a rename)."""
-        path = Path(path)
-        _atomic_write(path, self.text.encode("utf-8"))
-        return path
+        """Write the resolved input to `path` (atomically: a temporary file, then a rename; a
+        device or FIFO is written directly; InputFileError if it cannot be written)."""
+        return _atomic_write(path, self.text.encode("utf-8", "surrogateescape"))
 
     def model(self):
         """The model of this configuration (a tmafm.Model)."""
@@ -224,23 +262,11 @@ class Config:
         return f"tmafm.Config({self.label!r}, n_modes={self.n_modes})"
 
 
-def _atomic_write(path: Path, data: bytes) -> None:
-    """Write `data` to a temporary file next to `path`, then rename it over `path`."""
-    folder = path.parent if str(path.parent) else Path(".")
-    try:
-        fd, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=folder)
-    except OSError as exc:
-        raise InputFileError(f"cannot write '{path}': {exc.strerror}") from exc
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-        os.replace(temporary, path)
-    except BaseException:
-        try:
-            os.unlink(temporary)
-        except OSError:
-            pass
-        raise
+def _atomic_write(path, data: bytes) -> Path:
+    """Write `data` to `path` as the executable writes its output: through a temporary and a
+    rename for a file, directly for a device or FIFO (tmafm._safefile)."""
+    from ._safefile import write_bytes
+    return write_bytes(path, data)
 
 
 class Result:

@@ -24,6 +24,7 @@ from . import analysis
 from . import inputs as packaged
 from ._extras import require
 from ._run import Config
+from ._safefile import save_figure, write_text
 
 __all__ = ["main", "METHODS", "CASES"]
 
@@ -121,7 +122,7 @@ def make_figures(inputs: Path, out: Path, periods: int, basin_points: int, progr
             ax_t.legend()
             fig.suptitle(f"Fig. 2: convergence in N (Hertz, alpha2 = 5e-4), last 3 periods; {method}, {convention}")
             fig.tight_layout()
-            fig.savefig(out / f"fig2_{method}_{convention}.png", dpi=100)
+            save_figure(fig, out / f"fig2_{method}_{convention}.png", dpi=100)
             plt.close(fig)
             progress(f"fig2 {method} {convention}")
 
@@ -143,7 +144,7 @@ def make_figures(inputs: Path, out: Path, periods: int, basin_points: int, progr
             ax.grid(True, alpha=0.3)
         fig.suptitle(f"Fig. 3: modal amplitudes, N = 4, second half of the run; {method}, paper")
         fig.tight_layout()
-        fig.savefig(out / f"fig3_{method}_paper.png", dpi=100)
+        save_figure(fig, out / f"fig3_{method}_paper.png", dpi=100)
         plt.close(fig)
         progress(f"fig3 {method}")
 
@@ -162,7 +163,7 @@ def make_figures(inputs: Path, out: Path, periods: int, basin_points: int, progr
                 row[0].set_title(f"a1(0) = {a1:g}: {cls}")
             fig.suptitle(f"Fig. {fig_name[3:]}: N = 3, last 4 periods; {method}, paper")
             fig.tight_layout()
-            fig.savefig(out / f"{fig_name}_{method}_paper.png", dpi=100)
+            save_figure(fig, out / f"{fig_name}_{method}_paper.png", dpi=100)
             plt.close(fig)
             progress(f"{fig_name} {method}")
 
@@ -183,7 +184,7 @@ def make_figures(inputs: Path, out: Path, periods: int, basin_points: int, progr
             ax_t.set_title("steady state (last 2 periods)")
             fig.suptitle(f"Fig. 6: DMT, alpha2 = 5e-4; {method}, {convention}")
             fig.tight_layout()
-            fig.savefig(out / f"fig6_{method}_{convention}.png", dpi=100)
+            save_figure(fig, out / f"fig6_{method}_{convention}.png", dpi=100)
             plt.close(fig)
             progress(f"fig6 {method} {convention}")
 
@@ -199,13 +200,13 @@ def make_figures(inputs: Path, out: Path, periods: int, basin_points: int, progr
         ax_t.legend()
         fig.suptitle(f"Fig. 7: Hertz and DMT, alpha2 = 1e-3, last 4 periods; {method}, paper")
         fig.tight_layout()
-        fig.savefig(out / f"fig7_{method}_paper.png", dpi=100)
+        save_figure(fig, out / f"fig7_{method}_paper.png", dpi=100)
         plt.close(fig)
         progress(f"fig7 {method}")
 
     if basin_points:
         summary["basin"] = basin_scan(inputs, out, periods, basin_points, progress)
-    (out / "summary.json").write_text(json.dumps(_jsonable(summary), indent=1))
+    write_text(out / "summary.json", json.dumps(_jsonable(summary), indent=1))
     return summary
 
 
@@ -236,7 +237,7 @@ def basin_scan(inputs: Path, out: Path, periods: int, points: int, progress=prin
     ax.grid(True, alpha=0.3)
     ax.legend()
     fig.tight_layout()
-    fig.savefig(out / "basin_fig4_5.png", dpi=100)
+    save_figure(fig, out / "basin_fig4_5.png", dpi=100)
     plt.close(fig)
     scan["attractors"] = {c: sorted({r["classification"] for r in rows}) for c, rows in scan["rows"].items()}
     return scan

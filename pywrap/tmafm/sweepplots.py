@@ -27,10 +27,12 @@ def _label(ds, name: str) -> str:
 
 
 def _save(fig, path) -> Path:
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    _pyplot().close(fig)
-    return path
+    """Save by the executable's output rules (tmafm._safefile: a temporary and a rename)."""
+    from ._safefile import save_figure
+    try:
+        return save_figure(fig, path, dpi=110)
+    finally:
+        _pyplot().close(fig)
 
 
 def _continuation_panels(ds, path, names):

@@ -29,9 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ._namelist import GROUPS, KEY_TYPES
+from ._namelist import GROUPS, KEY_TYPES, shown
 from ._run import Config
-from .errors import InputError, InputFileError, InputTypeError, SolverError, TmafmError
+from .errors import InputError, InputFileError, InputTypeError, SolverError, TmafmError, raise_for
 
 __all__ = ["sweep", "approach", "frequency_sweep", "bifurcation", "basin", "read_sweep_file",
            "run_sweep_file", "write_dataset", "summarize", "mark_jumps", "label_attractors",
@@ -983,32 +983,95 @@ _FILE_KEYS = {"kind": str, "base": str, "key": str, "start": float, "stop": floa
 _KINDS = ("grid", "approach", "frequency", "bifurcation", "basin")
 
 
+#: Keys whose list entries are numbers, and those whose entries are strings.
+_NUMBER_LISTS, _STRING_LISTS = ("values", "curve_values"), ("observables",)
+#: Value kinds of the strict reader (tmafm_nml_syntax value_*).
+_INTEGER, _REAL, _LOGICAL, _STRING, _WORD = 1, 2, 3, 4, 5
+
+
+def _sweep_groups(path: Path) -> dict:
+    """{group: {key: [values]}} of a sweep file, parsed by tmafm's strict reader (the one the
+    executable uses): text outside a group, an empty value, an indexed key, an unquoted
+    string, a NUL byte, a key or a group given twice are errors, never skipped or merged."""
+    from . import _core
+    from ._run import _read_text
+    label = shown(str(path))[1:-1]
+    data = _read_text(path)
+    max_codes = 8 * len(data) + 1024
+    codes, length, ierr, errmsg = _core.namelist_syntax(
+        data, label.encode("utf-8", "backslashreplace"), max_codes)
+    raise_for(ierr, errmsg)
+    if length < 0:
+        raise InputError(f"{label}: the file is too complex to read")
+    groups: dict = {}
+    seen_groups: dict = {}
+    entries: dict = {}
+    record: list = []
+    field: list = []
+    for code in codes[:length].tolist():
+        if code >= 0:
+            field.append(code)
+            continue
+        if code == -1:
+            record.append(bytes(field).decode("utf-8", "surrogateescape"))
+            field = []
+            continue
+        ordinal, group, entry, key, kind, repeat, text = record
+        record = []
+        if seen_groups.setdefault(group, ordinal) != ordinal:
+            raise InputError(f"{label}: &{group} appears twice: give one &{group} group")
+        where = f"{label}: &{group} {key}"
+        if entries.setdefault((group, key), entry) != entry:
+            raise InputError(f"{where}: the key is given twice")
+        kind = int(kind)
+        if kind == _INTEGER:
+            value = int(text)
+        elif kind == _REAL:
+            value = float(text.replace("d", "e").replace("D", "E"))
+        elif kind == _LOGICAL:
+            value = text.lstrip(".")[:1].lower() == "t"
+        elif kind == _STRING:
+            value = text
+        elif kind == _WORD:
+            raise InputError(f"{where} = {text}: a string must be quoted: write {key} = '{text}'")
+        else:
+            raise InputError(f"{where} = {shown(text)}: not a number, a logical or a quoted string")
+        groups.setdefault(group, {}).setdefault(key, []).extend([value] * int(repeat))
+    return groups
+
+
 def read_sweep_file(path) -> dict:
     """The &sweep group of a sweep file, checked: a dict of its keys (docs/sweeps.md)."""
-    import f90nml
     path = Path(path)
     if not path.is_file():
         raise InputFileError(f"sweep file '{path}' not found")
-    try:
-        groups = f90nml.read(str(path))
-    except Exception as exc:
-        raise InputError(f"{path}: cannot parse namelist: {exc}") from exc
+    groups = _sweep_groups(path)
     if "sweep" not in groups:
         raise InputError(f"{path}: no &sweep group")
     extra = [g for g in groups if g != "sweep"]
     if extra:
         raise InputError(f"{path}: unknown group(s) &{', &'.join(extra)} (a sweep file has &sweep)")
-    spec = dict(groups["sweep"])
-    for key, value in spec.items():
+    spec = {}
+    for key, values in groups["sweep"].items():
         if key not in _FILE_KEYS:
             raise InputError(f"{path}: &sweep {key}: unknown key (known: {', '.join(_FILE_KEYS)})")
         kind = _FILE_KEYS[key]
         if kind is list:
-            spec[key] = list(value) if isinstance(value, list) else [value]
-        elif kind is float and isinstance(value, int) and not isinstance(value, bool):
-            spec[key] = float(value)
-        elif not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+            item = str if key in _STRING_LISTS else (int, float)
+            if any(isinstance(v, bool) or not isinstance(v, item) for v in values):
+                raise InputError(f"{path}: &sweep {key} = {shown(values)}: every entry must be a "
+                                 f"{'quoted string' if item is str else 'number'}")
+            spec[key] = list(values)
+            continue
+        if len(values) != 1:
+            raise InputError(f"{path}: &sweep {key} = {shown(values)}: give one value")
+        value = values[0]
+        if kind is float and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if not isinstance(value, kind) or (kind is int and isinstance(value, bool)) or (
+                kind is float and isinstance(value, bool)):
             raise InputError(f"{path}: &sweep {key} = {value!r}: must be a {kind.__name__}")
+        spec[key] = value
     for key in ("kind", "base"):
         if key not in spec:
             raise InputError(f"{path}: &sweep {key}: missing (required)")
@@ -1117,21 +1180,20 @@ def main(argv=None) -> int:
     parser.add_argument("--summarize", action="store_true", help="FILE is a sweep NetCDF file: "
                         "print its summary (jumps, attractors, periods) as JSON")
     args = parser.parse_args(argv)
-    if args.summarize:
-        import json
-        import xarray as xr
-        with xr.open_dataset(args.file) as ds:
-            print(json.dumps(summarize(ds.load()), indent=1))
-        return 0
     try:
+        if args.summarize:
+            import json
+            print(json.dumps(summarize(read_dataset(args.file)), indent=1))
+            return 0
         spec = read_sweep_file(args.file)
         out = Path(args.output or spec.get("output") or Path(args.file).with_suffix(".nc"))
+        png = None if args.no_plot else Path(args.plot) if args.plot else out.with_suffix(".png")
+        _check_targets(out, png, [Path(args.file), Path(spec["base"])])
         ds = run_sweep_file(args.file, workers=args.workers, progress=args.progress)
         write_dataset(ds, out)
         print(f"wrote {out}")
-        if not args.no_plot:
+        if png is not None:
             from .sweepplots import plot
-            png = Path(args.plot) if args.plot else out.with_suffix(".png")
             plot(ds, png)
             print(f"wrote {png}")
     except TmafmError as exc:
@@ -1140,18 +1202,55 @@ def main(argv=None) -> int:
     return 0
 
 
-def write_dataset(ds, path) -> Path:
-    """Write a sweep Dataset to NetCDF (atomically: a temporary file, then a rename)."""
-    path = Path(path)
-    temporary = path.with_name(f".{path.name}.partial")
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether two names are one file: the same inode if both exist, else the same absolute
+    path."""
     try:
-        ds.to_netcdf(temporary)
-        os.replace(temporary, path)
-    except OSError as exc:
-        if temporary.exists():
-            temporary.unlink()
-        raise InputFileError(f"cannot write '{path}': {exc}") from exc
-    return path
+        return os.path.samefile(a, b)
+    except OSError:
+        return os.path.abspath(a) == os.path.abspath(b)
+
+
+def _check_targets(out: Path, png, inputs) -> None:
+    """Before the sweep runs: the NetCDF file and the plot are neither an input (the sweep
+    file, its base) nor each other, so that nothing the run read is replaced."""
+    for target, what in ((out, "the NetCDF file"), (png, "the plot")):
+        if target is None:
+            continue
+        for source in inputs:
+            if _same_file(target, source):
+                raise InputFileError(f"{what} {shown(str(target))} is the input "
+                                     f"{shown(str(source))}: give another name (-o, --plot)")
+    if png is not None and _same_file(out, png):
+        raise InputFileError(f"the NetCDF file and the plot are both {shown(str(out))}: give "
+                             f"another name (-o, --plot)")
+
+
+def read_dataset(path):
+    """A sweep NetCDF file, loaded into memory; InputFileError if it is missing, InputError if
+    it is not a sweep dataset (what ``--summarize`` reads)."""
+    import xarray as xr
+    if not Path(path).is_file():
+        raise InputFileError(f"sweep dataset {shown(str(path))} not found")
+    try:
+        with xr.open_dataset(path) as ds:
+            ds = ds.load()
+    except Exception as exc:  # the NetCDF back ends raise many kinds
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(f"{shown(str(path))}: not a readable NetCDF file: "
+                         f"{shown(first)[1:-1]}") from None
+    if "tmafm_kind" not in ds.attrs or "period" not in ds:
+        raise InputError(f"{shown(str(path))}: not a tmafm sweep dataset (no tmafm_kind "
+                         f"attribute or period variable)")
+    return ds
+
+
+def write_dataset(ds, path) -> Path:
+    """Write a sweep Dataset to NetCDF as the executable writes its output: a new temporary
+    file, synced and renamed (a device or FIFO is written directly); InputFileError if it
+    cannot be written.  Nothing is left behind on a failure or a KeyboardInterrupt."""
+    from ._safefile import write_with
+    return write_with(path, ds.to_netcdf, what="NetCDF file")
 
 
 if __name__ == "__main__":

@@ -26,6 +26,7 @@ import numpy as np
 from . import __version__
 from ._peer import ScipyPeer
 from ._run import run
+from ._safefile import save_figure, write_text
 
 __all__ = ["study", "summarize", "plot", "main", "TARGET_ERRORS"]
 
@@ -213,7 +214,7 @@ def plot(report: dict, path: Path) -> None:
                 ax.axhline(target, color="0.8", lw=0.8, zorder=0)
     axes[0][0].legend(fontsize=7, ncol=2)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -237,8 +238,8 @@ def main(argv=None) -> None:
     report["summary"] = summarize(report)
     args.out.mkdir(parents=True, exist_ok=True)
     if args.quick:
-        (args.out / ".quick").write_text("this folder holds a --quick run\n")
-    (args.out / "work_precision.json").write_text(json.dumps(report, indent=1))
+        write_text(args.out / ".quick", "this folder holds a --quick run\n")
+    write_text(args.out / "work_precision.json", json.dumps(report, indent=1))
     plot(report, args.out / "work_precision.png")
     print(json.dumps(report["summary"], indent=1))
     print(f"wrote {args.out / 'work_precision.json'} and {args.out / 'work_precision.png'}")

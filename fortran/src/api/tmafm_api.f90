@@ -15,7 +15,7 @@ module tmafm_api
    use tmafm_trajectory, only: trajectory_t
    use tmafm_simulation, only: build_model, simulate, choose_mode_count
    use tmafm_namelist, only: read_config_text, config_text
-   use tmafm_nml_syntax, only: nml_document_t, parse_namelist, entry_text
+   use tmafm_nml_syntax, only: nml_document_t, parse_namelist, entry_text, entry_source
    implicit none
    private
 
@@ -109,12 +109,12 @@ contains
                   if (any([(over%groups(h)%entries(k)%key == group%entries(e)%key, &
                             k = 1, over%groups(h)%n_entries)])) cycle
                end if
-               merged = merged//'    '//entry_text(group%entries(e))//nl
+               merged = merged//'    '//entry_source(group%entries(e))//nl
             end do
             if (h > 0) then
                used(h) = .true.
                do k = 1, over%groups(h)%n_entries
-                  merged = merged//'    '//entry_text(over%groups(h)%entries(k))//nl
+                  merged = merged//'    '//entry_source(over%groups(h)%entries(k))//nl
                end do
             end if
             merged = merged//'/'//nl
@@ -124,7 +124,7 @@ contains
          if (used(h)) cycle
          merged = merged//'&'//over%groups(h)%name//nl
          do k = 1, over%groups(h)%n_entries
-            merged = merged//'    '//entry_text(over%groups(h)%entries(k))//nl
+            merged = merged//'    '//entry_source(over%groups(h)%entries(k))//nl
          end do
          merged = merged//'/'//nl
       end do

@@ -455,6 +455,11 @@ contains
                call get_string(p, e, len(config%output_file), file, ierr, errmsg)
                if (ierr == ok .and. len_trim(file) == 0) then
                   call key_error(p, e, 'must name a file', ierr, errmsg)
+               else if (ierr == ok) then
+                  ! A blank around the name would be dropped (Fortran strings): refused, not changed.
+                  if (file(1:1) == ' ' .or. file(len(file):) == ' ') &
+                     call key_error(p, e, 'begins or ends with a blank, which tmafm would not keep: '// &
+                                    'remove it', ierr, errmsg)
                end if
             case ('sample_dtau')
                call get_real(p, e, sample_dtau, ierr, errmsg)

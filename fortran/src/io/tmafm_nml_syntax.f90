@@ -20,7 +20,7 @@ module tmafm_nml_syntax
 
    public :: nml_document_t, nml_group_t, nml_entry_t, nml_value_t, parse_namelist
    public :: value_integer, value_real, value_logical, value_string, value_word, value_other
-   public :: value_kind_name, entry_text, output_header_mark
+   public :: value_kind_name, entry_text, entry_source, output_header_mark
 
    !> A value that reads as an integer: [+-]digits.
    integer, parameter :: value_integer = 1
@@ -55,8 +55,13 @@ module tmafm_nml_syntax
       character(len=:), allocatable :: key
       !> Line of the key.
       integer :: line = 0
-      !> The values as written (blanks and line ends collapsed), for messages.
+      !> The values as written (blanks and line ends collapsed), for messages: cut after
+      !> max_written characters, so never read again as values (entry_source is).
       character(len=:), allocatable :: written
+      !> The input text from the first value's first character to the last value's last one,
+      !> verbatim (separators, line ends and comments between values included): read again, it
+      !> gives the same values.
+      character(len=:), allocatable :: source
       !> The values in order.
       type(nml_value_t), allocatable :: values(:)
    end type nml_entry_t
@@ -290,14 +295,17 @@ contains
       type(nml_value_t), allocatable :: values(:)
       type(nml_value_t) :: value
       character(len=:), allocatable :: token
-      integer :: n, start, line, save_p, save_line
+      integer :: n, start, line, save_p, save_line, first, last
       logical :: need_value, after_comma
       character :: c
 
       ierr = ok
       n = 0
+      first = 0
+      last = -1
       allocate (values(4))
       entry%written = ''
+      entry%source = ''
       need_value = .true.
       after_comma = .false.
       do
@@ -371,6 +379,8 @@ contains
          n = n + 1
          if (n > size(values)) call grow_values(values)
          values(n) = value
+         if (n == 1) first = start
+         last = s%p - 1
          if (len(entry%written) > max_written) then
             ! Long lists and strings: messages show their start only.
             if (.not. ends_with_dots(entry%written)) entry%written = entry%written//' ...'
@@ -387,6 +397,7 @@ contains
          return
       end if
       entry%values = values(1:n)
+      entry%source = s%text(first:last)
    contains
       subroutine fail(what)
          character(len=*), intent(in) :: what
@@ -603,6 +614,14 @@ contains
       character(len=len(entry%key) + 3 + len(entry%written)) :: text
       text = entry%key//' = '//entry%written
    end function entry_text
+
+   !> `key = values` of an entry exactly as the input has it (values verbatim, never cut), to
+   !> be read again: tmafm_api rebuilds a patched input from these.
+   pure function entry_source(entry) result(text)
+      type(nml_entry_t), intent(in) :: entry
+      character(len=len(entry%key) + 3 + len(entry%source)) :: text
+      text = entry%key//' = '//entry%source
+   end function entry_source
 
    ! --- scanning helpers -------------------------------------------------------------------
 

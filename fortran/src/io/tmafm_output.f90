@@ -27,7 +27,7 @@ module tmafm_output
    use tmafm_posix, only: kind_missing, kind_regular, kind_directory, kind_char_device, kind_fifo, &
                           kind_symlink, path_kind, create_temporary, open_device, check_descriptor, &
                           write_text, sync_descriptor, close_descriptor, rename_path, remove_path, &
-                          check_writable, error_text
+                          check_writable, same_file, error_text
    use tmafm_npz, only: npz_archive_t, npy_header, npz_begin, npz_add, npz_add_text, npz_finish, &
                         npz_bytes, max_npz_bytes, native_descr
    implicit none
@@ -64,12 +64,16 @@ contains
    !> cannot or must not be written, and for a file, create and remove a temporary next to it
    !> (a caller that removes temporaries on signals should block them around this call).
    !> Nothing here blocks: a device or FIFO is only checked, and opened by begin_output.
-   subroutine prepare_output(path, format, sink, ierr, errmsg)
+   !> With `input_path`, a target that is the input file itself is refused (it would replace
+   !> the user's input with the output).
+   subroutine prepare_output(path, format, sink, ierr, errmsg, input_path)
       character(len=*), intent(in) :: path
       character(len=*), intent(in) :: format
       type(output_sink_t), intent(out) :: sink
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      !> The input file of the run, if any.
+      character(len=*), intent(in), optional :: input_path
       character(len=:), allocatable :: name
       integer :: kind, target, status, j
 
@@ -126,6 +130,14 @@ contains
             return
          end if
 
+         if (kind == kind_regular .and. present(input_path)) then
+            if (same_file(sink%path, input_path)) then
+               call fail(err_file, 'output file '//shown(sink%path)//' is the input file '// &
+                         shown(input_path)//': tmafm does not replace its own input; give '// &
+                         'another name (-o or &output file)')
+               return
+            end if
+         end if
          if (kind == kind_regular) then
             status = check_writable(sink%path)
             if (status /= 0) then

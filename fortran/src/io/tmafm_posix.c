@@ -156,6 +156,15 @@ int tmafm_check_writable(const char *path)
     return access(path, W_OK) == 0 ? 0 : -errno;
 }
 
+/* 1 if `a` and `b` name the same existing file (same device and inode, links followed), 0 if
+ * not or if either cannot be stat'ed. */
+int tmafm_same_file(const char *a, const char *b)
+{
+    struct stat sa, sb;
+    if (stat(a, &sa) != 0 || stat(b, &sb) != 0) return 0;
+    return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+}
+
 /* The text of an error number (positive errno) into buf[capacity], NUL-terminated.  strerror_r
    (GNU form: _GNU_SOURCE above), not strerror, whose buffer for unknown codes is shared. */
 void tmafm_error_text(int code, char *buf, int capacity)

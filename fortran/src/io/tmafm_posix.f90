@@ -11,7 +11,7 @@ module tmafm_posix
              kind_symlink, kind_other
    public :: path_kind, create_temporary, open_device, check_descriptor, write_bytes, &
              write_text, sync_descriptor, close_descriptor, rename_path, remove_path, &
-             check_writable, error_text, crc32_table_size, crc32_table, crc32_update, crc32_text, &
+             check_writable, same_file, error_text, crc32_table_size, crc32_table, crc32_update, crc32_text, &
              prefault
 
    !> Kinds of path (as tmafm_posix.c numbers them): nothing there, a regular file, ...
@@ -95,6 +95,11 @@ module tmafm_posix
          character(kind=c_char), intent(in) :: path(*)
          integer(c_int) :: status
       end function c_check_writable
+      function c_same_file(a, b) result(same) bind(c, name='tmafm_same_file')
+         import :: c_char, c_int
+         character(kind=c_char), intent(in) :: a(*), b(*)
+         integer(c_int) :: same
+      end function c_same_file
       !> strerror_r into buf (pure: it reads and writes nothing else).
       pure subroutine c_error_text(code, buf, capacity) bind(c, name='tmafm_error_text')
          import :: c_char, c_int
@@ -195,6 +200,13 @@ contains
       integer :: status
       status = c_check_writable(path//c_null_char)
    end function check_writable
+
+   !> .true. if `a` and `b` name the same existing file (the same inode, links followed).
+   function same_file(a, b) result(same)
+      character(len=*), intent(in) :: a, b
+      logical :: same
+      same = c_same_file(a//c_null_char, b//c_null_char) == 1
+   end function same_file
 
    !> The words for a failure status -errno (strerror).
    !> (Its length is computed from the argument: a deferred-length result is not thread-safe

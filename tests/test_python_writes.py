@@ -1,0 +1,226 @@
+"""Files written from Python (Result.save, Config.write, sweeps.write_dataset, the sweep
+plots) follow the executable's output rules (docs/reliability.md#output).  Before, they were
+written with mkstemp + os.replace: ``r.save('/dev/null')`` replaced the device with a regular
+file (as root: the system's /dev/null), a symbolic link was replaced, a directory raised a raw
+IsADirectoryError, files got mode 0600 whatever the umask, and write_dataset wrote through a
+symbolic link planted at its fixed temporary name ``.NAME.partial``."""
+
+import os
+import stat
+
+import numpy as np
+import pytest
+
+import tmafm
+from tmafm import sweeps
+
+
+@pytest.fixture(scope="module")
+def result():
+    return tmafm.run("fig2_n4", solver={"tau_end": 0.5})
+
+
+def _writers(result):
+    config = result.config
+    return {
+        "save": lambda path: result.save(path),
+        "write": lambda path: config.write(path),
+    }
+
+
+def _device(tmp_path, name, minor):
+    path = tmp_path / name
+    try:
+        os.mknod(path, 0o666 | stat.S_IFCHR, os.makedev(1, minor))
+        with open(path, "wb") as handle:
+            handle.write(b"")
+    except OSError as error:  # not root, or a nodev mount
+        pytest.skip(f"cannot make a device node here: {error}")
+    return path
+
+
+def _leftovers(folder):
+    return sorted(p.name for p in folder.iterdir() if "partial" in p.name)
+
+
+@pytest.mark.parametrize("how", ["save", "write"])
+def test_a_device_stays_a_device(tmp_path, result, how):
+    null = _device(tmp_path, "null", 3)
+    _writers(result)[how](null)
+    assert stat.S_ISCHR(os.lstat(null).st_mode)
+    full = _device(tmp_path, "full", 7)
+    with pytest.raises(tmafm.InputFileError, match="No space left on device"):
+        _writers(result)[how](full)
+    assert stat.S_ISCHR(os.lstat(full).st_mode)
+    assert _leftovers(tmp_path) == []
+
+
+@pytest.mark.parametrize("how", ["save", "write"])
+def test_a_symbolic_link_or_a_directory_is_refused(tmp_path, result, how):
+    victim = tmp_path / "victim"
+    victim.write_text("precious\n")
+    os.symlink(victim, tmp_path / "link.npz")
+    with pytest.raises(tmafm.InputFileError, match="symbolic link"):
+        _writers(result)[how](tmp_path / "link.npz")
+    assert (tmp_path / "link.npz").is_symlink() and victim.read_text() == "precious\n"
+    (tmp_path / "folder.npz").mkdir()
+    with pytest.raises(tmafm.InputFileError, match="is a directory"):
+        _writers(result)[how](tmp_path / "folder.npz")
+    with pytest.raises(tmafm.InputFileError, match="No such file or directory"):
+        _writers(result)[how](tmp_path / "missing" / "r.npz")
+    assert _leftovers(tmp_path) == []
+
+
+@pytest.mark.parametrize("how", ["save", "write"])
+def test_a_new_file_has_the_umask_permissions_and_replaces_atomically(tmp_path, result, how):
+    target = tmp_path / "r.npz"
+    target.write_text("old\n")
+    inode = os.stat(target).st_ino
+    previous = os.umask(0o022)
+    try:
+        with open(target) as old_reader:
+            _writers(result)[how](target)
+            assert old_reader.read() == "old\n"
+    finally:
+        os.umask(previous)
+    assert os.stat(target).st_ino != inode
+    assert stat.S_IMODE(os.stat(target).st_mode) == 0o644
+    assert _leftovers(tmp_path) == []
+
+
+def test_an_interrupted_save_leaves_nothing(tmp_path, result, monkeypatch):
+    import tmafm._safefile as safefile
+
+    def interrupted(fd, data):
+        os.write(fd, b"half")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(safefile, "_write_all", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        result.save(tmp_path / "r.npz")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.fixture(scope="module")
+def dataset():
+    xr = pytest.importorskip("xarray")
+    return xr.Dataset({"x": ("i", np.arange(3.0))})
+
+
+def test_write_dataset_never_writes_through_a_planted_link(tmp_path, dataset):
+    victim = tmp_path / "victim"
+    victim.write_text("precious\n")
+    os.symlink(victim, tmp_path / ".grid.nc.partial")  # the old fixed temporary name
+    path = sweeps.write_dataset(dataset, tmp_path / "grid.nc")
+    assert victim.read_text() == "precious\n"
+    xr = pytest.importorskip("xarray")
+    with xr.open_dataset(path) as back:
+        assert np.array_equal(back["x"].values, dataset["x"].values)
+    assert _leftovers(tmp_path) == [".grid.nc.partial"]
+
+
+def test_write_dataset_refuses_a_link_and_keeps_a_device(tmp_path, dataset):
+    os.symlink(tmp_path / "elsewhere.nc", tmp_path / "link.nc")
+    with pytest.raises(tmafm.InputFileError, match="symbolic link"):
+        sweeps.write_dataset(dataset, tmp_path / "link.nc")
+    null = _device(tmp_path, "null", 3)
+    sweeps.write_dataset(dataset, null)
+    assert stat.S_ISCHR(os.lstat(null).st_mode)
+    assert _leftovers(tmp_path) == []
+
+
+def test_write_dataset_interrupted_leaves_nothing(tmp_path, dataset, monkeypatch):
+    def interrupted(self, path, *args, **kwargs):
+        open(path, "wb").write(b"half")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(type(dataset), "to_netcdf", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        sweeps.write_dataset(dataset, tmp_path / "grid.nc")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("content", [None, b"hello\n", "dataset"], ids=["missing", "text", "not_a_sweep"])
+def test_summarize_of_a_file_that_is_not_a_sweep_is_one_error_line(tmp_path, dataset, content):
+    """`python -m tmafm.sweeps --summarize x.nc` ended in a raw traceback (ValueError from
+    xarray, FileNotFoundError from h5py, KeyError for a NetCDF file of another kind)."""
+    import subprocess
+    import sys
+
+    path = tmp_path / "x.nc"
+    if content == "dataset":
+        sweeps.write_dataset(dataset, path)
+    elif content is not None:
+        path.write_bytes(content)
+    proc = subprocess.run([sys.executable, "-m", "tmafm.sweeps", "--summarize", str(path)],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("tmafm.sweeps: error: "), proc.stderr
+    assert "x.nc" in lines[0]
+
+
+def test_figures_and_reports_follow_the_same_rules(tmp_path):
+    """The sweep plots, tmafm.figures and tmafm.workprecision saved with fig.savefig(path) and
+    Path.write_text: through a symbolic link, and in place (a partial file on a failure)."""
+    matplotlib = pytest.importorskip("matplotlib")
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    from tmafm._safefile import save_figure, write_text
+
+    victim = tmp_path / "victim"
+    victim.write_text("precious\n")
+    for name in ("plot.png", "summary.json"):
+        os.symlink(victim, tmp_path / name)
+    fig = Figure()
+    fig.add_subplot().plot([0, 1], [1, 0])
+    with pytest.raises(tmafm.InputFileError, match="symbolic link"):
+        save_figure(fig, tmp_path / "plot.png", dpi=50)
+    with pytest.raises(tmafm.InputFileError, match="symbolic link"):
+        write_text(tmp_path / "summary.json", "{}")
+    assert victim.read_text() == "precious\n"
+    assert save_figure(fig, tmp_path / "p.png", dpi=50).read_bytes().startswith(b"\x89PNG")
+    assert save_figure(fig, tmp_path / "p.svg").read_bytes().lstrip().startswith(b"<?xml")
+    assert _leftovers(tmp_path) == []
+
+
+def test_a_full_disk_fails_with_a_typed_error_and_leaves_the_previous_file(tmp_path):
+    """Result.save on a 64 KiB tmpfs (about 100 kB of .npz): InputFileError, no temporary,
+    the previous file untouched."""
+    import subprocess
+
+    mount = tmp_path / "full"
+    mount.mkdir()
+    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mount)],
+                          capture_output=True, text=True)
+    if proc.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs: {proc.stderr.strip()}")
+    try:
+        (mount / "r.npz").write_text("previous\n")
+        result = tmafm.run("fig2_n4", solver={"tau_end": 10.0})
+        with pytest.raises(tmafm.InputFileError, match="No space left on device"):
+            result.save(mount / "r.npz")
+        assert sorted(p.name for p in mount.iterdir()) == ["r.npz"]
+        assert (mount / "r.npz").read_text() == "previous\n"
+    finally:
+        subprocess.run(["umount", str(mount)], check=True)
+
+
+@pytest.mark.parametrize("how", ["save", "write"])
+@pytest.mark.parametrize("path", [b"r.npz", 3, None], ids=["bytes", "int", "none"])
+def test_a_path_of_the_wrong_type_is_a_typed_error(tmp_path, result, how, path, monkeypatch):
+    """Path(b'r.npz') raised a raw TypeError from save and write."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(tmafm.InputTypeError):
+        _writers(result)[how](path)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("how", ["save", "write"])
+def test_a_name_ending_in_a_slash_is_refused(tmp_path, result, how):
+    """Path('out/') is Path('out'): save('out/') wrote a file named out (the executable
+    refuses -o out/)."""
+    with pytest.raises(tmafm.InputFileError, match="ends in /"):
+        _writers(result)[how](str(tmp_path / "out") + "/")
+    assert list(tmp_path.iterdir()) == []

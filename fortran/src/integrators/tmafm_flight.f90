@@ -71,6 +71,8 @@ module tmafm_flight
       complex(dp), allocatable :: z(:), tip_weight(:)
       !> multiplicity |tip_weight| |lambda|^4: each term's share of |d^4 V_T/ds^4| at s = 0.
       real(dp), allocatable :: weight4(:)
+      !> |lambda|^4 per term.
+      real(dp), allocatable :: rate4(:)
       !> Round-off level of V_T at the flight start: contact begins at V_T <= -margin.
       real(dp) :: margin = 0
       !> Bound on |d^4 V_T/ds^4| at the flight start.
@@ -290,6 +292,7 @@ contains
       end block
       self%sample_weights = 0
       self%min_step = 0.25_dp/max(maxval(abs(self%eigenvalue)), omega, tiny(1.0_dp))/1024
+      self%rate4 = abs(self%eigenvalue)**4
       self%eigen_re = real(self%eigenvalue, dp)
       self%eigen_im = aimag(self%eigenvalue)
       self%rate_max = max(maxval(abs(self%eigenvalue)), omega)
@@ -359,17 +362,32 @@ contains
       phase = model%scene%omega*tau
       sin_phase = sin(phase)
       cos_phase = cos(phase)
-      self%z = 0
-      do j = 1, self%n_state
-         self%z = self%z + self%inverse(:, j)*(y(j) - self%u(j)*sin_phase - self%v(j)*cos_phase)
-      end do
+      call modal_coefficients(self%n_state, self%n_terms, self%inverse, self%u, self%v, y, sin_phase, cos_phase, &
+                              self%z)
       self%tip_weight = self%z*self%tip_of_vector
       self%term_size = self%multiplicity*abs(self%tip_weight)
-      self%weight4 = self%term_size*abs(self%eigenvalue)**4
+      self%weight4 = self%term_size*self%rate4
       self%margin = switch_margin(model, y)
       self%fourth_derivative_bound = sum(self%weight4) + self%harmonic_bound
       self%since_anchor = anchor_every
    end subroutine flight_start
+
+   !> z = V^-1 (y - u sin - v cos) for the kept terms, column by column of V^-1 (explicit shapes).
+   pure subroutine modal_coefficients(m, n_terms, inverse, u, v, y, sin_phase, cos_phase, z)
+      integer, intent(in) :: m, n_terms
+      complex(dp), intent(in) :: inverse(n_terms, m)
+      real(dp), intent(in) :: u(m), v(m), y(m), sin_phase, cos_phase
+      complex(dp), intent(out) :: z(n_terms)
+      real(dp) :: h
+      integer :: j, k
+      z = 0
+      do j = 1, m
+         h = y(j) - u(j)*sin_phase - v(j)*cos_phase
+         do k = 1, n_terms
+            z(k) = z(k) + inverse(k, j)*h
+         end do
+      end do
+   end subroutine modal_coefficients
 
    subroutine flight_sample_step(self, dt)
       class(free_flight_t), intent(inout) :: self

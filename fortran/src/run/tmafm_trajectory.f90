@@ -328,6 +328,7 @@ contains
       character(len=*), parameter :: phase_name(2) = ['free   ', 'contact']
 
       ierr = ok
+      if (within_limit(size(y), model%n_modes, y, settings%blowup_limit)) return
       if (all(ieee_is_finite(y))) then
          if (maxval(abs(y(1:model%n_modes))) <= settings%blowup_limit) return
          write (what, '(a,es10.3e3,a,es10.3e3)') 'max|a_j| = ', maxval(abs(y(1:model%n_modes))), &
@@ -340,6 +341,24 @@ contains
          ', after a ', 'step of ', h, ' (', trim(phase_name(merge(2, 1, in_contact))), ' phase); ', &
          trim(likely_cause(settings%method))
    end subroutine check_blowup
+
+   !> Whether every y(j) is finite and max |y(1:n)| <= limit, in one pass without branches:
+   !> y(j)*0 is 0 for a finite y(j) and NaN for an infinite or NaN one (check_blowup's fast path).
+   pure logical function within_limit(m, n, y, limit)
+      integer, intent(in) :: m, n
+      real(dp), intent(in) :: y(m), limit
+      real(dp) :: zero, largest
+      integer :: j
+      zero = 0
+      largest = 0
+      do j = 1, m
+         zero = zero + y(j)*0
+      end do
+      do j = 1, n
+         largest = max(largest, abs(y(j)))
+      end do
+      within_limit = zero == 0 .and. largest <= limit
+   end function within_limit
 
    !> What a blow-up most likely means for a method, and what to change.
    !> (Blank-padded: a deferred-length result is not thread-safe with gfortran 12, see tmafm_text.)

@@ -356,7 +356,6 @@ contains
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: y(:)
       real(dp) :: phase, sin_phase, cos_phase
-      integer :: j
 
       self%tau0 = tau
       phase = model%scene%omega*tau

@@ -215,55 +215,44 @@ contains
    end subroutine trajectory_next_phases
 
    !> store_at_phase for count samples at once: ys(:, i) (the state, 2N) in sample
-   !> next_sample + i - 1, whose drive phase is sin_phase(i), cos_phase(i).
+   !> next_sample + i - 1, whose drive phase is sin_phase(i), cos_phase(i).  V_T and its rate
+   !> are model%gap_at_phase's, their one definition.
    pure subroutine trajectory_store_rows(self, model, count, ys, sin_phase, cos_phase)
       class(trajectory_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       integer, intent(in) :: count
+      !> The states, one column per sample (2N x count).
       real(dp), intent(in) :: ys(2*model%n_modes, count)
       real(dp), intent(in) :: sin_phase(count)
       real(dp), intent(in) :: cos_phase(count)
-      integer :: k
+      real(dp) :: vt, vtdot
+      integer :: i, k
       if (count < 1) return
       k = self%next_sample
       if (k == 1) call model%phase(self%sample_dtau, self%step_sin, self%step_cos)
-      associate (s => model%scene)
-         call put_rows(model%n_modes, size(self%tau), k, count, ys, model%tip, s%alpha2, s%alpha2*s%omega, &
-                       s%delta_hat, sin_phase, cos_phase, self%a, self%adot, self%vt, self%vtdot, self%contact)
-      end associate
+      do i = 1, count
+         call put_row(model%n_modes, size(self%tau), k + i - 1, ys(:, i), self%a, self%adot)
+         call model%gap_at_phase(ys(:, i), sin_phase(i), cos_phase(i), vt, vtdot)
+         self%vt(k + i - 1) = vt
+         self%vtdot(k + i - 1) = vtdot
+         self%contact(k + i - 1) = merge(1, 0, vt <= 0)
+      end do
       self%last_sin = sin_phase(count)
       self%last_cos = cos_phase(count)
       self%next_sample = k + count
    end subroutine trajectory_store_rows
 
-   !> Rows k .. k + count - 1 of a, adot (rows x n), vt, vtdot and contact from the states
-   !> ys(:, i) = (a, a') and their drive phases: V_T = p.a + alpha2 sin + delta_hat and
-   !> dV_T/dtau = p.a' + alpha2 Omega cos, summed as model%gap_at_phase sums them (term by
-   !> term from 0, then the drive, then delta_hat), and the flag V_T <= 0.
-   pure subroutine put_rows(n, rows, k, count, ys, tip, alpha2, drive_rate, delta_hat, sin_phase, cos_phase, &
-                            a, adot, vt, vtdot, contact)
-      integer, intent(in) :: n, rows, k, count
-      real(dp), intent(in) :: ys(2*n, count), tip(n), alpha2, drive_rate, delta_hat
-      real(dp), intent(in) :: sin_phase(count), cos_phase(count)
-      real(dp), intent(inout) :: a(rows, n), adot(rows, n), vt(rows), vtdot(rows)
-      integer, intent(inout) :: contact(rows)
-      real(dp) :: gap, rate
-      integer :: i, j
-      do i = 1, count
-         gap = 0
-         rate = 0
-         do j = 1, n
-            a(k + i - 1, j) = ys(j, i)
-            adot(k + i - 1, j) = ys(n + j, i)
-            gap = gap + tip(j)*ys(j, i)
-            rate = rate + tip(j)*ys(n + j, i)
-         end do
-         gap = gap + alpha2*sin_phase(i) + delta_hat
-         vt(k + i - 1) = gap
-         vtdot(k + i - 1) = rate + drive_rate*cos_phase(i)
-         contact(k + i - 1) = merge(1, 0, gap <= 0)
+   !> Row k of a and adot (rows x n) from the state y = (a, a').
+   pure subroutine put_row(n, rows, k, y, a, adot)
+      integer, intent(in) :: n, rows, k
+      real(dp), intent(in) :: y(2*n)
+      real(dp), intent(inout) :: a(rows, n), adot(rows, n)
+      integer :: j
+      do j = 1, n
+         a(k, j) = y(j)
+         adot(k, j) = y(n + j)
       end do
-   end subroutine put_rows
+   end subroutine put_row
 
    !> step is the length of the step that found the switch (or the method's nominal step).
    pure subroutine trajectory_add_switch(self, tau, step, ierr, errmsg)
@@ -328,7 +317,6 @@ contains
       character(len=*), parameter :: phase_name(2) = ['free   ', 'contact']
 
       ierr = ok
-      if (within_limit(size(y), model%n_modes, y, settings%blowup_limit)) return
       if (all(ieee_is_finite(y))) then
          if (maxval(abs(y(1:model%n_modes))) <= settings%blowup_limit) return
          write (what, '(a,es10.3e3,a,es10.3e3)') 'max|a_j| = ', maxval(abs(y(1:model%n_modes))), &
@@ -341,24 +329,6 @@ contains
          ', after a ', 'step of ', h, ' (', trim(phase_name(merge(2, 1, in_contact))), ' phase); ', &
          trim(likely_cause(settings%method))
    end subroutine check_blowup
-
-   !> Whether every y(j) is finite and max |y(1:n)| <= limit, in one pass without branches:
-   !> y(j)*0 is 0 for a finite y(j) and NaN for an infinite or NaN one (check_blowup's fast path).
-   pure logical function within_limit(m, n, y, limit)
-      integer, intent(in) :: m, n
-      real(dp), intent(in) :: y(m), limit
-      real(dp) :: zero, largest
-      integer :: j
-      zero = 0
-      largest = 0
-      do j = 1, m
-         zero = zero + y(j)*0
-      end do
-      do j = 1, n
-         largest = max(largest, abs(y(j)))
-      end do
-      within_limit = zero == 0 .and. largest <= limit
-   end function within_limit
 
    !> What a blow-up most likely means for a method, and what to change.
    !> (Blank-padded: a deferred-length result is not thread-safe with gfortran 12, see tmafm_text.)

@@ -27,8 +27,10 @@
 !> init, [u | v | Re V | -Im V], with [sin, cos, Re terms, Im terms], a block of rows at a time
 !> (O(N^2) multiplications per sample, vectorised along the rows, and no libm).  The
 !> terms are taken afresh from exp(lambda s) at the first sample of a flight, every
-!> anchor_every samples, and whenever a sample is not dt past the previous one; between
-!> anchors the rounding drifts by a few ulp per sample (tests/test_sampling.py bounds it).
+!> anchor_every samples, and (in `sample`) whenever a sample is not dt past the previous one;
+!> between anchors the rounding drifts by a few ulp per sample (tests/test_sampling.py bounds
+!> it).  The run loop takes a flight's samples a block at a time (`samples`), on explicit
+!> shapes, with the anchors counted.
 module tmafm_flight
    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
    use tmafm_kinds, only: dp, i8
@@ -69,6 +71,8 @@ module tmafm_flight
       complex(dp), allocatable :: z(:), tip_weight(:)
       !> multiplicity |tip_weight| |lambda|^4: each term's share of |d^4 V_T/ds^4| at s = 0.
       real(dp), allocatable :: weight4(:)
+      !> |lambda|^4 per term.
+      real(dp), allocatable :: rate4(:)
       !> Round-off level of V_T at the flight start: contact begins at V_T <= -margin.
       real(dp) :: margin = 0
       !> Bound on |d^4 V_T/ds^4| at the flight start.
@@ -124,6 +128,8 @@ module tmafm_flight
       procedure :: sample_step => flight_sample_step
       !> The state at the output sample tau0 + s, given sin and cos of Omega (tau0 + s).
       procedure :: sample => flight_sample
+      !> The states at consecutive output samples of the flight, given sin and cos at each.
+      procedure :: samples => flight_samples
       !> V_T and dV_T/dtau at tau0 + s.
       procedure :: gap => flight_gap
       !> The first s in (0, s_max] with V_T <= 0, located to round-off; found = .false. if none.
@@ -286,6 +292,7 @@ contains
       end block
       self%sample_weights = 0
       self%min_step = 0.25_dp/max(maxval(abs(self%eigenvalue)), omega, tiny(1.0_dp))/1024
+      self%rate4 = abs(self%eigenvalue)**4
       self%eigen_re = real(self%eigenvalue, dp)
       self%eigen_im = aimag(self%eigenvalue)
       self%rate_max = max(maxval(abs(self%eigenvalue)), omega)
@@ -349,23 +356,37 @@ contains
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: y(:)
       real(dp) :: phase, sin_phase, cos_phase
-      integer :: j
 
       self%tau0 = tau
       phase = model%scene%omega*tau
       sin_phase = sin(phase)
       cos_phase = cos(phase)
-      self%z = 0
-      do j = 1, self%n_state
-         self%z = self%z + self%inverse(:, j)*(y(j) - self%u(j)*sin_phase - self%v(j)*cos_phase)
-      end do
+      call modal_coefficients(self%n_state, self%n_terms, self%inverse, self%u, self%v, y, sin_phase, cos_phase, &
+                              self%z)
       self%tip_weight = self%z*self%tip_of_vector
       self%term_size = self%multiplicity*abs(self%tip_weight)
-      self%weight4 = self%term_size*abs(self%eigenvalue)**4
+      self%weight4 = self%term_size*self%rate4
       self%margin = switch_margin(model, y)
       self%fourth_derivative_bound = sum(self%weight4) + self%harmonic_bound
       self%since_anchor = anchor_every
    end subroutine flight_start
+
+   !> z = V^-1 (y - u sin - v cos) for the kept terms, column by column of V^-1 (explicit shapes).
+   pure subroutine modal_coefficients(m, n_terms, inverse, u, v, y, sin_phase, cos_phase, z)
+      integer, intent(in) :: m, n_terms
+      complex(dp), intent(in) :: inverse(n_terms, m)
+      real(dp), intent(in) :: u(m), v(m), y(m), sin_phase, cos_phase
+      complex(dp), intent(out) :: z(n_terms)
+      real(dp) :: h
+      integer :: j, k
+      z = 0
+      do j = 1, m
+         h = y(j) - u(j)*sin_phase - v(j)*cos_phase
+         do k = 1, n_terms
+            z(k) = z(k) + inverse(k, j)*h
+         end do
+      end do
+   end subroutine modal_coefficients
 
    subroutine flight_sample_step(self, dt)
       class(free_flight_t), intent(inout) :: self
@@ -380,37 +401,74 @@ contains
 
    !> The same state as flight_state to round-off, for the output samples of a flight: if s
    !> is sample_dt past the previous sample of this flight the terms are turned by the rotor,
-   !> else taken from exp.  sin_phase and cos_phase are those of Omega (tau0 + s) (the
-   !> trajectory carries them from sample to sample).
+   !> else taken from exp.  sin_phase and cos_phase are those of Omega (tau0 + s).
    pure subroutine flight_sample(self, s, sin_phase, cos_phase, y)
       class(free_flight_t), intent(inout) :: self
       real(dp), intent(in) :: s
       real(dp), intent(in) :: sin_phase
       real(dp), intent(in) :: cos_phase
       real(dp), intent(out) :: y(:)
+      if (.not. (abs(s - (self%s_last + self%sample_dt)) <= 16*epsilon(1.0_dp)*(abs(self%tau0) + abs(s)))) &
+         self%since_anchor = anchor_every
+      call sample_run(self%n_state, self%n_terms, self%sample_blocks, 1, 0.0_dp, [s], [sin_phase], &
+                      [cos_phase], self%multiplicity, self%z, self%eigenvalue, self%rotor_re, self%rotor_im, &
+                      self%sample_matrix, self%sample_weights, self%since_anchor, y)
+      self%s_last = s
+   end subroutine flight_sample
+
+   !> The states at count consecutive output samples of the flight, at times tau(1:count): each
+   !> sample_dt past the one before, the first sample_dt past the flight's last one sampled
+   !> unless it is the flight's first (the trajectory's samples, in order).  sin_phase and
+   !> cos_phase are those of Omega tau.  The terms are turned by the rotor from one sample to
+   !> the next, and taken afresh from exp(lambda s), s = tau - tau0, at the flight's first
+   !> sample and every anchor_every samples: the anchors of `sample`, counted, not tested.
+   pure subroutine flight_samples(self, count, tau, sin_phase, cos_phase, ys)
+      class(free_flight_t), intent(inout) :: self
+      integer, intent(in) :: count
+      real(dp), intent(in) :: tau(count)
+      real(dp), intent(in) :: sin_phase(count)
+      real(dp), intent(in) :: cos_phase(count)
+      !> The states, one column per sample (n_state x count).
+      real(dp), intent(out) :: ys(self%n_state, count)
+      if (count < 1) return
+      call sample_run(self%n_state, self%n_terms, self%sample_blocks, count, self%tau0, tau, sin_phase, &
+                      cos_phase, self%multiplicity, self%z, self%eigenvalue, self%rotor_re, self%rotor_im, &
+                      self%sample_matrix, self%sample_weights, self%since_anchor, ys)
+      self%s_last = tau(count) - self%tau0
+   end subroutine flight_samples
+
+   !> The sample loop on explicit shapes: per sample the weights [sin, cos, Re running, Im
+   !> running] (the terms turned, or anchored: running = multiplicity z exp(lambda s), s =
+   !> tau - origin), then the state from sum_terms.
+   pure subroutine sample_run(m, n_terms, blocks, count, origin, tau, sin_phase, cos_phase, multiplicity, z, &
+                              eigenvalue, rotor_re, rotor_im, matrix, weights, since_anchor, ys)
+      integer, intent(in) :: m, n_terms, blocks, count
+      real(dp), intent(in) :: origin, tau(count), sin_phase(count), cos_phase(count), multiplicity(n_terms)
+      complex(dp), intent(in) :: z(n_terms), eigenvalue(n_terms)
+      real(dp), intent(in) :: rotor_re(n_terms), rotor_im(n_terms)
+      real(dp), intent(in) :: matrix(sample_block, 2 + 2*n_terms, blocks)
+      real(dp), intent(inout) :: weights(2 + 2*n_terms)
+      integer, intent(inout) :: since_anchor
+      real(dp), intent(out) :: ys(m, count)
       complex(dp) :: term
-      integer :: k, n_terms
-      n_terms = self%n_terms
-      associate (w => self%sample_weights)
-         if (self%since_anchor < anchor_every .and. &
-             abs(s - (self%s_last + self%sample_dt)) <= 16*epsilon(1.0_dp)*(abs(self%tau0) + abs(s))) then
-            call turn(n_terms, self%rotor_re, self%rotor_im, w(3:2 + n_terms), w(3 + n_terms:2 + 2*n_terms))
-            self%since_anchor = self%since_anchor + 1
+      integer :: i, k
+      do i = 1, count
+         if (since_anchor < anchor_every) then
+            call turn(n_terms, rotor_re, rotor_im, weights(3:2 + n_terms), weights(3 + n_terms:2 + 2*n_terms))
+            since_anchor = since_anchor + 1
          else
             do k = 1, n_terms
-               term = self%multiplicity(k)*self%z(k)*exp(self%eigenvalue(k)*s)
-               w(2 + k) = real(term, dp)
-               w(2 + n_terms + k) = aimag(term)
+               term = multiplicity(k)*z(k)*exp(eigenvalue(k)*(tau(i) - origin))
+               weights(2 + k) = real(term, dp)
+               weights(2 + n_terms + k) = aimag(term)
             end do
-            self%since_anchor = 1
+            since_anchor = 1
          end if
-         w(1) = sin_phase
-         w(2) = cos_phase
-      end associate
-      self%s_last = s
-      call sum_terms(self%n_state, self%sample_blocks, 2 + 2*n_terms, self%sample_matrix, &
-                     self%sample_weights, y)
-   end subroutine flight_sample
+         weights(1) = sin_phase(i)
+         weights(2) = cos_phase(i)
+         call sum_terms(m, blocks, 2 + 2*n_terms, matrix, weights, ys(:, i))
+      end do
+   end subroutine sample_run
 
    !> running = running rotor, term by term (complex numbers as real and imaginary parts).
    pure subroutine turn(n_terms, rotor_re, rotor_im, running_re, running_im)

@@ -20,6 +20,9 @@ module tmafm_method_flight
    !> The embedded pair used in contact (measured fastest: docs/performance.md).
    integer, parameter :: contact_pair = pair_dop853
 
+   !> Flight samples taken together (phases, states, rows), a block at a time.
+   integer, parameter :: sample_chunk = 64
+
 contains
 
    !> Integrate from y0 at tau = 0 until every sample of traj is filled.
@@ -36,15 +39,15 @@ contains
 
       type(free_flight_t) :: flight
       type(adaptive_state_t) :: contact
-      real(dp), allocatable :: y_sample(:)
-      real(dp) :: s_contact, horizon, sin_phase, cos_phase
+      real(dp), allocatable :: y_block(:, :)
+      real(dp) :: s_contact, horizon, sin_block(sample_chunk), cos_block(sample_chunk)
       logical :: found
-      integer :: evaluations
+      integer :: evaluations, left, count, k
 
       call flight%init(model, ierr, errmsg)
       if (ierr /= ok) return
       call flight%sample_step(settings%sample_dtau)
-      allocate (y_sample(size(y0)))
+      allocate (y_block(size(y0), sample_chunk))
       call traj%store(model, y0)
       call contact%init(contact_pair, model, settings, 0.0_dp, y0)
       horizon = traj%tau(size(traj%tau))
@@ -66,10 +69,16 @@ contains
             traj%steps = traj%steps + 1
             call traj%charge(settings, tau, 1 + evaluations, ierr, errmsg)
             if (ierr /= ok) return
-            do while (traj%next_time() <= tau + s_contact)
-               call traj%next_phase(model, sin_phase, cos_phase)
-               call flight%sample(traj%next_time() - tau, sin_phase, cos_phase, y_sample)
-               call traj%store_at_phase(model, y_sample, sin_phase, cos_phase)
+            ! The flight's samples, sample_chunk at a time: their drive phases, their states,
+            ! then the trajectory's rows (with V_T and the flags).
+            left = traj%samples_by(tau + s_contact)
+            do while (left > 0)
+               count = min(left, sample_chunk)
+               k = traj%next_sample
+               call traj%next_phases(model, count, sin_block, cos_block)
+               call flight%samples(count, traj%tau(k:k + count - 1), sin_block, cos_block, y_block)
+               call traj%store_rows(model, count, y_block, sin_block, cos_block)
+               left = left - count
             end do
             if (present(observer)) call observer%flight_segment(model, flight, tau, s_contact)
             call flight%state(model, s_contact, y)

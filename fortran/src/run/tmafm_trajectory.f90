@@ -67,6 +67,12 @@ module tmafm_trajectory
       procedure :: next_phase => trajectory_next_phase
       !> Store y in the next free sample, whose drive phase next_phase gave.
       procedure :: store_at_phase => trajectory_store_at_phase
+      !> How many of the samples still to fill lie at or before tau.
+      procedure :: samples_by => trajectory_samples_by
+      !> sin(Omega tau) and cos(Omega tau) at the next count samples (what store_rows takes).
+      procedure :: next_phases => trajectory_next_phases
+      !> Store count states (columns) in the next count samples, whose phases next_phases gave.
+      procedure :: store_rows => trajectory_store_rows
       !> The time of the next sample still to fill (huge when all are filled).
       procedure :: next_time => trajectory_next_time
       !> .true. once every sample is filled.
@@ -161,19 +167,80 @@ contains
       real(dp), contiguous, intent(in) :: y(:)
       real(dp), intent(in) :: sin_phase
       real(dp), intent(in) :: cos_phase
+      call self%store_rows(model, 1, y, [sin_phase], [cos_phase])
+   end subroutine trajectory_store_at_phase
+
+   pure integer function trajectory_samples_by(self, tau) result(count)
+      class(trajectory_t), intent(in) :: self
+      real(dp), intent(in) :: tau
       integer :: k
-      real(dp) :: vt, vtdot
+      k = self%next_sample
+      do while (k <= size(self%tau))
+         if (.not. (self%tau(k) <= tau)) exit
+         k = k + 1
+      end do
+      count = k - self%next_sample
+   end function trajectory_samples_by
+
+   !> The phases next_phase would give, sample after sample, for the next count samples
+   !> (count <= the samples left to fill).
+   pure subroutine trajectory_next_phases(self, model, count, sin_phase, cos_phase)
+      class(trajectory_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      integer, intent(in) :: count
+      real(dp), intent(out) :: sin_phase(count)
+      real(dp), intent(out) :: cos_phase(count)
+      real(dp) :: last_sin, last_cos, step_sin, step_cos
+      integer :: i, k, since
+      if (count < 1) return
       k = self%next_sample
       if (k == 1) call model%phase(self%sample_dtau, self%step_sin, self%step_cos)
-      call put_row(model%n_modes, size(self%tau), k, y, self%a, self%adot)
-      call model%gap_at_phase(y, sin_phase, cos_phase, vt, vtdot)
-      self%vt(k) = vt
-      self%vtdot(k) = vtdot
-      self%contact(k) = merge(1, 0, vt <= 0)
-      self%last_sin = sin_phase
-      self%last_cos = cos_phase
-      self%next_sample = k + 1
-   end subroutine trajectory_store_at_phase
+      last_sin = self%last_sin
+      last_cos = self%last_cos
+      step_sin = self%step_sin
+      step_cos = self%step_cos
+      since = mod(k - 1, phase_anchor_every)
+      do i = 1, count
+         if (since == 0) then
+            call model%phase(self%tau(k + i - 1), sin_phase(i), cos_phase(i))
+         else
+            sin_phase(i) = last_sin*step_cos + last_cos*step_sin
+            cos_phase(i) = last_cos*step_cos - last_sin*step_sin
+         end if
+         last_sin = sin_phase(i)
+         last_cos = cos_phase(i)
+         since = since + 1
+         if (since == phase_anchor_every) since = 0
+      end do
+   end subroutine trajectory_next_phases
+
+   !> store_at_phase for count samples at once: ys(:, i) (the state, 2N) in sample
+   !> next_sample + i - 1, whose drive phase is sin_phase(i), cos_phase(i).  V_T and its rate
+   !> are model%gap_at_phase's, their one definition.
+   pure subroutine trajectory_store_rows(self, model, count, ys, sin_phase, cos_phase)
+      class(trajectory_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      integer, intent(in) :: count
+      !> The states, one column per sample (2N x count).
+      real(dp), intent(in) :: ys(2*model%n_modes, count)
+      real(dp), intent(in) :: sin_phase(count)
+      real(dp), intent(in) :: cos_phase(count)
+      real(dp) :: vt, vtdot
+      integer :: i, k
+      if (count < 1) return
+      k = self%next_sample
+      if (k == 1) call model%phase(self%sample_dtau, self%step_sin, self%step_cos)
+      do i = 1, count
+         call put_row(model%n_modes, size(self%tau), k + i - 1, ys(:, i), self%a, self%adot)
+         call model%gap_at_phase(ys(:, i), sin_phase(i), cos_phase(i), vt, vtdot)
+         self%vt(k + i - 1) = vt
+         self%vtdot(k + i - 1) = vtdot
+         self%contact(k + i - 1) = merge(1, 0, vt <= 0)
+      end do
+      self%last_sin = sin_phase(count)
+      self%last_cos = cos_phase(count)
+      self%next_sample = k + count
+   end subroutine trajectory_store_rows
 
    !> Row k of a and adot (rows x n) from the state y = (a, a').
    pure subroutine put_row(n, rows, k, y, a, adot)

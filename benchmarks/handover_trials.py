@@ -12,7 +12,9 @@ solver: every variant cost more right-hand sides than the hand-over it would rep
 Variants (TMAFM_V): 0 the hand-over as built (first tau step 2 sigma dsigma from the warp's
 controller, the controller restarted, PI for 4 steps); 1 the first tau step the last warped
 step's length in tau times the PI factor of the last two warped norms; 10 the hand-over as
-built, the controller's history kept (PI from the warped norms); 11 both.
+built, the controller's history kept (PI from the warped norms); 11 both.  With TMAFM_TRACE
+set, the trial build also writes every contact step tried to stderr (warped or not, tau, its
+length in tau, its error norm) and `warp end` at each hand-over.
 
 Counters (the npz `counters`, whole runs) summed over every scene and tolerance of
 benchmarks/contact_steps.py with alpha2 scaled by 9 factors in [0.92, 1.08] (a steady contact's
@@ -28,6 +30,7 @@ import importlib.util
 import json
 import math
 import os
+import re
 import subprocess
 import tempfile
 from pathlib import Path
@@ -42,6 +45,25 @@ _spec.loader.exec_module(cs)
 
 SPREAD = np.linspace(0.92, 1.08, 9)
 SWEEP_PERIODS = 60
+
+
+def imaginary_stability_limit():
+    """The largest y with |R(iy')| <= 1 for all y' <= y, R the stability function of dop853's
+    eighth-order solution, from the coefficients in tmafm_dop853.f90 (steps of 0.01)."""
+    src = (cs.REPO / "fortran/src/integrators/tmafm_dop853.f90").read_text()
+    a, b = np.zeros((12, 12)), np.zeros(12)
+    for name, value in re.findall(r"\b([ab]\d+(?:_\d+)?) = (-?[0-9.]+(?:e-?\d+)?)_dp", src):
+        idx = [int(i) - 1 for i in name[1:].split("_")]
+        if name[0] == "a" and idx[0] < 12:
+            a[idx[0], idx[1]] = float(value)
+        elif name[0] == "b":
+            b[idx[0]] = float(value)
+    y = 0.0
+    while True:
+        z = 1j * (y + 0.01)
+        if abs(1 + z * b @ np.linalg.solve(np.eye(12) - z * a, np.ones(12))) > 1 + 1e-12:
+            return y
+        y += 0.01
 
 
 def counters(exe, variant, nml, scratch):
@@ -60,7 +82,8 @@ def main():
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    result = {"sweep": {}, "runs": {}}
+    result = {"sweep": {}, "runs": {}, "dop853_imaginary_stability_limit": round(imaginary_stability_limit(), 2)}
+    print("dop853 stable on the imaginary axis to |z| =", result["dop853_imaginary_stability_limit"])
     with tempfile.TemporaryDirectory() as scratch:
         npz = str(Path(scratch) / "out.npz")
         for scene in cs.SCENES:

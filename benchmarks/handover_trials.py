@@ -2,10 +2,10 @@
 steps in tau after the warp"): steps, rejections and right-hand sides of a trial build whose
 hand-over from sigma to tau is chosen at run time by the environment variable TMAFM_V.
 
-The trial build is this checkout with benchmarks/handover_trials.patch applied (not kept in the
-solver: every variant cost more right-hand sides than the hand-over it would replace):
+The trial build is commit b2bf63b (the patch's base) with benchmarks/handover_trials.patch
+applied (not kept in the solver: every variant cost more right-hand sides than the hand-over it would replace):
 
-    mkdir /tmp/trial && git archive HEAD | tar -x -C /tmp/trial && cd /tmp/trial \
+    mkdir /tmp/trial && git archive b2bf63b | tar -x -C /tmp/trial && cd /tmp/trial \
         && patch -p1 < benchmarks/handover_trials.patch && meson setup build-t && ninja -C build-t tmafm \
         && cd - && python benchmarks/handover_trials.py --exe /tmp/trial/build-t/tmafm --out /tmp/ht
 

@@ -97,7 +97,11 @@ program tmafm_main
    if (ierr /= ok) call fail(ierr, errmsg)
 
    call mark(1)
-   call choose_mode_count(config, ierr, errmsg)
+   if (quiet) then
+      call choose_mode_count(config, ierr, errmsg)
+   else
+      call choose_mode_count(config, ierr, errmsg, progress_unit=error_unit)
+   end if
    if (ierr == ok) call check_output_size(sink, int(sample_count(config%solver), i8), config%n_modes, &
                                           ierr, errmsg)
    if (ierr == ok) then

@@ -75,8 +75,8 @@ CASES = {
                               ["sample_dtau", "samples, more than 50000000"], INPUT_ERROR),
     "sample_memory": ("&model n_modes = 30 /\n&solver tau_end = 1e5, method = 'dopri5' /\n"
                       "&output sample_dtau = 1e-2 /\n", ["sample_dtau", "2 GiB"], INPUT_ERROR),
-    "auto_n_comparison_samples": ("&model n_modes = 0, mode_horizon = 1e4 /\n&solver tau_end = 1e-2 /\n"
-                                  "&output sample_dtau = 1e-5 /\n",
+    "auto_n_comparison_samples": ("&model n_modes = 0, mode_horizon = 100 /\n&solver tau_end = 1e-2 /\n"
+                                  "&output sample_dtau = 1e-6 /\n",
                                   ["automatic-N comparison runs", "mode_horizon", "samples"], INPUT_ERROR),
     # Derived groups of Eq. (12) checked before the run, naming the input to change.
     "physical_gives_infinite_group": ("&physical youngs_modulus_tip = 1e-300 /\n",

@@ -11,6 +11,7 @@ program tmafm_main
       tmafm_version_string, ok, errmsg_len, path_len, output_sink_t, prepare_output, &
       check_output_size, begin_output, write_output, discard_output, sample_count, target_file, &
       printable_text
+   use tmafm_posix, only: write_text, error_text
    implicit none
 
    interface
@@ -48,10 +49,10 @@ program tmafm_main
       call get_argument(i, argument)
       select case (argument)
       case ('-h', '--help')
-         call print_help()
+         call print_stdout(help_text(), 'the help text')
          stop
       case ('-V', '--version')
-         write (output_unit, '(a)') 'tmafm '//tmafm_version_string
+         call print_stdout('tmafm '//tmafm_version_string//new_line('a'), 'the version')
          stop
       case ('-q', '--quiet')
          quiet = .true.
@@ -97,7 +98,11 @@ program tmafm_main
    if (ierr /= ok) call fail(ierr, errmsg)
 
    call mark(1)
-   call choose_mode_count(config, ierr, errmsg)
+   if (quiet) then
+      call choose_mode_count(config, ierr, errmsg)
+   else
+      call choose_mode_count(config, ierr, errmsg, progress_unit=error_unit)
+   end if
    if (ierr == ok) call check_output_size(sink, int(sample_count(config%solver), i8), config%n_modes, &
                                           ierr, errmsg)
    if (ierr == ok) then
@@ -190,8 +195,20 @@ contains
       stop code, quiet=.true.
    end subroutine fail
 
-   subroutine print_help()
-      write (output_unit, '(a)') &
+   !> Write text to standard output (file descriptor 1, unbuffered): a failed write (a full
+   !> disk, a closed pipe) is exit 3 with one line, where Fortran's buffered unit lost it.
+   subroutine print_stdout(text, what)
+      character(len=*), intent(in) :: text
+      character(len=*), intent(in) :: what
+      integer :: status
+      status = write_text(1, text)
+      if (status < 0) call fail(3, 'cannot write '//what//' to standard output: '//error_text(status))
+   end subroutine print_stdout
+
+   !> The --help text, one new line after each line.
+   function help_text() result(text)
+      character(len=:), allocatable :: text
+      character(len=*), parameter :: lines(*) = [character(len=88) :: &
          'usage: tmafm INPUT.nml [-o FILE] [-q]', &
          '', &
          'Run the tapping-mode AFM model described by the namelist file INPUT.nml and', &
@@ -209,7 +226,12 @@ contains
          '(the name must end in .npz) for numpy.load.', &
          '', &
          'Groups: &model &scene (or &physical, SI units) &initial &solver &output.', &
-         'Exit status: 0 ok, 1 usage, 2 bad input, 3 file error, 4 blow-up, 5 run failure.'
-   end subroutine print_help
+         'Exit status: 0 ok, 1 usage, 2 bad input, 3 file error, 4 blow-up, 5 run failure.']
+      integer :: k
+      text = ''
+      do k = 1, size(lines)
+         text = text//trim(lines(k))//new_line('a')
+      end do
+   end function help_text
 
 end program tmafm_main

@@ -6,6 +6,8 @@ import sys
 import sysconfig
 from pathlib import Path
 
+from .errors import InputFileError
+
 __all__ = ["executable"]
 
 
@@ -18,4 +20,5 @@ def executable() -> str:
     for candidate in candidates:
         if candidate and os.access(candidate, os.X_OK) and Path(candidate).is_file():
             return candidate
-    raise FileNotFoundError("the tmafm executable is not installed (pip install . builds it)")
+    # InputFileError is a FileNotFoundError: callers that caught that still do.
+    raise InputFileError("the tmafm executable is not installed (pip install . builds it)")

@@ -30,6 +30,11 @@ def _version() -> str:
 def save(result, path) -> Path:
     """Write `result` to `path` (.npz), atomically: a temporary file, then a rename."""
     from ._run import COUNTER_KEYS, _atomic_write
+    try:
+        resolved_text = result.resolved_text
+    except AttributeError:
+        raise InputError("Result.save: this Result has no resolved input (build it with config=, "
+                         "resolved= or resolved_text=): a saved result must be rerunnable") from None
     arrays = {
         "tau": np.asarray(result.tau, dtype="<f8"),
         "vt": np.asarray(result.vt, dtype="<f8"),
@@ -39,7 +44,7 @@ def save(result, path) -> Path:
         "adot": np.asfortranarray(result.adot, dtype="<f8"),
         "switches": np.asarray(result.switches, dtype="<f8"),
         "counters": np.array([result.counters.get(k, 0) for k in COUNTER_KEYS], dtype="<i8"),
-        "resolved": np.array(result.resolved_text.encode("utf-8", "surrogateescape"), dtype="S"),
+        "resolved": np.array(resolved_text.encode("utf-8", "surrogateescape"), dtype="S"),
         "version": np.array(_version().encode("ascii"), dtype="S"),
     }
     buffer = io.BytesIO()

@@ -44,12 +44,21 @@ def _input_path(nml) -> Path:
             return path
         if path.exists():
             raise InputFileError(f"input file {name} is not a regular file")
+        # exists() is False for a link to nothing, a link loop and an unreadable folder alike:
+        # only a plain missing name goes on to the packaged inputs.
+        try:
+            path.stat()
+        except FileNotFoundError:
+            if path.is_symlink():
+                raise InputFileError(f"input file {name} is a symbolic link to a missing file") from None
         if path.suffix in ("", ".nml") and len(path.parts) == 1:
             try:
                 return _inputs.path(path.name)
             except InputFileError:
                 pass
-    except (OSError, ValueError) as exc:  # a name too long, or with a NUL byte
+    except InputFileError:
+        raise
+    except (OSError, ValueError) as exc:  # a name too long, with a NUL byte, a link loop
         raise InputFileError(f"input file {name} cannot be used: "
                              f"{getattr(exc, 'strerror', None) or exc}") from None
     raise InputFileError(f"input file {name} not found, and no packaged input has that name "

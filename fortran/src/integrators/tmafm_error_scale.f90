@@ -25,6 +25,14 @@ module tmafm_error_scale
 
    public :: error_scale_t
 
+   ! The tightest tolerance a mode is held to, as a fraction of the tip's, atol + rtol S_V:
+   ! sqrt(epsilon) = 1.5e-8.  A mode whose error is that far below the tip's tolerance cannot
+   ! change whether V_T meets it, and a mode at rest (S_j = 0) held to a tiny absolute atol
+   ! cannot be stepped at all: its first error estimate is round-off, about epsilon h |f|,
+   ! so atol = 1e-300 failed with a step size underflow at tau = 0 where atol = 0 ran.  Only
+   ! runs with atol below about 1.5e-8 rtol S_V (atol = 0 included) see the floor.
+   real(dp), parameter :: mode_floor_fraction = 2.0_dp**(-26)
+
    !> Running amplitudes and the inverse weights of the error norm.
    type :: error_scale_t
       !> Number of modes N.
@@ -116,16 +124,18 @@ contains
    !> The inverse weights from the running amplitudes.
    pure subroutine refresh_weights(self)
       type(error_scale_t), intent(inout) :: self
-      real(dp) :: tip_tolerance, tolerance
+      real(dp) :: tip_tolerance, tolerance, mode_floor
       integer :: j, n
       n = self%n_modes
       ! Floored so that atol = 0 with a tip at rest (and no drive) cannot divide by zero.
       tip_tolerance = max(self%atol + self%rtol*self%tip_amplitude, tiny(1.0_dp))
       self%tip_weight = 1/tip_tolerance
+      mode_floor = max(mode_floor_fraction*tip_tolerance, tiny(1.0_dp))
       do j = 1, n
+         ! No mode is held tighter than mode_floor_fraction of the tip's tolerance (a mode at
+         ! rest with atol = 0 or a tiny atol): a floor, so atol -> 0+ is continuous with 0.
          tolerance = self%atol + self%rtol*self%amplitude(j)
-         ! A mode that has not moved yet (with atol = 0) is held to the tip's tolerance.
-         if (.not. (tolerance > 0)) tolerance = tip_tolerance
+         if (.not. (tolerance >= mode_floor)) tolerance = mode_floor
          self%weight(j) = 1/tolerance
          self%weight(n + j) = 1/(self%omega(j)*tolerance)
       end do

@@ -7,7 +7,11 @@ module tmafm_config
    implicit none
    private
 
-   public :: config_t, path_len, output_formats
+   public :: config_t, path_len, output_formats, max_mode_horizon
+
+   !> Largest &model mode_horizon: the automatic-N search may run 30 comparison runs of this
+   !> length, and a Python call cannot be interrupted (README, Running; docs/reliability.md).
+   real(dp), parameter :: max_mode_horizon = 100.0_dp
 
    !> The values &output format accepts: 'text' (columns after '#' header lines) or 'npy'
    !> (the binary format).

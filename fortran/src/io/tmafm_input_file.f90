@@ -8,6 +8,7 @@ module tmafm_input_file
    use tmafm_errors, only: ok, err_input, err_file
    use tmafm_text, only: int_text
    use tmafm_nml_syntax, only: output_header_mark
+   use tmafm_posix, only: path_kind, kind_symlink, kind_missing, error_text
    implicit none
    private
 
@@ -29,7 +30,7 @@ contains
       character(len=:), allocatable :: buffer
       character(len=256) :: iomsg
       logical :: exists, is_directory, header_only, at_line_start
-      integer :: unit, iostat, n, used
+      integer :: unit, iostat, n, used, kind, target
 
       ierr = ok
       errmsg = ''
@@ -40,7 +41,15 @@ contains
       end if
       inquire (file=trim(path), exist=exists)
       if (.not. exists) then
-         call fail(err_file, 'input file '''//trim(path)//''' not found')
+         ! Say what is there: a symbolic link loop or a dangling link is not "not found".
+         kind = path_kind(trim(path), target)
+         if (kind < 0) then
+            call fail(err_file, 'input file '''//trim(path)//''' cannot be used: '//error_text(kind))
+         else if (kind == kind_symlink .and. target == kind_missing) then
+            call fail(err_file, 'input file '''//trim(path)//''' is a symbolic link to a missing file')
+         else
+            call fail(err_file, 'input file '''//trim(path)//''' not found')
+         end if
          return
       end if
       inquire (file=trim(path)//'/.', exist=is_directory)

@@ -24,7 +24,7 @@ module tmafm_namelist
    use tmafm_settings, only: run_settings_t, is_known_method, method_choices, check_run_size, &
       max_max_steps
    use tmafm_errata, only: errata_t, errata_for_convention, parse_errata, errata_label
-   use tmafm_config, only: config_t, output_formats
+   use tmafm_config, only: config_t, output_formats, max_mode_horizon
    use tmafm_nml_syntax, only: nml_document_t, nml_group_t, nml_entry_t, nml_value_t, &
       parse_namelist, value_integer, value_real, value_logical, value_string, value_word, &
       value_kind_name, value_other
@@ -180,7 +180,13 @@ contains
                call check_range(p, e, mode_tol, 0.0_dp, 1.0_dp, .false., .false., ierr, errmsg)
             case ('mode_horizon')
                call get_real(p, e, mode_horizon, ierr, errmsg)
-               call check_range(p, e, mode_horizon, 0.0_dp, 1.0e4_dp, .false., .false., ierr, errmsg)
+               call check_range(p, e, mode_horizon, 0.0_dp, max_mode_horizon, .false., .false., ierr, errmsg)
+               ! Why the bound: the search's cost grows with the horizon (docs/reliability.md).
+               if (ierr /= ok .and. mode_horizon > max_mode_horizon .and. mode_horizon <= huge(1.0_dp)) then
+                  call key_error(p, e, 'must be > 0 and <= '//real_text(max_mode_horizon)// &
+                                 ': with n_modes = 0 the search for N may run '//int_text(max_modes)// &
+                                 ' comparison runs of this length at rtol 1e-10', ierr, errmsg)
+               end if
             case ('contact_law')
                call get_string(p, e, len(config%contact_law), contact_law, ierr, errmsg)
                contact_law = lower(trim(adjustl(contact_law)))

@@ -11,6 +11,7 @@ module tmafm_simulation
    use tmafm_config, only: config_t
    use tmafm_settings, only: method_dopri5, check_run_size
    use tmafm_namelist, only: config_errata, read_config
+   use tmafm_text, only: int_text, real_text, short_real_text
    implicit none
    private
 
@@ -64,10 +65,12 @@ contains
    !> on those modes).  Sets config%n_modes and the evidence (one difference per N compared).
    !> The comparison runs use dopri5 at tight tolerances, whatever the run's own method, so
    !> that integration error (or a fixed step past RK4's stability limit) cannot decide N.
-   recursive subroutine choose_mode_count(config, ierr, errmsg)
+   recursive subroutine choose_mode_count(config, ierr, errmsg, progress_unit)
       type(config_t), intent(inout) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      !> If present, one line per comparison goes to this unit.
+      integer, intent(in), optional :: progress_unit
       type(config_t) :: trial
       type(trajectory_t) :: lower, upper
       real(dp) :: difference
@@ -96,6 +99,13 @@ contains
                                                            maxval(upper%vt) - minval(upper%vt))
          config%n_mode_differences = config%n_mode_differences + 1
          config%mode_differences(config%n_mode_differences) = difference
+         if (present(progress_unit)) then
+            write (progress_unit, '(a)') 'tmafm: choosing N: N = '//int_text(n)//' against '// &
+               int_text(n + 1)//' over mode_horizon = '//real_text(config%mode_horizon)// &
+               ': max|dV_T|/range = '//short_real_text(difference, 3)//' (mode_tol = '// &
+               real_text(config%mode_tol)//')'
+            flush (progress_unit)
+         end if
          if (difference <= config%mode_tol) exit
          call move_alloc(upper%vt, lower%vt)
          n = n + 1

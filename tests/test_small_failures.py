@@ -24,6 +24,23 @@ def test_failed_write_of_help_or_version_is_an_error(exe, option, what):
                                         f"{os.strerror(28)}"], proc.stderr
 
 
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="no /dev/full")
+def test_failed_write_of_the_run_summary_is_an_error(exe, tmp_path):
+    """The summary line after a run goes to stdout like --help: when it cannot be written the
+    run says so and exits 3 (it exited 0 silently); the output file itself is complete."""
+    nml = tmp_path / "in.nml"
+    tmafm.Config("fig2_n4", solver={"tau_end": 0.5}, output={"file": "out.npz", "format": "npy"}).write(nml)
+    with open("/dev/full", "w") as full:
+        proc = subprocess.run([exe, str(nml)], stdout=full, stderr=subprocess.PIPE, text=True,
+                              cwd=tmp_path, timeout=120)
+    assert proc.returncode == 3, proc.stderr
+    assert proc.stderr.splitlines()[-1] == (f"tmafm: error: cannot write the summary to standard output: "
+                                            f"{os.strerror(28)}"), proc.stderr
+    assert tmafm.load(tmp_path / "out.npz").tau[-1] == pytest.approx(0.5)
+    proc = subprocess.run([exe, str(nml)], capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert proc.returncode == 0 and proc.stdout == "tmafm: wrote 51 samples to out.npz\n", proc
+
+
 def test_help_and_version_still_print(exe):
     proc = subprocess.run([exe, "--help"], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0 and proc.stdout.startswith("usage: tmafm INPUT.nml"), proc

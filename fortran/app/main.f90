@@ -6,12 +6,13 @@
 !> the process dies.
 program tmafm_main
    use, intrinsic :: iso_c_binding, only: c_char, c_size_t
-   use, intrinsic :: iso_fortran_env, only: error_unit, output_unit
+   use, intrinsic :: iso_fortran_env, only: error_unit
    use tmafm, only: config_t, trajectory_t, read_config, simulate, choose_mode_count, i8, &
       tmafm_version_string, ok, errmsg_len, path_len, output_sink_t, prepare_output, &
       check_output_size, begin_output, write_output, discard_output, sample_count, target_file, &
       printable_text
    use tmafm_posix, only: write_text, error_text
+   use tmafm_text, only: int_text
    implicit none
 
    interface
@@ -134,8 +135,8 @@ program tmafm_main
    if (timings) write (error_unit, '(a)') 'tmafm: timings: run '//seconds(cpu(2) - cpu(1))//' s CPU, write '// &
       seconds(cpu(3) - cpu(2))//' s CPU ('//seconds(real(clock(3) - clock(2))/real(clock_rate))//' s wall)'
    ! The summary goes to stdout, unless stdout holds the data.
-   if (.not. quiet .and. sink%path /= '-') write (output_unit, '(a,i0,a)') 'tmafm: wrote ', size(traj%tau), &
-      ' samples to '//trim(config%output_file)
+   if (.not. quiet .and. sink%path /= '-') call print_stdout('tmafm: wrote '//int_text(size(traj%tau))// &
+      ' samples to '//trim(config%output_file)//new_line('a'), 'the summary')
 
 contains
 

@@ -1,5 +1,7 @@
 """Shared fixtures: the installed executable, the repository's inputs, and namelist helpers."""
 
+import os
+import stat
 import subprocess
 from pathlib import Path
 
@@ -35,4 +37,17 @@ def write_nml(path: Path, base=None, **groups) -> Path:
     for group, values in groups.items():
         merged.setdefault(group, {}).update(values)
     f90nml.write(f90nml.Namelist(merged), str(path), force=True)
+    return path
+
+
+def device_node(tmp_path, name, minor):
+    """A private character device node (1, minor: 3 is null, 7 is full), so the test never
+    risks the system's /dev/null or /dev/full."""
+    path = tmp_path / name
+    try:
+        os.mknod(path, 0o666 | stat.S_IFCHR, os.makedev(1, minor))
+        with open(path, "wb") as handle:
+            handle.write(b"")
+    except OSError as error:  # not root, or a nodev mount
+        pytest.skip(f"cannot make a device node here: {error}")
     return path

@@ -14,6 +14,8 @@ import pytest
 import tmafm
 from tmafm import sweeps
 
+from conftest import device_node
+
 
 @pytest.fixture(scope="module")
 def result():
@@ -28,27 +30,16 @@ def _writers(result):
     }
 
 
-def _device(tmp_path, name, minor):
-    path = tmp_path / name
-    try:
-        os.mknod(path, 0o666 | stat.S_IFCHR, os.makedev(1, minor))
-        with open(path, "wb") as handle:
-            handle.write(b"")
-    except OSError as error:  # not root, or a nodev mount
-        pytest.skip(f"cannot make a device node here: {error}")
-    return path
-
-
 def _leftovers(folder):
     return sorted(p.name for p in folder.iterdir() if "partial" in p.name)
 
 
 @pytest.mark.parametrize("how", ["save", "write"])
-def test_a_device_stays_a_device(tmp_path, result, how):
-    null = _device(tmp_path, "null", 3)
+def test_a_device_stays_adevice_node(tmp_path, result, how):
+    null = device_node(tmp_path, "null", 3)
     _writers(result)[how](null)
     assert stat.S_ISCHR(os.lstat(null).st_mode)
-    full = _device(tmp_path, "full", 7)
+    full = device_node(tmp_path, "full", 7)
     with pytest.raises(tmafm.InputFileError, match="No space left on device"):
         _writers(result)[how](full)
     assert stat.S_ISCHR(os.lstat(full).st_mode)
@@ -119,11 +110,11 @@ def test_write_dataset_never_writes_through_a_planted_link(tmp_path, dataset):
     assert _leftovers(tmp_path) == [".grid.nc.partial"]
 
 
-def test_write_dataset_refuses_a_link_and_keeps_a_device(tmp_path, dataset):
+def test_write_dataset_refuses_a_link_and_keeps_adevice_node(tmp_path, dataset):
     os.symlink(tmp_path / "elsewhere.nc", tmp_path / "link.nc")
     with pytest.raises(tmafm.InputFileError, match="symbolic link"):
         sweeps.write_dataset(dataset, tmp_path / "link.nc")
-    null = _device(tmp_path, "null", 3)
+    null = device_node(tmp_path, "null", 3)
     sweeps.write_dataset(dataset, null)
     assert stat.S_ISCHR(os.lstat(null).st_mode)
     assert _leftovers(tmp_path) == []

@@ -1,4 +1,5 @@
-"""Shared fixtures: the installed executable, the repository's inputs, and namelist helpers."""
+"""Shared fixtures: the installed executable, the repository's inputs, namelist helpers, private
+device nodes and a small tmpfs (full-disk tests)."""
 
 import os
 import stat
@@ -51,3 +52,18 @@ def device_node(tmp_path, name, minor):
     except OSError as error:  # not root, or a nodev mount
         pytest.skip(f"cannot make a device node here: {error}")
     return path
+
+
+@pytest.fixture
+def small_tmpfs(tmp_path):
+    """A 64 KiB tmpfs (needs root); unmounted afterwards."""
+    mount = tmp_path / "full"
+    mount.mkdir()
+    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mount)],
+                          capture_output=True, text=True)
+    if proc.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs: {proc.stderr.strip()}")
+    try:
+        yield mount
+    finally:
+        subprocess.run(["umount", str(mount)], check=True)

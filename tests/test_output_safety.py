@@ -34,21 +34,6 @@ def one_error_line(proc):
     return errors[0]
 
 
-@pytest.fixture
-def small_tmpfs(tmp_path):
-    """A 64 KiB tmpfs (needs root); unmounted afterwards."""
-    mount = tmp_path / "full"
-    mount.mkdir()
-    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mount)],
-                          capture_output=True, text=True)
-    if proc.returncode != 0:
-        pytest.skip(f"cannot mount a small tmpfs: {proc.stderr.strip()}")
-    try:
-        yield mount
-    finally:
-        subprocess.run(["umount", str(mount)], check=True)
-
-
 @pytest.mark.parametrize("fmt", ["text", "npy"])
 def test_full_disk_fails_and_leaves_nothing(tmp_path, run_exe, small_tmpfs, fmt):
     name = "out.npz" if fmt == "npy" else "out.dat"

@@ -323,7 +323,15 @@ def generate(seed: int, kind: str | None = None) -> Case:
         junk = JUNK[rng.integers(len(JUNK))] * int(rng.integers(1, 3))  # (rng.choice drops NUL)
         note = f"junk {junk!r} into {text[span[0]:span[1]]!r} at {where - span[0]}"
         text = text[:where] + junk + text[where:]
-        return Case(kind, text.encode("utf-8", "surrogatepass"), {}, True, seed=seed,
+        # One comma right after a whole value is a value separator: legal before '/', a new
+        # line or the next key (``a0 = 0.0, /``), so that input must run; before another comma
+        # it makes an empty value, which must fail.
+        after = text[where + len(junk):].lstrip(" \t")
+        separator = (junk == "," and span == m.span(2) and where == span[1]
+                     and not after.startswith(","))
+        if separator:
+            note += " (a legal separator)"
+        return Case(kind, text.encode("utf-8", "surrogatepass"), {}, not separator, seed=seed,
                     preexisting=bool(rng.random() < 0.3), note=note)
     expect = {k: v for k, v in _expect_all(groups).items() if k not in expect_skip}
     expect.update({k: v for k, v in expect_extra.items() if _checkable(*k, v)})
@@ -452,6 +460,11 @@ REGRESSIONS = [
     ("&model n_modes = 2 /\n&initial a0 = 1e-5, 1e-5, 1e-5 /\n&solver tau_end = 0.5 /\n" + _OUT, True, {}),
     ("&scene alpha2 = 0.0005x /\n&solver tau_end = 0.5 /\n" + _OUT, True, {}),
     ("&solver tau_end = 0.5, tau_end = 0.7 /\n" + _OUT, None, {("solver", "tau_end"): 0.7}),
+    # one comma after a whole value is a separator (fuzz seed 101049 was taken for junk);
+    # two make an empty value
+    ("&model n_modes = 1 /\n&initial a0 = 0.0, /\n&solver tau_end = 0.5, /\n" + _OUT, False,
+     {("solver", "tau_end"): 0.5}),
+    ("&scene alpha1 = 5e-2,, alpha2 = 5e-4 /\n&solver tau_end = 0.5 /\n" + _OUT, True, {}),
     # a file name too long for the file system: exit 3, no file, the earlier output kept
     ("&solver tau_end = 0.5 /\n&output file = '" + "f" * 300 + ".dat', sample_dtau = 0.05 /\n", True, {}),
 ]
@@ -484,6 +497,8 @@ def test_generator_is_reproducible_and_covers_every_kind():
     assert generate(123).text == generate(123).text
     kinds = {generate(seed).kind for seed in range(400)}
     assert kinds == set(KINDS)
+    legal = generate(101049)   # junk ',' right after a0's only value, before '/'
+    assert legal.kind == "junk_in_token" and legal.must_fail is False, legal.describe()
 
 
 def test_oracle_catches_a_silent_misread(tmp_path):

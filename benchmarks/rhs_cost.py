@@ -41,7 +41,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from _builds import build, callgrind, export_revision, link_flags, process_cpu, scene_file
+from _builds import build, callgrind, export_revision, interleaved, link_flags, scene_file
 
 REPO = Path(__file__).resolve().parent.parent
 HERE = Path(__file__).resolve().parent
@@ -121,12 +121,7 @@ def run_costs(builds: dict[str, Path], work: Path) -> dict:
     result = {}
     for name in SCENES:
         nml = scene_file(name, SCENES[name], work)
-        seconds = {label: [] for label in builds}
-        counters = {}
-        for _ in range(RUNS):
-            for label, build_dir in builds.items():
-                cpu, counters[label] = process_cpu(str(build_dir / "tmafm"), nml)
-                seconds[label].append(cpu)
+        seconds, counters = interleaved(builds, nml, RUNS)
         result[name] = {label: {"median_ms": 1e3 * statistics.median(seconds[label]),
                                 "min_ms": 1e3 * min(seconds[label]),
                                 "counters": counters[label]} for label in builds}

@@ -26,14 +26,13 @@ ratios, not the milliseconds.
 from __future__ import annotations
 
 import json
-import math
 import os
 import statistics
 import subprocess
 import tempfile
 from pathlib import Path
 
-from _builds import build, callgrind, export_revision, link_flags, process_cpu, scene_file
+from _builds import TARGET_RUNS, build, callgrind, export_revision, interleaved, link_flags, scene_file
 
 REPO = Path(__file__).resolve().parent.parent
 HERE = Path(__file__).resolve().parent
@@ -42,16 +41,7 @@ MODES = (1, 2, 3, 4, 5, 8, 30)
 KINDS = {1: "free", 2: "contact", 3: "free_at_phase", 4: "contact_at_phase"}
 CALLS = (1000, 11000)
 RUNS = int(os.environ.get("RUNS", "21"))
-PERIOD = math.pi   # Omega = 2
-SCENES = {
-    "tilted_hertz_3": {"model": {"n_modes": 3}, "scene": {"alpha2": 7e-4, "theta": 0.2},
-                       "initial": {"a0": [2e-4, 0.0, 0.0]},
-                       "solver": {"method": "flight_exact", "rtol": 1e-10, "atol": 1e-14,
-                                  "tau_end": 200 * PERIOD},
-                       "output": {"sample_dtau": PERIOD}},
-    "fig2": {"solver": {"method": "flight_exact", "tau_end": 100 * PERIOD},
-             "output": {"sample_dtau": 0.01}},
-}
+SCENES = TARGET_RUNS
 
 
 
@@ -76,12 +66,7 @@ def run_costs(builds: dict[str, Path], work: Path) -> dict:
     result = {}
     for name in SCENES:
         nml = scene_file(name, SCENES[name], work)
-        seconds = {label: [] for label in builds}
-        counters = {}
-        for _ in range(RUNS):
-            for label, build_dir in builds.items():
-                cpu, counters[label] = process_cpu(build_dir / "tmafm", nml)
-                seconds[label].append(cpu)
+        seconds, counters = interleaved(builds, nml, RUNS)
         result[name] = {label: {"median_ms": 1e3 * statistics.median(seconds[label]),
                                 "counters": counters[label],
                                 "instructions": callgrind([str(build_dir / "tmafm"), "-q", str(nml)],

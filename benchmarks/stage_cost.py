@@ -23,7 +23,6 @@ controller's two real powers until it took square roots) are listed as well.
 
 import argparse
 import json
-import math
 import re
 import subprocess
 import tempfile
@@ -32,19 +31,12 @@ from pathlib import Path
 import f90nml
 import numpy as np
 
-REPO = Path(__file__).resolve().parent.parent
-PERIOD = math.pi   # Omega = 2
+from _builds import TARGET_RUNS
 
-INPUTS = {
-    "t3": {"model": {"n_modes": 3, "convention": "paper"},
-           "scene": {"alpha2": 7e-4, "theta": 0.2},
-           "initial": {"a0": [2e-4, 0.0, 0.0]},
-           "solver": {"method": "flight_exact", "rtol": 1e-10, "atol": 1e-14,
-                      "tau_end": 200 * PERIOD},
-           "output": {"sample_dtau": PERIOD}},
-    "fig2": {"solver": {"method": "flight_exact", "tau_end": 100 * PERIOD},
-             "output": {"sample_dtau": 0.01}},
-}
+REPO = Path(__file__).resolve().parent.parent
+
+#: The two runs of issue 8's targets (benchmarks/_builds.py), under this script's short names.
+INPUTS = {"t3": TARGET_RUNS["tilted_hertz_3"], "fig2": TARGET_RUNS["fig2"]}
 
 #: Functions whose self cost is reported: key -> the parts of their (LTO-mangled) names to
 #: match; a symbol counts for the key of the longest part it contains.  The dense output's

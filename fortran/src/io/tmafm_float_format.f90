@@ -34,6 +34,10 @@ module tmafm_float_format
    !> Range of |v| that shortest_text_padded handles itself: 10^(e10 - d + 1) and 10^(d - 1 - e10)
    !> stay inside the table for every d in 2 .. 17.
    real(dp), parameter :: short_min = 1.0e-260_dp, short_max = 1.0e260_dp
+   !> 10^k as 8-byte integers, k = 0 .. 18.
+   integer(i8), parameter :: ten_power(0:18) = [10_i8**0, 10_i8**1, 10_i8**2, 10_i8**3, &
+      10_i8**4, 10_i8**5, 10_i8**6, 10_i8**7, 10_i8**8, 10_i8**9, 10_i8**10, 10_i8**11, &
+      10_i8**12, 10_i8**13, 10_i8**14, 10_i8**15, 10_i8**16, 10_i8**17, 10_i8**18]
    ! Clearing the low 27 of the 52 stored bits leaves 26 significant bits.
    integer(i8), parameter :: high_bits = not(2_i8**27 - 1)
 
@@ -44,7 +48,7 @@ contains
       character(len=*), intent(inout) :: text
       integer, intent(in) :: pos
       real(dp), intent(in) :: value
-      integer(i8), parameter :: ten8 = 10_i8**8, ten16 = 10_i8**16, ten17 = 10_i8**17
+      integer(i8), parameter :: ten8 = 10_i8**8, ten16 = 10_i8**16
       real(dp) :: a
       integer(i8) :: digits
       integer :: e10, q, j, upper, lower
@@ -61,16 +65,7 @@ contains
          write (text(pos:pos + 24), '(es25.16e3)') value
          return
       end if
-      ! floor(log10(2^(e-1))) for a in [2^(e-1), 2^e): the decimal exponent, or one less
-      ! (78913/2^18 is log10(2) closely enough for |e| < 1650; shifta rounds down).
-      e10 = int(shifta((ibits(transfer(a, 0_i8), 52, 11) - 1023)*78913_i8, 18))
-      q = 16 - e10
-      call scaled_digits(a, q, digits, exact)
-      if (digits >= ten17) then
-         e10 = e10 + 1
-         q = q - 1
-         call scaled_digits(a, q, digits, exact)
-      end if
+      call leading_digits(a, 17, e10, q, digits, exact)
       if (.not. exact) then
          write (text(pos:pos + 24), '(es25.16e3)') value
          return
@@ -97,6 +92,27 @@ contains
       c(25:25) = achar(48 + mod(j, 10))
       text(pos:pos + es25_width - 1) = c
    end subroutine put_es25
+
+   !> The d significant digits of a in [fast_min, fast_max]: digits = round(a 10^q), q = d - 1 - e10,
+   !> e10 the decimal exponent of a; exact = .false. near a tie (scaled_digits).
+   pure subroutine leading_digits(a, d, e10, q, digits, exact)
+      real(dp), intent(in) :: a
+      integer, intent(in) :: d
+      integer, intent(out) :: e10
+      integer, intent(out) :: q
+      integer(i8), intent(out) :: digits
+      logical, intent(out) :: exact
+      ! floor(log10(2^(e-1))) for a in [2^(e-1), 2^e): the decimal exponent, or one less
+      ! (78913/2^18 is log10(2) closely enough for |e| < 1650; shifta rounds down).
+      e10 = int(shifta((ibits(transfer(a, 0_i8), 52, 11) - 1023)*78913_i8, 18))
+      q = d - 1 - e10
+      call scaled_digits(a, q, digits, exact)
+      if (digits >= ten_power(d)) then
+         e10 = e10 + 1
+         q = q - 1
+         call scaled_digits(a, q, digits, exact)
+      end if
+   end subroutine leading_digits
 
    !> digits = round(a 10^q) for a in [fast_min, fast_max]; exact = .false. when the rounding
    !> is too near a tie to be decided in double-double arithmetic.
@@ -135,8 +151,8 @@ contains
       real(dp), intent(in) :: value
       character(len=40) :: buffer
       real(dp) :: a, half_up, half_down
-      integer(i8) :: digits, ten_d
-      integer :: e10_low, e10, q, d, j, n
+      integer(i8) :: digits
+      integer :: e10, q, d, j, n
       logical :: exact, back
 
       a = abs(value)
@@ -153,19 +169,8 @@ contains
       ! nearer to a than these (the gap below a power of two is half the gap above).
       half_up = spacing(a)/2
       half_down = merge(half_up/2, half_up, fraction(a) == 0.5_dp)
-      ! The decimal exponent, or one less (as in put_es25).
-      e10_low = int(shifta((ibits(transfer(a, 0_i8), 52, 11) - 1023)*78913_i8, 18))
-      ten_d = 10
       do d = 2, 17
-         ten_d = ten_d*10
-         e10 = e10_low
-         q = d - 1 - e10
-         call scaled_digits(a, q, digits, exact)
-         if (digits >= ten_d) then
-            e10 = e10 + 1
-            q = q - 1
-            call scaled_digits(a, q, digits, exact)
-         end if
+         call leading_digits(a, d, e10, q, digits, exact)
          if (.not. exact) then
             buffer = real_text_padded(value)
             return

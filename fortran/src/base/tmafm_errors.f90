@@ -7,7 +7,7 @@ module tmafm_errors
    implicit none
    private
 
-   public :: ok, err_input, err_file, err_blowup, err_runtime, errmsg_len
+   public :: ok, err_input, err_file, err_blowup, err_runtime, err_interrupted, errmsg_len
 
    !> Success.
    integer, parameter :: ok = 0
@@ -19,6 +19,8 @@ module tmafm_errors
    integer, parameter :: err_blowup = 4
    !> Any other failure inside a run (for example a singular matrix).
    integer, parameter :: err_runtime = 5
+   !> The caller's poll asked the run to stop (Ctrl-C in Python); nothing is kept.
+   integer, parameter :: err_interrupted = 6
    !> Length of every error message buffer.
    integer, parameter :: errmsg_len = 512
 

@@ -349,7 +349,8 @@ contains
             tau = tau_end
             call copy_state(size(y)/2, y_new, y)
             call self%scale%update(y)
-            call progress%update(tau, settings%tau_end)
+            call progress%update(tau, settings%tau_end, ierr, errmsg)
+            if (ierr /= ok) return
             if (status == no_event) then
                ! The step end is the next start: carry f, V_T, its rate and the margin.
                call copy_state(size(y)/2, f_new, f0)

@@ -123,7 +123,8 @@ contains
             call traj%add_switch(tau, settings%dtau, ierr, errmsg)
             if (ierr /= ok) return
          end if
-         call progress%update(tau, settings%tau_end)
+         call progress%update(tau, settings%tau_end, ierr, errmsg)
+         if (ierr /= ok) return
       end do
    end subroutine run_rk4_event
 

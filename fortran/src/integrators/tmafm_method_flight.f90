@@ -93,7 +93,8 @@ contains
                if (ierr /= ok) return
                if (present(observer)) call observer%contact_start(tau)
             end if
-            call progress%update(tau, settings%tau_end)
+            call progress%update(tau, settings%tau_end, ierr, errmsg)
+            if (ierr /= ok) return
             if (stop_requested(observer)) return
          end associate
       end do

@@ -92,7 +92,8 @@ contains
 
          tau = tau_new
          y = y_new
-         call progress%update(tau, settings%tau_end)
+         call progress%update(tau, settings%tau_end, ierr, errmsg)
+         if (ierr /= ok) return
          if (stop_requested(observer)) return
       end do
    end subroutine run_rk4_paper

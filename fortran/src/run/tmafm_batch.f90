@@ -1,19 +1,25 @@
 !> Observed runs: one configuration integrated period by period with an observer
 !> (tmafm_observers), and a batch of independent configurations run with OpenMP, each
 !> thread with its own model, integrator state and observer.
+!>
+!> A caller's poll (tmafm_trajectory stop_poll) is asked only on the calling thread (OpenMP
+!> thread 0: Python's GIL can sensibly be taken only there), by the runs it takes; once it asks
+!> to stop, that run ends with err_interrupted and every input not yet started is skipped with
+!> err_interrupted by every thread (the runs other threads are in go on to their end).
 module tmafm_batch
    use tmafm_kinds, only: dp
-   use tmafm_errors, only: ok, err_input
+   use tmafm_errors, only: ok, err_input, err_interrupted
    use tmafm_config, only: config_t
    use tmafm_model, only: model_t
    use tmafm_settings, only: run_settings_t, method_rk4_paper, method_dopri5, method_dop853, &
       method_flight_exact, check_run_size
-   use tmafm_trajectory, only: trajectory_t
+   use tmafm_trajectory, only: trajectory_t, stop_poll
    use tmafm_driver, only: run_trajectory
    use tmafm_simulation, only: prepare_model
    use tmafm_observers, only: observer_t, group_all
    use tmafm_units, only: scales_t, scales_from_physical
    use tmafm_text, only: int_text, real_text
+   !$ use omp_lib, only: omp_get_thread_num
    implicit none
    private
 
@@ -115,26 +121,28 @@ contains
    !> Integrate a configuration from tau = 0 for at most options%max_periods drive periods,
    !> filling `observer` (its N already chosen, or chosen here).  Every method but rk4_event
    !> (whose restarted steps have no single dense output to feed).
-   subroutine observe_config(config, options, observer, ierr, errmsg)
+   subroutine observe_config(config, options, observer, ierr, errmsg, poll)
       type(config_t), intent(in) :: config
       type(observe_options_t), intent(in) :: options
       type(observer_t), intent(inout) :: observer
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      !> If present, the run (and the comparison runs of an automatic N) poll it.
+      procedure(stop_poll), optional :: poll
       type(config_t) :: chosen
       type(model_t) :: model
       type(run_settings_t) :: settings
       integer :: n
 
-      call prepare_observed(config, options, chosen, model, settings, ierr, errmsg)
+      call prepare_observed(config, options, chosen, model, settings, ierr, errmsg, poll)
       if (ierr /= ok) return
       n = chosen%n_modes
       call observe_prepared(model, settings, options, [chosen%a0(1:n), chosen%adot0(1:n)], observer, &
-                            ierr, errmsg)
+                            ierr, errmsg, poll)
    end subroutine observe_config
 
    !> The checks, the model and the run settings of an observed run of `config`.
-   subroutine prepare_observed(config, options, chosen, model, settings, ierr, errmsg)
+   subroutine prepare_observed(config, options, chosen, model, settings, ierr, errmsg, poll)
       type(config_t), intent(in) :: config
       type(observe_options_t), intent(in) :: options
       type(config_t), intent(out) :: chosen
@@ -142,6 +150,8 @@ contains
       type(run_settings_t), intent(out) :: settings
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      !> If present, the comparison runs of an automatic N poll it.
+      procedure(stop_poll), optional :: poll
       real(dp) :: period
 
       call check_options(options, ierr, errmsg)
@@ -160,7 +170,7 @@ contains
                   'period (omega > 0)'
          return
       end if
-      call prepare_model(config, chosen, model, ierr, errmsg)
+      call prepare_model(config, chosen, model, ierr, errmsg, poll)
       if (ierr /= ok) return
       period = 2*acos(-1.0_dp)/model%scene%omega
       settings = chosen%solver
@@ -171,7 +181,7 @@ contains
    end subroutine prepare_observed
 
    !> One observed run of a prepared model from the state y0 = [a0, adot0] at tau = 0.
-   subroutine observe_prepared(model, settings, options, y0, observer, ierr, errmsg)
+   subroutine observe_prepared(model, settings, options, y0, observer, ierr, errmsg, poll)
       type(model_t), intent(in) :: model
       type(run_settings_t), intent(in) :: settings
       type(observe_options_t), intent(in) :: options
@@ -179,6 +189,8 @@ contains
       type(observer_t), intent(inout) :: observer
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      !> If present, the run polls it.
+      procedure(stop_poll), optional :: poll
       type(trajectory_t) :: traj
       integer :: n
 
@@ -200,33 +212,84 @@ contains
          end if
       end if
       call run_trajectory(model, settings, y0(1:n), y0(n + 1:2*n), traj, ierr, errmsg, &
-                          observer=observer)
+                          observer=observer, poll=poll)
    end subroutine observe_prepared
 
    !> Observe every configuration, on `threads` OpenMP threads (0: the OpenMP default);
    !> ierr(k), errmsg(k) belong to configs(k).  Results do not depend on the thread count.
-   subroutine observe_batch(configs, options, observers, ierr, errmsg, threads)
+   !> With a poll, the calling thread's runs poll it; once one is stopped, the inputs not yet
+   !> started get err_interrupted (see the module's doc).
+   subroutine observe_batch(configs, options, observers, ierr, errmsg, threads, poll)
       type(config_t), intent(in) :: configs(:)
       type(observe_options_t), intent(in) :: options
       type(observer_t), intent(inout) :: observers(:)
       integer, intent(out) :: ierr(:)
       character(len=*), intent(out) :: errmsg(:)
       integer, intent(in) :: threads
+      procedure(stop_poll), optional :: poll
+      logical :: stopped
       integer :: k
+      stopped = .false.
       if (threads > 0) then
-         !$omp parallel do schedule(dynamic) num_threads(threads)
+         !$omp parallel do schedule(dynamic) num_threads(threads) shared(stopped)
          do k = 1, size(configs)
-            call observe_config(configs(k), options, observers(k), ierr(k), errmsg(k))
+            call batch_input(stopped, ierr(k), errmsg(k), config=configs(k), options=options, &
+                             observer=observers(k), poll=poll)
          end do
          !$omp end parallel do
       else
-         !$omp parallel do schedule(dynamic)
+         !$omp parallel do schedule(dynamic) shared(stopped)
          do k = 1, size(configs)
-            call observe_config(configs(k), options, observers(k), ierr(k), errmsg(k))
+            call batch_input(stopped, ierr(k), errmsg(k), config=configs(k), options=options, &
+                             observer=observers(k), poll=poll)
          end do
          !$omp end parallel do
       end if
    end subroutine observe_batch
+
+   !> One input of a batch, on whichever OpenMP thread took it: skipped with err_interrupted
+   !> once `stopped` (shared by the threads) is set; else observe_config(config, ...) or, with
+   !> y0, observe_prepared(model, settings, ..., y0, ...), passing the poll only on thread 0
+   !> (the caller's thread), and setting `stopped` when that run was interrupted.
+   subroutine batch_input(stopped, ierr, errmsg, config, model, settings, y0, options, observer, poll)
+      logical, intent(inout) :: stopped
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      type(config_t), intent(in), optional :: config
+      type(model_t), intent(in), optional :: model
+      type(run_settings_t), intent(in), optional :: settings
+      real(dp), intent(in), optional :: y0(:)
+      type(observe_options_t), intent(in) :: options
+      type(observer_t), intent(inout) :: observer
+      procedure(stop_poll), optional :: poll
+      logical :: skip, caller
+      !$omp atomic read
+      skip = stopped
+      if (skip) then
+         ierr = err_interrupted
+         errmsg = 'observe: not run, an earlier run of the batch was interrupted (Ctrl-C)'
+         return
+      end if
+      caller = .true.
+      !$ caller = omp_get_thread_num() == 0
+      if (present(y0)) then
+         if (caller .and. present(poll)) then
+            call observe_prepared(model, settings, options, y0, observer, ierr, errmsg, poll)
+         else
+            call observe_prepared(model, settings, options, y0, observer, ierr, errmsg)
+         end if
+      else
+         if (caller .and. present(poll)) then
+            call observe_config(config, options, observer, ierr, errmsg, poll)
+         else
+            call observe_config(config, options, observer, ierr, errmsg)
+         end if
+      end if
+      if (ierr == err_interrupted) then
+         !$omp atomic write
+         stopped = .true.
+      end if
+   end subroutine batch_input
 
    !> Observe one configuration from many initial states, states(:, k) = [a0, adot0] of run k
    !> (2N rows, N the configuration's, already chosen), on `threads` OpenMP threads (0: the
@@ -235,7 +298,7 @@ contains
    !> component finite with |value| <= 1, as &initial); run k's failure is run_ierr(k),
    !> run_errmsg(k).  Results equal observe_batch's on the same inputs.
    subroutine observe_states(config, states, options, observers, ierr, errmsg, run_ierr, run_errmsg, &
-                             threads)
+                             threads, poll)
       type(config_t), intent(in) :: config
       real(dp), intent(in) :: states(:, :)
       type(observe_options_t), intent(in) :: options
@@ -245,14 +308,18 @@ contains
       integer, intent(out) :: run_ierr(:)
       character(len=*), intent(out) :: run_errmsg(:)
       integer, intent(in) :: threads
+      !> If present, polled as observe_batch does (the comparison runs of an automatic N too).
+      procedure(stop_poll), optional :: poll
       type(config_t) :: chosen
       type(model_t) :: model
       type(run_settings_t) :: settings
+      logical :: stopped
       integer :: k, j
 
       run_ierr = ok
       run_errmsg = ''
-      call prepare_observed(config, options, chosen, model, settings, ierr, errmsg)
+      stopped = .false.
+      call prepare_observed(config, options, chosen, model, settings, ierr, errmsg, poll)
       if (ierr /= ok) return
       if (size(states, 1) /= 2*chosen%n_modes) then
          ierr = err_input
@@ -271,19 +338,24 @@ contains
          end do
       end do
       if (threads > 0) then
-         !$omp parallel do schedule(dynamic) num_threads(threads)
+         !$omp parallel do schedule(dynamic) num_threads(threads) shared(stopped)
          do k = 1, size(states, 2)
-            call observe_prepared(model, settings, options, states(:, k), observers(k), run_ierr(k), &
-                                  run_errmsg(k))
+            call batch_input(stopped, run_ierr(k), run_errmsg(k), model=model, settings=settings, &
+                             y0=states(:, k), options=options, observer=observers(k), poll=poll)
          end do
          !$omp end parallel do
       else
-         !$omp parallel do schedule(dynamic)
+         !$omp parallel do schedule(dynamic) shared(stopped)
          do k = 1, size(states, 2)
-            call observe_prepared(model, settings, options, states(:, k), observers(k), run_ierr(k), &
-                                  run_errmsg(k))
+            call batch_input(stopped, run_ierr(k), run_errmsg(k), model=model, settings=settings, &
+                             y0=states(:, k), options=options, observer=observers(k), poll=poll)
          end do
          !$omp end parallel do
+      end if
+      ! An interrupted batch fails as a whole: its runs' results are not kept.
+      if (stopped) then
+         ierr = err_interrupted
+         errmsg = run_errmsg(findloc(run_ierr, err_interrupted, 1))
       end if
    end subroutine observe_states
 

@@ -5,7 +5,7 @@ module tmafm_driver
    use tmafm_model, only: model_t
    use tmafm_settings, only: run_settings_t, known_methods, method_rk4_paper, method_rk4_event, &
       method_dopri5, method_dop853, method_flight_exact
-   use tmafm_trajectory, only: trajectory_t, init_trajectory, progress_t
+   use tmafm_trajectory, only: trajectory_t, init_trajectory, progress_t, stop_poll
    use tmafm_method_paper, only: run_rk4_paper
    use tmafm_method_event, only: run_rk4_event
    use tmafm_method_adaptive, only: run_adaptive, pair_dopri5, pair_dop853
@@ -19,7 +19,7 @@ module tmafm_driver
 contains
 
    !> Integrate `model` from (a0, adot0) at tau = 0 and sample it; ierr /= 0 on failure.
-   subroutine run_trajectory(model, settings, a0, adot0, traj, ierr, errmsg, progress_unit, observer)
+   subroutine run_trajectory(model, settings, a0, adot0, traj, ierr, errmsg, progress_unit, observer, poll)
       type(model_t), intent(in) :: model
       type(run_settings_t), intent(in) :: settings
       real(dp), intent(in) :: a0(:)
@@ -31,9 +31,13 @@ contains
       integer, intent(in), optional :: progress_unit
       !> If present (every method but rk4_event), computes the per-period observables.
       type(observer_t), intent(inout), optional :: observer
+      !> If present, asked at the first step and every poll_every steps (tmafm_trajectory)
+      !> whether to stop: the run then ends with err_interrupted.
+      procedure(stop_poll), optional :: poll
       type(progress_t) :: progress
 
       if (present(progress_unit)) progress%unit = progress_unit
+      if (present(poll)) progress%poll => poll
       call init_trajectory(traj, settings, model%n_modes)
       select case (trim(settings%method))
       case (method_rk4_paper)

@@ -7,7 +7,7 @@ module tmafm_simulation
    use tmafm_contact, only: law_hertz, law_dmt
    use tmafm_model, only: model_t, init_model
    use tmafm_driver, only: run_trajectory
-   use tmafm_trajectory, only: trajectory_t
+   use tmafm_trajectory, only: trajectory_t, stop_poll
    use tmafm_config, only: config_t
    use tmafm_settings, only: method_dopri5, check_run_size
    use tmafm_namelist, only: config_errata, read_config
@@ -65,12 +65,14 @@ contains
    !> on those modes).  Sets config%n_modes and the evidence (one difference per N compared).
    !> The comparison runs use dopri5 at tight tolerances, whatever the run's own method, so
    !> that integration error (or a fixed step past RK4's stability limit) cannot decide N.
-   recursive subroutine choose_mode_count(config, ierr, errmsg, progress_unit)
+   recursive subroutine choose_mode_count(config, ierr, errmsg, progress_unit, poll)
       type(config_t), intent(inout) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       !> If present, one line per comparison goes to this unit.
       integer, intent(in), optional :: progress_unit
+      !> If present, every comparison run polls it (run_trajectory) and stops when asked.
+      procedure(stop_poll), optional :: poll
       type(config_t) :: trial
       type(trajectory_t) :: lower, upper
       real(dp) :: difference
@@ -89,11 +91,11 @@ contains
       config%n_mode_differences = 0
       n = 1
       trial%n_modes = n
-      call simulate(trial, lower, ierr, errmsg)
+      call simulate(trial, lower, ierr, errmsg, poll=poll)
       if (ierr /= ok) return
       do while (n < max_modes)
          trial%n_modes = n + 1
-         call simulate(trial, upper, ierr, errmsg)
+         call simulate(trial, upper, ierr, errmsg, poll=poll)
          if (ierr /= ok) return
          difference = maxval(abs(upper%vt - lower%vt))/max(tiny(1.0_dp), &
                                                            maxval(upper%vt) - minval(upper%vt))
@@ -128,38 +130,43 @@ contains
 
    !> The configuration with N chosen (when &model n_modes = 0), and the model it describes:
    !> the common first step of every run.
-   recursive subroutine prepare_model(config, chosen, model, ierr, errmsg)
+   recursive subroutine prepare_model(config, chosen, model, ierr, errmsg, poll)
       type(config_t), intent(in) :: config
       type(config_t), intent(out) :: chosen
       type(model_t), intent(out) :: model
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      !> If present, the comparison runs of an automatic N poll it (choose_mode_count).
+      procedure(stop_poll), optional :: poll
       chosen = config
-      call choose_mode_count(chosen, ierr, errmsg)
+      call choose_mode_count(chosen, ierr, errmsg, poll=poll)
       if (ierr /= ok) return
       call build_model(chosen, model, ierr, errmsg)
    end subroutine prepare_model
 
    !> Run a configuration; `traj` holds the samples when ierr == ok.
-   recursive subroutine simulate(config, traj, ierr, errmsg, progress_unit)
+   recursive subroutine simulate(config, traj, ierr, errmsg, progress_unit, poll)
       type(config_t), intent(in) :: config
       type(trajectory_t), intent(out) :: traj
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       !> If present, progress lines go to this unit.
       integer, intent(in), optional :: progress_unit
+      !> If present, the run (and the comparison runs of an automatic N) ask it at the first
+      !> step and every poll_every steps whether to stop: ierr = err_interrupted then.
+      procedure(stop_poll), optional :: poll
       type(model_t) :: model
       type(config_t) :: chosen
       integer :: n
 
-      call prepare_model(config, chosen, model, ierr, errmsg)
+      call prepare_model(config, chosen, model, ierr, errmsg, poll)
       if (ierr /= ok) return
       n = chosen%n_modes
       ! Every run (the comparison runs of an automatic N included) obeys the size limits.
       call check_run_size(chosen%solver, n, ierr, errmsg)
       if (ierr /= ok) return
       call run_trajectory(model, chosen%solver, chosen%a0(1:n), chosen%adot0(1:n), traj, ierr, &
-                          errmsg, progress_unit)
+                          errmsg, progress_unit, poll=poll)
    end subroutine simulate
 
 end module tmafm_simulation

@@ -265,6 +265,7 @@ subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmoni
    use tmafm_observers, only: observer_t, n_observables, observable_factors
    use tmafm_batch, only: observe_options_t, observe_batch, config_scales
    use tmafm_units, only: scales_t
+   use tmafm_api_poll, only: python_interrupted
    implicit none
    !f2py threadsafe
    character(len=*), intent(in) :: text
@@ -329,7 +330,10 @@ subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmoni
    options%harmonics = harmonics
    options%stop_at_steady = stop_at_steady
    options%groups = groups
-   if (all(ierr == ok)) call observe_batch(configs, options, observers, ierr, messages, threads)
+   ! Ctrl-C: the calling thread's runs poll Python (tmafm_api_poll); inputs not yet started are
+   ! skipped, and the f2py wrapper raises the exception Python's handler set.
+   if (all(ierr == ok)) call observe_batch(configs, options, observers, ierr, messages, threads, &
+                                           poll=python_interrupted)
    do k = 1, n_configs
       if (ierr(k) /= ok) then
          if (len_trim(errmsg) == 0) errmsg = messages(k)
@@ -377,6 +381,7 @@ subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_per
    use tmafm_batch, only: observe_options_t, observe_states, config_scales
    use tmafm_units, only: scales_t
    use ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+   use tmafm_api_poll, only: python_interrupted
    implicit none
    !f2py threadsafe
    character(len=*), intent(in) :: text
@@ -447,7 +452,7 @@ subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_per
    end if
    allocate (observers(n_points), messages(n_points))
    call observe_states(config, transpose(states), options, observers, ierr, errmsg, run_ierr, messages, &
-                       threads)
+                       threads, poll=python_interrupted)
    if (ierr /= ok) return
    do k = 1, n_points
       if (run_ierr(k) /= ok) then

@@ -18,6 +18,7 @@ import numpy as np
 
 from . import inputs as _inputs
 from ._fortran import api as _api
+from ._fortran import config_t as _config_t
 from ._namelist import KEY_TYPES, check_groups, merge, shown, to_text
 from .errors import InputError, InputFileError, InputTypeError, SolverError, raise_for
 
@@ -175,13 +176,16 @@ class Config:
 
     def __init__(self, nml: NamelistLike = None, **overrides):
         text, label, override_text = _source({} if nml is None else nml, overrides)
+        # The handle exists before the call: a Ctrl-C in the comparison runs of an automatic N
+        # raises out of the call, and a handle made inside it would be lost (tmafm_api).
+        handle = _config_t()
         if override_text is None:
-            handle, ierr, errmsg = _api.config_from_text(_for_core(text), _for_core(label))
+            ierr, errmsg = _api.config_from_text(_for_core(text), _for_core(label), handle)
         else:
             label = f"{label} + overrides"
-            handle, ierr, errmsg = _api.config_from_texts(_for_core(text), _for_core(label[:-12]),
-                                                          _for_core(override_text),
-                                                          _for_core(label))
+            ierr, errmsg = _api.config_from_texts(_for_core(text), _for_core(label[:-12]),
+                                                  _for_core(override_text), _for_core(label),
+                                                  handle)
         raise_for(ierr, errmsg)
         self.label = label
         self._f = handle
@@ -245,7 +249,10 @@ class Config:
     def run(self, max_switches: int | None = None) -> "Result":
         """Run this configuration; the GIL is released while the core integrates."""
         max_switches = _checked_max_switches(max_switches)
-        handle, ierr, errmsg = _api.run_config(self._f)
+        # A Ctrl-C stops the run: the exception Python's handler raised comes out of run_config
+        # (tmafm_api_poll); the handle, made here, is freed with it.
+        handle = _api.run_t()
+        ierr, errmsg = _api.run_config(self._f, handle)
         raise_for(ierr, errmsg)
         n_samples, n_modes, n_switches = _api.run_sizes(handle)
         if max_switches is not None and n_switches > max_switches:
@@ -388,7 +395,8 @@ def run(nml: NamelistLike, max_switches: int | None = None, **overrides) -> Resu
 def _config_from_resolved_text(text: str, label: str) -> Config:
     """A Config rebuilt from its resolved text (how a pickled Config is unpickled)."""
     config = Config.__new__(Config)
-    handle, ierr, errmsg = _api.config_from_text(_for_core(text), _for_core(label))
+    handle = _config_t()
+    ierr, errmsg = _api.config_from_text(_for_core(text), _for_core(label), handle)
     raise_for(ierr, errmsg)
     config.label, config._f, config._text, config._scene = label, handle, text, None
     return config

@@ -4,15 +4,11 @@ releases the GIL, so threads give the serial results bit for bit and overlap in 
 
 import ctypes
 import signal
-import subprocess
-import sys
-import textwrap
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-import pytest
 
 import tmafm
 
@@ -136,32 +132,4 @@ def test_overlapping_released_calls_leave_pythons_sigint_handler():
     assert overlapped >= 1
 
 
-def test_ctrl_c_during_a_run_raises_keyboardinterrupt_when_it_returns():
-    """SIGINT while the core integrates (GIL released): Python's handler notes it, the run goes
-    on to its end, and KeyboardInterrupt is raised when the call returns.  f90wrap's handler
-    longjmp'd out of the Fortran without the GIL and the interpreter died (SIGSEGV)."""
-    child = textwrap.dedent("""
-        import signal, sys, time, tmafm
-        signal.signal(signal.SIGINT, signal.default_int_handler)  # also under a SIG_IGN parent
-        config = tmafm.Config("fig2_n4", solver={"tau_end": 1000.0})
-        print("start", flush=True)
-        try:
-            config.run()
-            print("finished", flush=True)
-        except KeyboardInterrupt:
-            print("interrupted", flush=True)
-        print(tmafm.Config("fig2_n4", solver={"tau_end": 1.0}).run().tau[-1], flush=True)
-    """)
-    proc = subprocess.Popen([sys.executable, "-c", child], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
-    try:
-        assert proc.stdout.readline().strip() == "start"
-        time.sleep(0.3)  # inside the core by now: the run takes seconds
-        proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=120)
-    finally:
-        proc.kill()
-    assert proc.returncode == 0, (proc.returncode, err[-2000:])
-    lines = out.split()
-    assert lines[0] == "interrupted", out
-    assert float(lines[1]) == pytest.approx(1.0, abs=0.05)
+# Ctrl-C during a run (it now stops the run): tests/test_interrupt.py.

@@ -600,12 +600,23 @@ contains
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: s
       real(dp), intent(out) :: y(:)
-      real(dp) :: phase
-      integer :: k
+      real(dp) :: phase, sin_phase, cos_phase
+      complex(dp) :: w
+      integer :: i, k
       phase = model%scene%omega*(self%tau0 + s)
-      y = self%u*sin(phase) + self%v*cos(phase)
+      sin_phase = sin(phase)
+      cos_phase = cos(phase)
+      do i = 1, self%n_state
+         y(i) = self%u(i)*sin_phase + self%v(i)*cos_phase
+      end do
+      ! The real part of each product V(i, k) w written out: a complex product also forms the
+      ! imaginary part, and tests both for NaN.
       do k = 1, self%n_terms
-         y = y + self%multiplicity(k)*real(self%vectors(:, k)*(self%z(k)*exp(self%eigenvalue(k)*s)), dp)
+         w = self%z(k)*exp(self%eigenvalue(k)*s)
+         do i = 1, self%n_state
+            y(i) = y(i) + self%multiplicity(k)*(real(self%vectors(i, k), dp)*real(w, dp) &
+                                                - aimag(self%vectors(i, k))*aimag(w))
+         end do
       end do
    end subroutine flight_state
 

@@ -30,7 +30,9 @@
 !> anchor_every samples, and (in `sample`) whenever a sample is not dt past the previous one;
 !> between anchors the rounding drifts by a few ulp per sample (tests/test_sampling.py bounds
 !> it).  The run loop takes a flight's samples a block at a time (`samples`), on explicit
-!> shapes, with the anchors counted.
+!> shapes, with the anchors counted, and each state goes straight into its row of the
+!> trajectory's a and adot; N = 4 with four conjugate pairs (Fig. 2) has its own kernel of
+!> fixed shapes (sample_run_4), the same sums in the same order.
 module tmafm_flight
    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
    use tmafm_kinds, only: dp, i8

@@ -84,6 +84,57 @@ def test_flight_samples_equal_direct_evaluation(tmp_path, alpha3):
     assert np.max(np.abs(recurrence - direct)) <= bound * scale
 
 
+@pytest.mark.parametrize("n_modes", [3, 5])
+def test_flight_samples_of_the_general_kernel(tmp_path, n_modes):
+    """N = 4 with four pairs (Fig. 2) has its own fixed-shape sample kernel; any other N takes
+    the general one (row blocks of 8, the mode count at run time): it too equals direct
+    evaluation to 1e-13 of the state over 2 000 samples."""
+    a = np.resize(Y0[:4], n_modes) * (0.5 ** np.arange(n_modes))
+    adot = np.resize(Y0[4:], n_modes) * (0.5 ** np.arange(n_modes))
+    y0 = np.concatenate([a, adot])
+    path = write_nml(tmp_path / "flight.nml", base=INPUTS / "fig2_n4.nml",
+                     model={"n_modes": n_modes}, initial={"a0": [0.0] * n_modes},
+                     scene={"delta_hat": 1.0})
+    recurrence, direct, ierr, errmsg = _core.flight_samples(str(path), 300.0, y0, 0.01, 2000)
+    assert ierr == 0, errmsg
+    direct = direct.T
+    scale = np.max(np.abs(direct))
+    assert scale > 1e-5
+    assert np.max(np.abs(recurrence.T - direct)) <= 1e-13 * scale
+
+
+@pytest.mark.parametrize("n_modes", [1, 3, 4, 6])
+def test_gap_rows_is_gap_at_phase_bit_for_bit(tmp_path, n_modes):
+    """The trajectory's rows take V_T and its rate from model%gap_rows, a table at a time (a
+    mode at a time down the rows from 8 rows up, else a row at a time): the sums of
+    gap_at_phase, their one definition, in its order, so the same bits; no row outside
+    first .. first + count - 1 is touched."""
+    path = write_nml(tmp_path / "gap.nml", base=INPUTS / "fig2_n4.nml",
+                     model={"n_modes": n_modes}, initial={"a0": [0.0] * n_modes},
+                     scene={"delta_hat": 0.0})
+    f = tmafm.Model(str(path))._f
+    rng = np.random.default_rng(7)
+    rows = 80
+    a = np.asfortranarray(rng.standard_normal((rows, n_modes)) * 1e-3)
+    adot = np.asfortranarray(rng.standard_normal((rows, n_modes)) * 1e-3)
+    phase = rng.uniform(0.0, 2 * np.pi, rows)
+    a[5], adot[5], phase[5] = 0.0, 0.0, 0.0            # V_T = 0 exactly
+    s, c = np.sin(phase), np.cos(phase)
+    for first, count in [(1, 1), (4, 7), (2, 8), (5, 64), (80, 1)]:
+        rows_of = slice(first - 1, first - 1 + count)
+        vt = np.full(rows, np.nan)
+        vtdot = np.full(rows, np.nan)
+        f.gap_rows(rows, first, count, a, adot, s[rows_of].copy(), c[rows_of].copy(), vt, vtdot)
+        pairs = [f.gap_at_phase(np.concatenate([a[i], adot[i]]), s[i], c[i])
+                 for i in range(first - 1, first - 1 + count)]
+        want = np.array(pairs, dtype=float).reshape(count, 2)
+        np.testing.assert_array_equal(vt[rows_of].view(np.int64), want[:, 0].view(np.int64))
+        np.testing.assert_array_equal(vtdot[rows_of].view(np.int64), want[:, 1].view(np.int64))
+        outside = np.ones(rows, bool)
+        outside[rows_of] = False
+        assert np.all(np.isnan(vt[outside])) and np.all(np.isnan(vtdot[outside]))
+
+
 def exact_flight(model_fields, tau0, y0, dt, n_samples):
     """The free flight of y' = A y + b_s sin(Omega tau) + b_c cos(Omega tau) from y0 at tau0,
     in 40-digit arithmetic for the model's double-precision A, b_s, b_c: y = y_p + e^{A s} h."""

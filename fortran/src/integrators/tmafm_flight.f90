@@ -30,7 +30,9 @@
 !> anchor_every samples, and (in `sample`) whenever a sample is not dt past the previous one;
 !> between anchors the rounding drifts by a few ulp per sample (tests/test_sampling.py bounds
 !> it).  The run loop takes a flight's samples a block at a time (`samples`), on explicit
-!> shapes, with the anchors counted.
+!> shapes, with the anchors counted, and each state goes straight into its row of the
+!> trajectory's a and adot; N = 4 with four conjugate pairs (Fig. 2) has its own kernel of
+!> fixed shapes (sample_run_4), the same sums in the same order.
 module tmafm_flight
    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
    use tmafm_kinds, only: dp, i8
@@ -128,7 +130,8 @@ module tmafm_flight
       procedure :: sample_step => flight_sample_step
       !> The state at the output sample tau0 + s, given sin and cos of Omega (tau0 + s).
       procedure :: sample => flight_sample
-      !> The states at consecutive output samples of the flight, given sin and cos at each.
+      !> The states at consecutive output samples of the flight, given sin and cos at each,
+      !> into consecutive rows of a table of samples (a, adot: one sample per row).
       procedure :: samples => flight_samples
       !> V_T and dV_T/dtau at tau0 + s.
       procedure :: gap => flight_gap
@@ -143,6 +146,9 @@ module tmafm_flight
    !> Rows the sample kernel computes together (a fixed count, so that its inner loop has a
    !> constant length the compiler vectorises; sample_matrix is padded to a multiple of it).
    integer, parameter :: sample_block = 8
+   !> Modes and terms of the fixed-shape sample kernel (sample_run_4): N = 4 with four
+   !> conjugate pairs, the Fig. 2 scenes (2N = sample_block: one block of rows).
+   integer, parameter :: small_modes = 4
    !> Samples between two evaluations of exp(lambda s) in `sample`.
    integer, parameter, public :: anchor_every = 32
    !> Scan points between two direct evaluations of V_T (exp, sin, cos) in `first_contact`;
@@ -407,12 +413,16 @@ contains
       real(dp), intent(in) :: s
       real(dp), intent(in) :: sin_phase
       real(dp), intent(in) :: cos_phase
-      real(dp), intent(out) :: y(:)
+      real(dp), contiguous, intent(out) :: y(:)
+      integer :: n
       if (.not. (abs(s - (self%s_last + self%sample_dt)) <= 16*epsilon(1.0_dp)*(abs(self%tau0) + abs(s)))) &
          self%since_anchor = anchor_every
-      call sample_run(self%n_state, self%n_terms, self%sample_blocks, 1, 0.0_dp, [s], [sin_phase], &
-                      [cos_phase], self%multiplicity, self%z, self%eigenvalue, self%rotor_re, self%rotor_im, &
-                      self%sample_matrix, self%sample_weights, self%since_anchor, y)
+      n = self%n_state/2
+      ! y = (a, a') is a table of one row.
+      call sample_run(self%n_state, self%n_terms, self%sample_blocks, 1, 0.0_dp, [s], &
+                      [sin_phase], [cos_phase], self%multiplicity, self%z, self%eigenvalue, self%rotor_re, &
+                      self%rotor_im, self%sample_matrix, self%sample_weights, self%since_anchor, 1, 1, y(1:n), &
+                      y(n + 1:2*n))
       self%s_last = s
    end subroutine flight_sample
 
@@ -422,26 +432,33 @@ contains
    !> cos_phase are those of Omega tau.  The terms are turned by the rotor from one sample to
    !> the next, and taken afresh from exp(lambda s), s = tau - tau0, at the flight's first
    !> sample and every anchor_every samples: the anchors of `sample`, counted, not tested.
-   pure subroutine flight_samples(self, count, tau, sin_phase, cos_phase, ys)
+   !> Sample i goes to row first + i - 1 of a and adot (the trajectory's table, passed whole).
+   pure subroutine flight_samples(self, count, tau, sin_phase, cos_phase, rows, first, a, adot)
       class(free_flight_t), intent(inout) :: self
       integer, intent(in) :: count
       real(dp), intent(in) :: tau(count)
       real(dp), intent(in) :: sin_phase(count)
       real(dp), intent(in) :: cos_phase(count)
-      !> The states, one column per sample (n_state x count).
-      real(dp), intent(out) :: ys(self%n_state, count)
+      !> Rows of the table, and the row of the first sample.
+      integer, intent(in) :: rows
+      integer, intent(in) :: first
+      !> Modal amplitudes and velocities, one sample per row (rows x N).
+      real(dp), intent(inout) :: a(rows, self%n_state/2)
+      real(dp), intent(inout) :: adot(rows, self%n_state/2)
       if (count < 1) return
-      call sample_run(self%n_state, self%n_terms, self%sample_blocks, count, self%tau0, tau, sin_phase, &
-                      cos_phase, self%multiplicity, self%z, self%eigenvalue, self%rotor_re, self%rotor_im, &
-                      self%sample_matrix, self%sample_weights, self%since_anchor, ys)
+      call sample_run(self%n_state, self%n_terms, self%sample_blocks, count, self%tau0, &
+                      tau, sin_phase, cos_phase, self%multiplicity, self%z, self%eigenvalue, self%rotor_re, &
+                      self%rotor_im, self%sample_matrix, self%sample_weights, self%since_anchor, rows, first, a, &
+                      adot)
       self%s_last = tau(count) - self%tau0
    end subroutine flight_samples
 
    !> The sample loop on explicit shapes: per sample the weights [sin, cos, Re running, Im
    !> running] (the terms turned, or anchored: running = multiplicity z exp(lambda s), s =
-   !> tau - origin), then the state from sum_terms.
+   !> tau - origin), then the state from sum_terms, into row first + i - 1 of a and adot.
+   !> N = 4 with four pairs goes to sample_run_4.
    pure subroutine sample_run(m, n_terms, blocks, count, origin, tau, sin_phase, cos_phase, multiplicity, z, &
-                              eigenvalue, rotor_re, rotor_im, matrix, weights, since_anchor, ys)
+                              eigenvalue, rotor_re, rotor_im, matrix, weights, since_anchor, rows, first, a, adot)
       integer, intent(in) :: m, n_terms, blocks, count
       real(dp), intent(in) :: origin, tau(count), sin_phase(count), cos_phase(count), multiplicity(n_terms)
       complex(dp), intent(in) :: z(n_terms), eigenvalue(n_terms)
@@ -449,26 +466,84 @@ contains
       real(dp), intent(in) :: matrix(sample_block, 2 + 2*n_terms, blocks)
       real(dp), intent(inout) :: weights(2 + 2*n_terms)
       integer, intent(inout) :: since_anchor
-      real(dp), intent(out) :: ys(m, count)
-      complex(dp) :: term
-      integer :: i, k
+      integer, intent(in) :: rows, first
+      real(dp), intent(inout) :: a(rows, m/2), adot(rows, m/2)
+      integer :: i
+      if (m == 2*small_modes .and. n_terms == small_modes) then
+         call sample_run_4(count, origin, tau, sin_phase, cos_phase, multiplicity, z, eigenvalue, rotor_re, &
+                           rotor_im, matrix, weights, since_anchor, rows, first, a, adot)
+         return
+      end if
       do i = 1, count
-         if (since_anchor < anchor_every) then
-            call turn(n_terms, rotor_re, rotor_im, weights(3:2 + n_terms), weights(3 + n_terms:2 + 2*n_terms))
-            since_anchor = since_anchor + 1
-         else
-            do k = 1, n_terms
-               term = multiplicity(k)*z(k)*exp(eigenvalue(k)*(tau(i) - origin))
-               weights(2 + k) = real(term, dp)
-               weights(2 + n_terms + k) = aimag(term)
-            end do
-            since_anchor = 1
-         end if
+         call next_weights(n_terms, origin, tau(i), multiplicity, z, eigenvalue, rotor_re, rotor_im, &
+                           weights(3:2 + n_terms), weights(3 + n_terms:2 + 2*n_terms), since_anchor)
          weights(1) = sin_phase(i)
          weights(2) = cos_phase(i)
-         call sum_terms(m, blocks, 2 + 2*n_terms, matrix, weights, ys(:, i))
+         call sum_terms(m, blocks, 2 + 2*n_terms, matrix, weights, rows, first + i - 1, a, adot)
       end do
    end subroutine sample_run
+
+   !> sample_run for N = 4 with four pairs (so 2N = sample_block), every shape fixed: the same
+   !> sums in the same order, in loops the compiler unrolls.
+   pure subroutine sample_run_4(count, origin, tau, sin_phase, cos_phase, multiplicity, z, eigenvalue, rotor_re, &
+                                rotor_im, matrix, weights, since_anchor, rows, first, a, adot)
+      integer, parameter :: n = small_modes, columns = 2 + 2*small_modes
+      integer, intent(in) :: count
+      real(dp), intent(in) :: origin, tau(count), sin_phase(count), cos_phase(count), multiplicity(n)
+      complex(dp), intent(in) :: z(n), eigenvalue(n)
+      real(dp), intent(in) :: rotor_re(n), rotor_im(n)
+      real(dp), intent(in) :: matrix(sample_block, columns)
+      real(dp), intent(inout) :: weights(columns)
+      integer, intent(inout) :: since_anchor
+      integer, intent(in) :: rows, first
+      real(dp), intent(inout) :: a(rows, n), adot(rows, n)
+      real(dp) :: acc(sample_block), w1, w2
+      integer :: i, j, r
+      do i = 1, count
+         call next_weights(n, origin, tau(i), multiplicity, z, eigenvalue, rotor_re, rotor_im, &
+                           weights(3:2 + n), weights(3 + n:columns), since_anchor)
+         weights(1) = sin_phase(i)
+         weights(2) = cos_phase(i)
+         acc = 0
+         do j = 1, columns - 1, 2
+            w1 = weights(j)
+            w2 = weights(j + 1)
+            !$omp simd
+            do r = 1, sample_block
+               acc(r) = acc(r) + (matrix(r, j)*w1 + matrix(r, j + 1)*w2)
+            end do
+         end do
+         do j = 1, n
+            a(first + i - 1, j) = acc(j)
+            adot(first + i - 1, j) = acc(n + j)
+         end do
+      end do
+   end subroutine sample_run_4
+
+   !> The running terms (real and imaginary parts) one sample on: turned by the rotor, or,
+   !> every anchor_every samples, taken afresh as multiplicity z exp(lambda (tau - origin)).
+   pure subroutine next_weights(n_terms, origin, tau, multiplicity, z, eigenvalue, rotor_re, rotor_im, &
+                                running_re, running_im, since_anchor)
+      integer, intent(in) :: n_terms
+      real(dp), intent(in) :: origin, tau, multiplicity(n_terms)
+      complex(dp), intent(in) :: z(n_terms), eigenvalue(n_terms)
+      real(dp), intent(in) :: rotor_re(n_terms), rotor_im(n_terms)
+      real(dp), intent(inout) :: running_re(n_terms), running_im(n_terms)
+      integer, intent(inout) :: since_anchor
+      complex(dp) :: term
+      integer :: k
+      if (since_anchor < anchor_every) then
+         call turn(n_terms, rotor_re, rotor_im, running_re, running_im)
+         since_anchor = since_anchor + 1
+      else
+         do k = 1, n_terms
+            term = multiplicity(k)*z(k)*exp(eigenvalue(k)*(tau - origin))
+            running_re(k) = real(term, dp)
+            running_im(k) = aimag(term)
+         end do
+         since_anchor = 1
+      end if
+   end subroutine next_weights
 
    !> running = running rotor, term by term (complex numbers as real and imaginary parts).
    pure subroutine turn(n_terms, rotor_re, rotor_im, running_re, running_im)
@@ -484,19 +559,22 @@ contains
       end do
    end subroutine turn
 
-   !> y = the first m rows of matrix weights, sample_block rows at a time and two columns per
+   !> The state (the first m rows of matrix weights) into row `row` of a and adot (the first
+   !> m/2 rows of the product, then the rest), sample_block rows at a time and two columns per
    !> pass (columns is even): with matrix = [u | v | Re V | -Im V] (its rows padded to whole
    !> blocks, each block's columns stored together) and weights = [sin, cos, Re running,
    !> Im running], the state u sin + v cos + sum_k Re(V(:, k) running_k) (the multiplicity is
    !> in running).  The block (acc) stays in registers; `omp simd` has gcc vectorise along its rows
    !> (left to itself it vectorises across the column pairs and shuffles the rows back).
-   pure subroutine sum_terms(m, blocks, columns, matrix, weights, y)
+   pure subroutine sum_terms(m, blocks, columns, matrix, weights, rows, row, a, adot)
       integer, intent(in) :: m, blocks, columns
       real(dp), intent(in) :: matrix(sample_block, columns, blocks)
       real(dp), intent(in) :: weights(columns)
-      real(dp), intent(out) :: y(m)
+      integer, intent(in) :: rows, row
+      real(dp), intent(inout) :: a(rows, m/2), adot(rows, m/2)
       real(dp) :: acc(sample_block), w1, w2
-      integer :: b, i, j, first
+      integer :: b, i, j, r, n, base, last
+      n = m/2
       do b = 1, blocks
          acc = 0
          do j = 1, columns - 1, 2
@@ -507,17 +585,15 @@ contains
                acc(i) = acc(i) + (matrix(i, j, b)*w1 + matrix(i, j + 1, b)*w2)
             end do
          end do
-         first = (b - 1)*sample_block
-         if (first + sample_block <= m) then
-            !$omp simd
-            do i = 1, sample_block
-               y(first + i) = acc(i)
-            end do
-         else
-            do i = 1, m - first
-               y(first + i) = acc(i)
-            end do
-         end if
+         ! State rows base + 1 .. last: those up to n are a's, the rest adot's.
+         base = (b - 1)*sample_block
+         last = min(base + sample_block, m)
+         do r = base + 1, min(last, n)
+            a(row, r) = acc(r - base)
+         end do
+         do r = max(base + 1, n + 1), last
+            adot(row, r - n) = acc(r - base)
+         end do
       end do
    end subroutine sum_terms
 
@@ -526,12 +602,23 @@ contains
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: s
       real(dp), intent(out) :: y(:)
-      real(dp) :: phase
-      integer :: k
+      real(dp) :: phase, sin_phase, cos_phase
+      complex(dp) :: w
+      integer :: i, k
       phase = model%scene%omega*(self%tau0 + s)
-      y = self%u*sin(phase) + self%v*cos(phase)
+      sin_phase = sin(phase)
+      cos_phase = cos(phase)
+      do i = 1, self%n_state
+         y(i) = self%u(i)*sin_phase + self%v(i)*cos_phase
+      end do
+      ! The real part of each product V(i, k) w written out: a complex product also forms the
+      ! imaginary part, and tests both for NaN.
       do k = 1, self%n_terms
-         y = y + self%multiplicity(k)*real(self%vectors(:, k)*(self%z(k)*exp(self%eigenvalue(k)*s)), dp)
+         w = self%z(k)*exp(self%eigenvalue(k)*s)
+         do i = 1, self%n_state
+            y(i) = y(i) + self%multiplicity(k)*(real(self%vectors(i, k), dp)*real(w, dp) &
+                                                - aimag(self%vectors(i, k))*aimag(w))
+         end do
       end do
    end subroutine flight_state
 

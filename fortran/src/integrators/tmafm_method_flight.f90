@@ -39,7 +39,6 @@ contains
 
       type(free_flight_t) :: flight
       type(adaptive_state_t) :: contact
-      real(dp), allocatable :: y_block(:, :)
       real(dp) :: s_contact, horizon, sin_block(sample_chunk), cos_block(sample_chunk)
       logical :: found
       integer :: evaluations, left, count, k
@@ -47,7 +46,6 @@ contains
       call flight%init(model, ierr, errmsg)
       if (ierr /= ok) return
       call flight%sample_step(settings%sample_dtau)
-      allocate (y_block(size(y0), sample_chunk))
       call traj%store(model, y0)
       call contact%init(contact_pair, model, settings, 0.0_dp, y0)
       horizon = traj%tau(size(traj%tau))
@@ -69,15 +67,16 @@ contains
             traj%steps = traj%steps + 1
             call traj%charge(settings, tau, 1 + evaluations, ierr, errmsg)
             if (ierr /= ok) return
-            ! The flight's samples, sample_chunk at a time: their drive phases, their states,
-            ! then the trajectory's rows (with V_T and the flags).
+            ! The flight's samples, sample_chunk at a time: their drive phases, their states
+            ! (straight into the trajectory's rows), then V_T and the flags.
             left = traj%samples_by(tau + s_contact)
             do while (left > 0)
                count = min(left, sample_chunk)
                k = traj%next_sample
                call traj%next_phases(model, count, sin_block, cos_block)
-               call flight%samples(count, traj%tau(k:k + count - 1), sin_block, cos_block, y_block)
-               call traj%store_rows(model, count, y_block, sin_block, cos_block)
+               call flight%samples(count, traj%tau(k:k + count - 1), sin_block, cos_block, size(traj%tau), k, &
+                                   traj%a, traj%adot)
+               call traj%commit_rows(model, count, sin_block, cos_block)
                left = left - count
             end do
             if (present(observer)) call observer%flight_segment(model, flight, tau, s_contact)

@@ -129,6 +129,8 @@ module tmafm_model
       procedure :: tip_gap_rate => model_tip_gap_rate
       !> V_T and dV_T/dtau, for callers that already hold sin(Omega tau) and cos(Omega tau).
       procedure :: gap_at_phase => model_gap_at_phase
+      !> gap_at_phase for a table of states, one sample per row (the same sums, the same bits).
+      procedure :: gap_rows => model_gap_rows
       !> The contact state (angle, radius, brackets) for displacements a at time tau.
       procedure :: contact => model_contact
       !> The explicit M, C, K, F of Eq. (15) at one state, for checks and analysis.
@@ -337,6 +339,61 @@ contains
       vt = vt + self%scene%alpha2*sin_phase + self%scene%delta_hat
       vtdot = vtdot + self%scene%alpha2*self%scene%omega*cos_phase
    end subroutine model_gap_at_phase
+
+   !> V_T and dV_T/dtau at rows first .. first + count - 1 of a table of states, one sample per
+   !> row (a and adot: rows x N), whose drive phases are sin_phase(i), cos_phase(i): gap_at_phase's
+   !> sums in its order (from 0, over the modes in order, then the drive, then delta_hat: so
+   !> the same bits).  From gap_rows_vector rows up, a mode at a time for all the rows (the
+   !> loops run down the columns and vectorise); fewer rows (a sample or two per flight) a row
+   !> at a time, with no vector set-up.  Explicit shapes: the trajectory passes its arrays whole.
+   pure subroutine model_gap_rows(self, rows, first, count, a, adot, sin_phase, cos_phase, vt, vtdot)
+      class(model_t), intent(in) :: self
+      integer, intent(in) :: rows
+      integer, intent(in) :: first
+      integer, intent(in) :: count
+      real(dp), intent(in) :: a(rows, self%n_modes)
+      real(dp), intent(in) :: adot(rows, self%n_modes)
+      real(dp), intent(in) :: sin_phase(count)
+      real(dp), intent(in) :: cos_phase(count)
+      real(dp), intent(inout) :: vt(rows)
+      real(dp), intent(inout) :: vtdot(rows)
+      integer, parameter :: gap_rows_vector = 8
+      real(dp) :: p, alpha2, delta_hat, drive_rate, x, xdot
+      integer :: i, j, last
+      last = first + count - 1
+      alpha2 = self%scene%alpha2
+      delta_hat = self%scene%delta_hat
+      drive_rate = self%scene%alpha2*self%scene%omega
+      if (count < gap_rows_vector) then
+         do i = first, last
+            x = 0
+            xdot = 0
+            do j = 1, self%n_modes
+               x = x + self%tip(j)*a(i, j)
+               xdot = xdot + self%tip(j)*adot(i, j)
+            end do
+            vt(i) = x + alpha2*sin_phase(i - first + 1) + delta_hat
+            vtdot(i) = xdot + drive_rate*cos_phase(i - first + 1)
+         end do
+         return
+      end if
+      p = self%tip(1)
+      do i = first, last
+         vt(i) = 0 + p*a(i, 1)
+         vtdot(i) = 0 + p*adot(i, 1)
+      end do
+      do j = 2, self%n_modes
+         p = self%tip(j)
+         do i = first, last
+            vt(i) = vt(i) + p*a(i, j)
+            vtdot(i) = vtdot(i) + p*adot(i, j)
+         end do
+      end do
+      do i = 1, count
+         vt(first + i - 1) = vt(first + i - 1) + alpha2*sin_phase(i) + delta_hat
+         vtdot(first + i - 1) = vtdot(first + i - 1) + drive_rate*cos_phase(i)
+      end do
+   end subroutine model_gap_rows
 
    pure function model_contact(self, tau, a) result(state)
       class(model_t), intent(in) :: self

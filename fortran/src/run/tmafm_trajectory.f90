@@ -70,10 +70,11 @@ module tmafm_trajectory
       procedure :: store_at_phase => trajectory_store_at_phase
       !> How many of the samples still to fill lie at or before tau.
       procedure :: samples_by => trajectory_samples_by
-      !> sin(Omega tau) and cos(Omega tau) at the next count samples (what store_rows takes).
+      !> sin(Omega tau) and cos(Omega tau) at the next count samples (what commit_rows takes).
       procedure :: next_phases => trajectory_next_phases
-      !> Store count states (columns) in the next count samples, whose phases next_phases gave.
-      procedure :: store_rows => trajectory_store_rows
+      !> Complete the next count samples, whose rows of a and adot the caller filled and whose
+      !> phases next_phases gave: V_T, its rate and the flags.
+      procedure :: commit_rows => trajectory_commit_rows
       !> The time of the next sample still to fill (huge when all are filled).
       procedure :: next_time => trajectory_next_time
       !> .true. once every sample is filled.
@@ -181,13 +182,25 @@ contains
       end if
    end subroutine trajectory_next_phase
 
+   !> One row: the state copied, V_T and its rate from model%gap_at_phase (their definition).
    pure subroutine trajectory_store_at_phase(self, model, y, sin_phase, cos_phase)
       class(trajectory_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), contiguous, intent(in) :: y(:)
       real(dp), intent(in) :: sin_phase
       real(dp), intent(in) :: cos_phase
-      call self%store_rows(model, 1, y, [sin_phase], [cos_phase])
+      real(dp) :: vt, vtdot
+      integer :: k
+      k = self%next_sample
+      if (k == 1) call model%phase(self%sample_dtau, self%step_sin, self%step_cos)
+      call put_row(model%n_modes, size(self%tau), k, y, self%a, self%adot)
+      call model%gap_at_phase(y, sin_phase, cos_phase, vt, vtdot)
+      self%vt(k) = vt
+      self%vtdot(k) = vtdot
+      self%contact(k) = merge(1, 0, vt <= 0)
+      self%last_sin = sin_phase
+      self%last_cos = cos_phase
+      self%next_sample = k + 1
    end subroutine trajectory_store_at_phase
 
    pure integer function trajectory_samples_by(self, tau) result(count)
@@ -234,33 +247,27 @@ contains
       end do
    end subroutine trajectory_next_phases
 
-   !> store_at_phase for count samples at once: ys(:, i) (the state, 2N) in sample
-   !> next_sample + i - 1, whose drive phase is sin_phase(i), cos_phase(i).  V_T and its rate
-   !> are model%gap_at_phase's, their one definition.
-   pure subroutine trajectory_store_rows(self, model, count, ys, sin_phase, cos_phase)
+   !> store_at_phase for count samples at once, for a caller that wrote their states straight
+   !> into rows next_sample .. next_sample + count - 1 of a and adot (tmafm_flight's samples);
+   !> their drive phases are sin_phase(i), cos_phase(i).  V_T and its rate are model%gap_rows's
+   !> (gap_at_phase's sums, the same bits), from the stored rows, a mode at a time.
+   pure subroutine trajectory_commit_rows(self, model, count, sin_phase, cos_phase)
       class(trajectory_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       integer, intent(in) :: count
-      !> The states, one column per sample (2N x count).
-      real(dp), intent(in) :: ys(2*model%n_modes, count)
       real(dp), intent(in) :: sin_phase(count)
       real(dp), intent(in) :: cos_phase(count)
-      real(dp) :: vt, vtdot
-      integer :: i, k
+      integer :: k, rows
       if (count < 1) return
       k = self%next_sample
       if (k == 1) call model%phase(self%sample_dtau, self%step_sin, self%step_cos)
-      do i = 1, count
-         call put_row(model%n_modes, size(self%tau), k + i - 1, ys(:, i), self%a, self%adot)
-         call model%gap_at_phase(ys(:, i), sin_phase(i), cos_phase(i), vt, vtdot)
-         self%vt(k + i - 1) = vt
-         self%vtdot(k + i - 1) = vtdot
-         self%contact(k + i - 1) = merge(1, 0, vt <= 0)
-      end do
+      rows = size(self%tau)
+      call model%gap_rows(rows, k, count, self%a, self%adot, sin_phase, cos_phase, self%vt, self%vtdot)
+      call put_flags(rows, k, count, self%vt, self%contact)
       self%last_sin = sin_phase(count)
       self%last_cos = cos_phase(count)
       self%next_sample = k + count
-   end subroutine trajectory_store_rows
+   end subroutine trajectory_commit_rows
 
    !> Row k of a and adot (rows x n) from the state y = (a, a').
    pure subroutine put_row(n, rows, k, y, a, adot)
@@ -273,6 +280,17 @@ contains
          adot(k, j) = y(n + j)
       end do
    end subroutine put_row
+
+   !> contact(i) = 1 where vt(i) <= 0, else 0, for rows k .. k + count - 1.
+   pure subroutine put_flags(rows, k, count, vt, contact)
+      integer, intent(in) :: rows, k, count
+      real(dp), intent(in) :: vt(rows)
+      integer, intent(inout) :: contact(rows)
+      integer :: i
+      do i = k, k + count - 1
+         contact(i) = merge(1, 0, vt(i) <= 0)
+      end do
+   end subroutine put_flags
 
    !> step is the length of the step that found the switch (or the method's nominal step).
    pure subroutine trajectory_add_switch(self, tau, step, ierr, errmsg)

@@ -186,3 +186,18 @@ def test_flight_samples_are_the_exact_solution(tmp_path, alpha3):
     error_recurrence = np.max(np.abs(recurrence - exact)) / scale
     assert error_direct <= 1e-12, error_direct
     assert error_recurrence <= 2 * error_direct + 10 * EPS, (error_recurrence, error_direct)
+
+
+@pytest.mark.parametrize("method", ["rk4_paper", "rk4_event", "dopri5", "dop853", "flight_exact"])
+def test_run_ends_at_the_last_sample_before_tau_end(method):
+    """README: the run stops at the largest k sample_dtau <= tau_end; it does no work beyond it."""
+    def run(tau_end):
+        return tmafm.run(tmafm.Config("fig2_n4", solver={"method": method, "tau_end": tau_end},
+                                      output={"sample_dtau": 0.5}))
+    on_grid, between = run(8.5), run(8.95)
+    assert between.tau[-1] == 8.5 and len(between.tau) == 18
+    assert between.counters == on_grid.counters
+    assert np.array_equal(between.switches, on_grid.switches)
+    assert np.array_equal(between.a, on_grid.a)
+    # One more sample is one more sample of work.
+    assert run(9.0).counters["steps"] > on_grid.counters["steps"]

@@ -19,12 +19,16 @@ The file-driven command line is ``python -m tmafm.sweeps FILE [-o OUT.nc]`` (doc
 from __future__ import annotations
 
 import argparse
+import contextlib
 import itertools
 import math
 import os
+import signal
 import sys
+import threading
 from collections.abc import Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import wait as _wait_futures
 from pathlib import Path
 
 import numpy as np
@@ -258,6 +262,103 @@ def _run_chunk_processes(args):
     return _run_chunk(base, points, 1, keywords, keep)
 
 
+# --- Pools that a Ctrl-C stops (docs/sweeps.md, "Where the runs go") -------------------------
+
+#: Seconds: the slices in which the calling thread waits for a pool's results, so that a Ctrl-C
+#: reaches it between two slices even where lock waits cannot be interrupted.
+_WAIT_SLICE = 0.2
+
+
+class _Stopped(Exception):
+    """Raised by a worker thread's task that found the sweep's stop event set: it is kept in
+    the task's future, which nobody reads (the sweep is raising its own exception)."""
+
+
+def _results(futures, done=None) -> list:
+    """Each future's result (concurrent.futures), in order.  The calling thread waits in slices
+    of _WAIT_SLICE s, so a KeyboardInterrupt reaches it while the workers run; ``done(k)`` is
+    called after the k-th result."""
+    results = []
+    for k, future in enumerate(futures):
+        while not future.done():
+            _wait_futures([future], timeout=_WAIT_SLICE)
+        results.append(future.result())
+        if done is not None:
+            done(k)
+    return results
+
+
+@contextlib.contextmanager
+def _thread_pool(workers: int):
+    """(a ThreadPoolExecutor, the threading.Event its tasks check between runs).  When the
+    with-block raises (a KeyboardInterrupt while waiting, or a task's error), the event is set,
+    the tasks not started are cancelled, and the exception goes on once every thread has
+    finished the run it is in: Python runs signal handlers only in its main thread, so the
+    core's Ctrl-C poll cannot stop a worker thread's run.  The event belongs to this call."""
+    stop = threading.Event()
+    pool = ThreadPoolExecutor(max_workers=workers)
+    try:
+        yield pool, stop
+    except BaseException:
+        stop.set()
+        pool.shutdown(wait=True, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _ignore_sigint() -> None:
+    """A pool process's initializer: a terminal's Ctrl-C reaches the whole process group, and
+    the parent, not each process, decides (it terminates them, _process_pool)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@contextlib.contextmanager
+def _process_pool(workers: int):
+    """A ProcessPoolExecutor of spawned processes that ignore SIGINT.  When the with-block
+    raises (a KeyboardInterrupt while waiting, or a task's error), the tasks not started are
+    cancelled and the processes are terminated at once (they write nothing: their results
+    come back through the pool), then the exception goes on."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                               initializer=_ignore_sigint)
+    try:
+        yield pool
+    except BaseException:
+        _terminate(pool)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _terminate(pool) -> None:
+    """Cancel a process pool's tasks not started and terminate its processes, then join it."""
+    terminate = getattr(pool, "terminate_workers", None)  # Python >= 3.14
+    if terminate is not None:
+        terminate()
+    else:
+        # Before 3.14 the pool has no public way: its processes are in pool._processes.
+        processes = list((getattr(pool, "_processes", None) or {}).values())
+        for process in processes:
+            process.terminate()
+    pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _dask_results(client, futures, done=None) -> list:
+    """Each Dask future's result, in order (a Future's wait already sees a Ctrl-C).  When the
+    wait raises, every future is cancelled first: the tasks not started never run, and a
+    running task ends on its worker, its result dropped (Dask cannot stop a running task)."""
+    try:
+        results = []
+        for k, future in enumerate(futures):
+            results.append(future.result())
+            if done is not None:
+                done(k)
+        return results
+    except BaseException:
+        client.cancel(futures)
+        raise
+
+
 def _chunks(n: int, chunk: int | None, workers: int) -> list[range]:
     if chunk is None:
         chunk = max(1, min(256, math.ceil(n / (4 * max(1, workers)))))
@@ -298,20 +399,21 @@ def _run_points(base: dict, points: list[dict], *, workers=None, client=None, pr
             from dask.distributed import as_completed
             futures = {client.submit(_run_chunk, base, [points[i] for i in piece], 1, keywords,
                                      keep, pure=False): k for k, piece in enumerate(pieces)}
-            for future in as_completed(futures):
-                results[futures[future]] = future.result()
-                if bar is not None:
-                    bar.update(len(pieces[futures[future]]))
-        elif backend == "processes":
-            from concurrent.futures import ProcessPoolExecutor
-            import multiprocessing
-            context = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(max_workers=n_workers, mp_context=context) as pool:
-                jobs = [(base, [points[i] for i in piece], keywords, keep) for piece in pieces]
-                for k, summaries in enumerate(pool.map(_run_chunk_processes, jobs)):
-                    results[k] = summaries
+            try:
+                for future in as_completed(futures):
+                    results[futures[future]] = future.result()
                     if bar is not None:
-                        bar.update(len(pieces[k]))
+                        bar.update(len(pieces[futures[future]]))
+            except BaseException:  # Ctrl-C: no task not started runs (_dask_results)
+                client.cancel(list(futures))
+                raise
+        elif backend == "processes":
+            with _process_pool(n_workers) as pool:
+                futures = [pool.submit(_run_chunk_processes,
+                                       (base, [points[i] for i in piece], keywords, keep))
+                           for piece in pieces]
+                results = _results(futures, None if bar is None else
+                                   lambda k: bar.update(len(pieces[k])))
         elif backend == "batch":
             for k, piece in enumerate(pieces):
                 results[k] = _run_chunk(base, [points[i] for i in piece], n_workers, keywords,
@@ -461,12 +563,16 @@ def _grid_dataset(base, base_config, axes, summaries, keywords, kind):
 # --- Continuation: approach/retract and frequency sweeps -----------------------------------
 
 def _warm_chain(base: dict, key: str, values, curve_point: Mapping, n_modes: int,
-                keywords: Mapping, start_state=None) -> tuple[list[dict], np.ndarray]:
-    """Observe `values` of `key` in order, each point starting from the previous final state."""
+                keywords: Mapping, start_state=None, stop=None) -> tuple[list[dict], np.ndarray]:
+    """Observe `values` of `key` in order, each point starting from the previous final state.
+    ``stop`` (a threading.Event, in a worker thread) is checked before each point: once set,
+    _Stopped is raised."""
     observe = _observe_api()
     state = start_state
     summaries = []
     for value in values:
+        if stop is not None and stop.is_set():
+            raise _Stopped()
         point = dict(curve_point)
         point[key] = value
         if state is not None:
@@ -480,12 +586,14 @@ def _warm_chain(base: dict, key: str, values, curve_point: Mapping, n_modes: int
 
 
 def _both_ways(base: dict, key: str, first, n_modes: int, curve_point: Mapping,
-               keywords: Mapping, reverse: bool) -> list[list[dict]]:
-    """[forward summaries, backward summaries (in forward order)] of one curve."""
-    forward, state = _warm_chain(base, key, first, curve_point, n_modes, keywords)
+               keywords: Mapping, reverse: bool, stop=None) -> list[list[dict]]:
+    """[forward summaries, backward summaries (in forward order)] of one curve; ``stop`` as in
+    _warm_chain."""
+    forward, state = _warm_chain(base, key, first, curve_point, n_modes, keywords, stop=stop)
     if not reverse:
         return [forward]
-    backward, _ = _warm_chain(base, key, first[::-1], curve_point, n_modes, keywords, state)
+    backward, _ = _warm_chain(base, key, first[::-1], curve_point, n_modes, keywords, state,
+                              stop)
     return [forward, backward[::-1]]
 
 
@@ -538,24 +646,19 @@ def _continuation(base, key: str, values, *, directions: tuple[str, str], revers
         raise InputTypeError(f"jump_threshold = {jump_threshold!r}: must be a positive number")
 
     bar = _progress(len(curve_points), progress, kind)
+    done = None if bar is None else lambda k: bar.update(1)
     try:
         if client is not None:
             futures = [client.submit(_both_ways, base_groups, key, _raw(values), n_modes, c, keywords,
                                      reverse, pure=False) for c in curve_points]
-            results = []
-            for future in futures:
-                results.append(future.result())
-                if bar is not None:
-                    bar.update(1)
+            results = _dask_results(client, futures, done)
         else:
-            with ThreadPoolExecutor(max_workers=_workers(workers)) as pool:
+            # One curve per thread.  A Ctrl-C reaches this (main) thread while it waits; the
+            # threads stop before their next point, and KeyboardInterrupt comes out.
+            with _thread_pool(_workers(workers)) as (pool, stop):
                 futures = [pool.submit(_both_ways, base_groups, key, _raw(values), n_modes, c,
-                                       keywords, reverse) for c in curve_points]
-                results = []
-                for future in futures:
-                    results.append(future.result())
-                    if bar is not None:
-                        bar.update(1)
+                                       keywords, reverse, stop) for c in curve_points]
+                results = _results(futures, done)
     finally:
         if bar is not None:
             bar.close()
@@ -880,15 +983,12 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
         if client is not None:
             futures = [client.submit(_basin_chunk, run_groups, states[p], 1, observe_kw,
                                      attractors, pure=False) for p in pieces]
-            outs = [f.result() for f in futures]
+            outs = _dask_results(client, futures)
         elif backend == "processes":
-            from concurrent.futures import ProcessPoolExecutor
-            import multiprocessing
-            context = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(max_workers=n_workers, mp_context=context) as pool:
-                outs = list(pool.map(_basin_chunk_processes,
-                                     [(run_groups, states[p], 1, observe_kw, attractors)
-                                      for p in pieces]))
+            with _process_pool(n_workers) as pool:
+                outs = _results([pool.submit(_basin_chunk_processes,
+                                             (run_groups, states[p], 1, observe_kw, attractors))
+                                 for p in pieces])
         elif backend == "batch":
             outs = []
             for p in pieces:

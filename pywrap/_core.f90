@@ -551,6 +551,44 @@ subroutine flight_samples(path, n_modes, tau0, y0, dt, n_samples, recurrence, di
    end do
 end subroutine flight_samples
 
+!> V_T and dV_T/dtau of rows first .. first + count - 1 of a table of states (a and adot: rows x
+!> n_modes, one sample per row, drive phases sin_phase(i), cos_phase(i) of row first + i - 1), as
+!> the trajectory's rows take them (model%gap_rows), for a namelist's model; no other row of vt
+!> and vtdot is touched.  ierr = err_input (nothing computed) when the rows are not inside the
+!> table or n_modes is not the input's.  For tests of the rows.
+subroutine gap_rows(path, rows, n_modes, first, count, a, adot, sin_phase, cos_phase, vt, vtdot, ierr, errmsg)
+   use tmafm, only: model_t, load_model, ok
+   use tmafm_kinds, only: dp
+   use tmafm_errors, only: err_input
+   implicit none
+   character(len=*), intent(in) :: path
+   integer, intent(in) :: rows
+   integer, intent(in) :: n_modes
+   integer, intent(in) :: first
+   integer, intent(in) :: count
+   real(dp), intent(in) :: a(rows, n_modes)
+   real(dp), intent(in) :: adot(rows, n_modes)
+   real(dp), intent(in) :: sin_phase(count)
+   real(dp), intent(in) :: cos_phase(count)
+   real(dp), intent(inout) :: vt(rows)
+   real(dp), intent(inout) :: vtdot(rows)
+   integer, intent(out) :: ierr
+   character(len=512), intent(out) :: errmsg
+   type(model_t) :: model
+
+   ierr = ok
+   errmsg = ''
+   if (count < 1 .or. first < 1 .or. first > rows - count + 1) then
+      ierr = err_input
+      write (errmsg, '(a,i0,a,i0,a,i0,a)') 'gap_rows: rows ', first, ' to ', first + count - 1, &
+         ' are not inside the table of ', rows, ' rows'
+      return
+   end if
+   call load_model(path, n_modes, model, ierr, errmsg)  ! err_input unless N is the input's
+   if (ierr /= ok) return
+   call model%gap_rows(rows, first, count, a, adot, sin_phase, cos_phase, vt, vtdot)
+end subroutine gap_rows
+
 !> The first contact of one free flight of a namelist's model from y0 at tau0 within s_max, as
 !> flight%first_contact scans it: anchor = 0 as the run loop does (V_T turned along the scan
 !> ladder, evaluated directly every scan_anchor_every points), anchor = 1 with every scan point

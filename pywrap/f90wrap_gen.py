@@ -10,7 +10,8 @@ interpreter (nothing depends on PATH).  After f90wrap, the wrapper of the run en
 gets an ``!f2py threadsafe`` line, so the extension releases the GIL while the core integrates.
 After f2py, every wrapper in _fwrapmodule.c loses f90wrap's SIGINT handler and setjmp
 (drop_abort_handler below), and the batch entry points of _coremodule.c free their output
-arrays when a Ctrl-C stops them (free_outputs_on_failure below).
+arrays when a Ctrl-C stops them (free_outputs_on_failure below).  Type-bound procedures named
+in SKIP are hidden from f90wrap (hide_bindings below: its --skip keeps bindings).
 """
 
 import os

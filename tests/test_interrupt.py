@@ -1,8 +1,8 @@
 """Ctrl-C stops a run started from Python (docs/model-notes.md, item 12).
 
 A run releases the GIL, so Python's SIGINT handler only notes the signal; the core asks
-pywrap/tmafm_check_signals.c at a run's first step and every poll_every steps, which runs the
-pending handlers.  When one raises, the run stops and that exception comes out of the call.
+pywrap/tmafm_check_signals.c at a run's first update and then at most every 10 ms of wall time
+(runs started on Python's main thread only), which runs the pending handlers.  When one raises, the run stops and that exception comes out of the call.
 Each test runs a child Python process and sends it SIGINT while the core integrates."""
 
 import json
@@ -259,7 +259,7 @@ def test_a_worker_threads_run_does_not_wait_for_a_main_thread_running_python():
     """Only Python's main thread polls (signal handlers run only there): a run on another
     thread never takes the GIL, so a main thread spinning in Python code does not slow it.
     Each GIL hand-over waits for the switch interval, here 20 ms; when every run polled, each
-    poll of the worker's run (every 1024 steps, about 0.5 ms here) waited that long: 40 times
+    poll of the worker's run (every 1024 steps, well under 1 ms) waited that long, many times
     the quiet run's time.  The time compared is the worker's wall time less the time it waited
     for a CPU (the spinner takes one), quiet and spinning runs interleaved, least of two each."""
     import tmafm

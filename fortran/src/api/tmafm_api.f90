@@ -7,9 +7,9 @@
 !> errmsg, and keeps no state between calls, so two threads may run two configurations at once.
 !>
 !> The routines Python calls without the GIL (config_from_text(s), run_config) poll for Ctrl-C
-!> (tmafm_api_poll) when Python says so (its main thread only) and fill a config_t or run_t that Python made before the call: when a run is
-!> interrupted, the f2py wrapper raises instead of returning, and a handle allocated inside the
-!> call would be lost with everything it holds.
+!> (tmafm_api_poll) when Python says so (on its main thread only), and fill a config_t or run_t
+!> that Python made before the call: when a run is interrupted, the f2py wrapper raises instead
+!> of returning, and a handle allocated inside the call would be lost with everything it holds.
 module tmafm_api
    use tmafm_kinds, only: dp, i8
    use tmafm_errors, only: ok, err_input, errmsg_len

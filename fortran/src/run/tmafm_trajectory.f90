@@ -92,8 +92,8 @@ module tmafm_trajectory
    !> 5 ms switch interval while another thread runs Python code, so the polls' rate is bounded
    !> by time, not steps, and they take at most about 1/(1 + poll_spacing) of the run's wall
    !> time.  The cheapest steps (rk4_paper, N = 1) take about 0.4 us, the dearest (dop853 at
-   !> rtol 1e-10 with N = 30) 9 to 13 us; a Ctrl-C stops a run within about poll_interval_ms
-   !> plus poll_every updates (benchmarks/poll_cost.py measures it).
+   !> rtol 1e-10 with N = 30) 8 to 13 us; a Ctrl-C stops a run within about poll_interval_ms
+   !> plus poll_every updates: about 10 ms of CPU (benchmarks/poll_cost.py measures it).
    integer, parameter :: poll_every = 256
    !> Least wall time between the end of a poll and the next one (milliseconds).
    integer, parameter :: poll_interval_ms = 10

@@ -252,9 +252,10 @@ end subroutine galerkin
 !> (k, period) and modal extrema (k, period, mode, 1:4 = ext_* columns), periods integrated,
 !> the steady period found, the factors to SI-derived units and has_scales (1 for &physical).
 !> `groups` selects the observable groups (tmafm_observers group_* bits; the others are NaN).
+!> `poll`: the calling thread's runs poll for Ctrl-C (Python's main thread only).
 !> ierr(k) per input; errmsg is the message of the first input that failed.
 subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmonics, p_max, tol, &
-                         repeats, stop_at_steady, groups, threads, n_state_max, n_columns, values, &
+                         repeats, stop_at_steady, groups, threads, poll, n_state_max, n_columns, values, &
                          harmonic_amplitude, harmonic_phase, poincare, max_gap, modal_extrema, &
                          n_periods, period, factors, &
                          has_scales, ierr, errmsg)
@@ -280,6 +281,7 @@ subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmoni
    logical, intent(in) :: stop_at_steady
    integer, intent(in) :: groups
    integer, intent(in) :: threads
+   logical, intent(in) :: poll
    integer, intent(in) :: n_state_max
    integer, intent(in) :: n_columns
    real(dp), intent(out) :: values(n_configs, max_periods, n_columns)
@@ -330,10 +332,16 @@ subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmoni
    options%harmonics = harmonics
    options%stop_at_steady = stop_at_steady
    options%groups = groups
-   ! Ctrl-C: the calling thread's runs poll Python (tmafm_api_poll); inputs not yet started are
-   ! skipped, and the f2py wrapper raises the exception Python's handler set.
-   if (all(ierr == ok)) call observe_batch(configs, options, observers, ierr, messages, threads, &
-                                           poll=python_interrupted)
+   ! Ctrl-C (when `poll`: Python's main thread): the calling thread's runs poll Python
+   ! (tmafm_api_poll); inputs not yet started are skipped, and the f2py wrapper raises the
+   ! exception Python's handler set.
+   if (all(ierr == ok)) then
+      if (poll) then
+         call observe_batch(configs, options, observers, ierr, messages, threads, poll=python_interrupted)
+      else
+         call observe_batch(configs, options, observers, ierr, messages, threads)
+      end if
+   end if
    do k = 1, n_configs
       if (ierr(k) /= ok) then
          if (len_trim(errmsg) == 0) errmsg = messages(k)
@@ -366,11 +374,11 @@ end subroutine observe_texts
 !> not computed; the same for the harmonics), the last p_max Poincare points (orbit(k, p_max, :)
 !> is the final state; NaN before the first), periods run, the steady period, the attractor.
 !> ierr: err_input for a bad input, options or state (nothing runs), with errmsg; run k's own
-!> failure is run_ierr(k), and errmsg is then the first such message.
+!> failure is run_ierr(k), and errmsg is then the first such message.  `poll` as observe_texts'.
 subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_periods, harmonics, &
                                p_max, tol, repeats, stop_at_steady, groups, attractor_points, &
                                n_attractor_points, attractor_first, n_first, confirm, capture, threads, &
-                               n_columns, steady, steady_harmonic_amplitude, steady_harmonic_phase, &
+                               poll, n_columns, steady, steady_harmonic_amplitude, steady_harmonic_phase, &
                                orbit, n_periods, period, attractor, factors, has_scales, run_ierr, &
                                ierr, errmsg)
    use tmafm_kinds, only: dp
@@ -403,6 +411,7 @@ subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_per
    integer, intent(in) :: confirm
    real(dp), intent(in) :: capture
    integer, intent(in) :: threads
+   logical, intent(in) :: poll
    integer, intent(in) :: n_columns
    real(dp), intent(out) :: steady(n_points, n_columns)
    real(dp), intent(out) :: steady_harmonic_amplitude(n_points, harmonics)
@@ -451,8 +460,13 @@ subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_per
       options%attractor_first = attractor_first
    end if
    allocate (observers(n_points), messages(n_points))
-   call observe_states(config, transpose(states), options, observers, ierr, errmsg, run_ierr, messages, &
-                       threads, poll=python_interrupted)
+   if (poll) then
+      call observe_states(config, transpose(states), options, observers, ierr, errmsg, run_ierr, messages, &
+                          threads, poll=python_interrupted)
+   else
+      call observe_states(config, transpose(states), options, observers, ierr, errmsg, run_ierr, messages, &
+                          threads)
+   end if
    if (ierr /= ok) return
    do k = 1, n_points
       if (run_ierr(k) /= ok) then
@@ -536,6 +550,44 @@ subroutine flight_samples(path, n_modes, tau0, y0, dt, n_samples, recurrence, di
       call flight%state(model, s, direct(:, j))
    end do
 end subroutine flight_samples
+
+!> V_T and dV_T/dtau of rows first .. first + count - 1 of a table of states (a and adot: rows x
+!> n_modes, one sample per row, drive phases sin_phase(i), cos_phase(i) of row first + i - 1), as
+!> the trajectory's rows take them (model%gap_rows), for a namelist's model; no other row of vt
+!> and vtdot is touched.  ierr = err_input (nothing computed) when the rows are not inside the
+!> table or n_modes is not the input's.  For tests of the rows.
+subroutine gap_rows(path, rows, n_modes, first, count, a, adot, sin_phase, cos_phase, vt, vtdot, ierr, errmsg)
+   use tmafm, only: model_t, load_model, ok
+   use tmafm_kinds, only: dp
+   use tmafm_errors, only: err_input
+   implicit none
+   character(len=*), intent(in) :: path
+   integer, intent(in) :: rows
+   integer, intent(in) :: n_modes
+   integer, intent(in) :: first
+   integer, intent(in) :: count
+   real(dp), intent(in) :: a(rows, n_modes)
+   real(dp), intent(in) :: adot(rows, n_modes)
+   real(dp), intent(in) :: sin_phase(count)
+   real(dp), intent(in) :: cos_phase(count)
+   real(dp), intent(inout) :: vt(rows)
+   real(dp), intent(inout) :: vtdot(rows)
+   integer, intent(out) :: ierr
+   character(len=512), intent(out) :: errmsg
+   type(model_t) :: model
+
+   ierr = ok
+   errmsg = ''
+   if (count < 1 .or. first < 1 .or. first > rows - count + 1) then
+      ierr = err_input
+      write (errmsg, '(a,i0,a,i0,a,i0,a)') 'gap_rows: rows ', first, ' to ', first + count - 1, &
+         ' are not inside the table of ', rows, ' rows'
+      return
+   end if
+   call load_model(path, n_modes, model, ierr, errmsg)  ! err_input unless N is the input's
+   if (ierr /= ok) return
+   call model%gap_rows(rows, first, count, a, adot, sin_phase, cos_phase, vt, vtdot)
+end subroutine gap_rows
 
 !> The first contact of one free flight of a namelist's model from y0 at tau0 within s_max, as
 !> flight%first_contact scans it: anchor = 0 as the run loop does (V_T turned along the scan

@@ -10,7 +10,8 @@ interpreter (nothing depends on PATH).  After f90wrap, the wrapper of the run en
 gets an ``!f2py threadsafe`` line, so the extension releases the GIL while the core integrates.
 After f2py, every wrapper in _fwrapmodule.c loses f90wrap's SIGINT handler and setjmp
 (drop_abort_handler below), and the batch entry points of _coremodule.c free their output
-arrays when a Ctrl-C stops them (free_outputs_on_failure below).
+arrays when a Ctrl-C stops them (free_outputs_on_failure below).  Type-bound procedures named
+in SKIP are hidden from f90wrap (hide_bindings below: its --skip keeps bindings).
 """
 
 import os
@@ -25,10 +26,38 @@ from pathlib import Path
 #: variable of the caller: docs/model-notes.md, finding 11; tests/test_threads.py checks it).
 THREADSAFE = ("f90wrap_tmafm_api__run_config", "f90wrap_tmafm_api__config_from_text",
               "f90wrap_tmafm_api__config_from_texts", "f90wrap_tmafm_api__trajectory_energy_flow")
-#: Core entities that Python never calls (the integrators' own helpers).
+#: Core entities that Python never calls (the integrators' own helpers).  f90wrap's --skip
+#: leaves type-bound procedures wrapped, so those named here are hidden from it
+#: (hide_bindings below).
 SKIP = ["check_blowup", "init_trajectory", "scene_from_physical", "errata_for_convention", "parse_errata",
         "errata_label", "contact_angle", "contact_radius", "normal_force_group", "friction_group",
-        "contact_brackets", "init_model", "sample_count"]
+        "contact_brackets", "init_model", "sample_count",
+        # Explicit-shape arrays and row ranges that nothing checks: _core.gap_rows checks them.
+        "gap_rows"]
+
+
+_BINDING = r"^(?P<indent>[ \t]*)procedure[ \t]*::[ \t]*(?P<name>{names})\b"
+
+
+def hide_bindings(sources: list[str], names=SKIP) -> list[str]:
+    """The sources f90wrap reads, with each type-bound procedure named in `names` made private
+    in a copy under the same name in ./hidden_bindings (f90wrap names its wrappers after the
+    file; it then drops the binding; the build compiles the originals).
+
+    A binding such as model_t%gap_rows takes explicit-shape arrays and a row range that nothing
+    checks: wrapped, `Model._f.gap_rows(4, 1, 200000, ...)` wrote out of bounds and crashed."""
+    pattern = re.compile(_BINDING.format(names="|".join(map(re.escape, names))), re.M | re.I)
+    out = []
+    for source in sources:
+        text = Path(source).read_text()
+        if pattern.search(text) is None:
+            out.append(source)
+            continue
+        copy = Path("hidden_bindings") / Path(source).name
+        copy.parent.mkdir(exist_ok=True)
+        copy.write_text(pattern.sub(lambda m: f"{m['indent']}procedure, private :: {m['name']}", text))
+        out.append(str(copy.resolve()))
+    return out
 
 
 def mark_threadsafe(path: Path) -> None:
@@ -121,6 +150,7 @@ def main() -> None:
     os.chdir(outdir)
     if step == "f90wrap":
         kind_map, *sources = sources
+        sources = hide_bindings(sources)
         subprocess.run([sys.executable, "-m", "f90wrap", "--f90wrap", "-m", "_objects", "-k", kind_map,
                         "--f90-mod-name", "tmafm._fwrap", "--skip", *SKIP,
                         "--", *sources], check=True, stdout=subprocess.DEVNULL)

@@ -108,7 +108,8 @@ def test_gap_rows_is_gap_at_phase_bit_for_bit(tmp_path, n_modes):
     """The trajectory's rows take V_T and its rate from model%gap_rows, a table at a time (a
     mode at a time down the rows from 8 rows up, else a row at a time): the sums of
     gap_at_phase, their one definition, in its order, so the same bits; no row outside
-    first .. first + count - 1 is touched."""
+    first .. first + count - 1 is touched.  model%gap_rows through _core.gap_rows, which checks
+    the rows are inside the table (f90wrap does not wrap it: nothing there checks them)."""
     path = write_nml(tmp_path / "gap.nml", base=INPUTS / "fig2_n4.nml",
                      model={"n_modes": n_modes}, initial={"a0": [0.0] * n_modes},
                      scene={"delta_hat": 0.0})
@@ -124,7 +125,9 @@ def test_gap_rows_is_gap_at_phase_bit_for_bit(tmp_path, n_modes):
         rows_of = slice(first - 1, first - 1 + count)
         vt = np.full(rows, np.nan)
         vtdot = np.full(rows, np.nan)
-        f.gap_rows(rows, first, count, a, adot, s[rows_of].copy(), c[rows_of].copy(), vt, vtdot)
+        ierr, errmsg = _core.gap_rows(str(path), first, a, adot, s[rows_of].copy(), c[rows_of].copy(),
+                                      vt, vtdot)
+        assert ierr == 0, errmsg
         pairs = [f.gap_at_phase(np.concatenate([a[i], adot[i]]), s[i], c[i])
                  for i in range(first - 1, first - 1 + count)]
         want = np.array(pairs, dtype=float).reshape(count, 2)
@@ -133,6 +136,25 @@ def test_gap_rows_is_gap_at_phase_bit_for_bit(tmp_path, n_modes):
         outside = np.ones(rows, bool)
         outside[rows_of] = False
         assert np.all(np.isnan(vt[outside])) and np.all(np.isnan(vtdot[outside]))
+
+
+def test_gap_rows_refuses_rows_outside_the_table(tmp_path):
+    """Rows past the table's end (the reviewer's crash: 200000 rows of a 4-row table), before
+    its start or none are refused with err_input and touch nothing; Model._f has no gap_rows."""
+    path = write_nml(tmp_path / "gap.nml", base=INPUTS / "fig2_n4.nml")
+    assert not hasattr(tmafm.Model(str(path))._f, "gap_rows")
+    rows = 4
+    a = np.zeros((rows, 4), order="F")
+    for first, count in [(1, 200000), (4, 2), (0, 1), (-5, 3), (5, 1)]:
+        vt, vtdot = np.full(rows, np.nan), np.full(rows, np.nan)
+        ierr, errmsg = _core.gap_rows(str(path), first, a, a.copy(), np.zeros(count), np.zeros(count),
+                                      vt, vtdot)
+        assert ierr == 2, (first, count)
+        assert "not inside the table of 4 rows" in errmsg.decode(), errmsg
+        assert np.all(np.isnan(vt)) and np.all(np.isnan(vtdot))
+    ierr, errmsg = _core.gap_rows(str(path), 1, np.zeros((rows, 3), order="F"), np.zeros((rows, 3), order="F"),
+                                  np.zeros(1), np.zeros(1), vt, vtdot)
+    assert ierr == 2 and "n_modes = 3 of the call does not match" in errmsg.decode(), errmsg
 
 
 def exact_flight(model_fields, tau0, y0, dt, n_samples):

@@ -19,6 +19,7 @@ import numpy as np
 from . import inputs as _inputs
 from ._fortran import api as _api
 from ._fortran import config_t as _config_t
+from ._fortran import polls
 from ._namelist import KEY_TYPES, check_groups, merge, shown, to_text
 from .errors import InputError, InputFileError, InputTypeError, SolverError, raise_for
 
@@ -180,12 +181,12 @@ class Config:
         # raises out of the call, and a handle made inside it would be lost (tmafm_api).
         handle = _config_t()
         if override_text is None:
-            ierr, errmsg = _api.config_from_text(_for_core(text), _for_core(label), handle)
+            ierr, errmsg = _api.config_from_text(_for_core(text), _for_core(label), handle, polls())
         else:
             label = f"{label} + overrides"
             ierr, errmsg = _api.config_from_texts(_for_core(text), _for_core(label[:-12]),
                                                   _for_core(override_text), _for_core(label),
-                                                  handle)
+                                                  handle, polls())
         raise_for(ierr, errmsg)
         self.label = label
         self._f = handle
@@ -250,9 +251,9 @@ class Config:
         """Run this configuration; the GIL is released while the core integrates."""
         max_switches = _checked_max_switches(max_switches)
         # A Ctrl-C stops the run: the exception Python's handler raised comes out of run_config
-        # (tmafm_api_poll); the handle, made here, is freed with it.
+        # (tmafm_api_poll; on the main thread only); the handle, made here, is freed with it.
         handle = _api.run_t()
-        ierr, errmsg = _api.run_config(self._f, handle)
+        ierr, errmsg = _api.run_config(self._f, handle, polls())
         raise_for(ierr, errmsg)
         n_samples, n_modes, n_switches = _api.run_sizes(handle)
         if max_switches is not None and n_switches > max_switches:
@@ -396,7 +397,7 @@ def _config_from_resolved_text(text: str, label: str) -> Config:
     """A Config rebuilt from its resolved text (how a pickled Config is unpickled)."""
     config = Config.__new__(Config)
     handle = _config_t()
-    ierr, errmsg = _api.config_from_text(_for_core(text), _for_core(label), handle)
+    ierr, errmsg = _api.config_from_text(_for_core(text), _for_core(label), handle, polls())
     raise_for(ierr, errmsg)
     config.label, config._f, config._text, config._scene = label, handle, text, None
     return config

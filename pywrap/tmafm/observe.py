@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._fortran import polls
 from ._namelist import shown
 from ._run import Config, _for_core
 from .errors import InputError, InputTypeError, SolverError, raise_for
@@ -216,7 +217,7 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
          has_scales, ierr, errmsg) = _core.observe_texts(
             b"".join(texts), offsets, n_modes, opts["max_periods"], h, opts["p_max"],
             opts["steady_tol"], opts["steady_repeats"], opts["stop_at_steady"],
-            _group_bits(groups), threads, n_state, len(OBSERVABLES), n_configs=len(configs))
+            _group_bits(groups), threads, polls(), n_state, len(OBSERVABLES), n_configs=len(configs))
     except MemoryError as exc:
         raise _no_memory(exc, opts) from None
     bad = np.flatnonzero(ierr)
@@ -334,7 +335,7 @@ def observe_states(config, states, *, threads: int | None = None, max_periods: i
             _for_core(config.text), n, np.asfortranarray(states), opts["max_periods"],
             opts["harmonics"], opts["p_max"], opts["steady_tol"], opts["steady_repeats"],
             opts["stop_at_steady"], _group_bits(groups), points, first, int(confirm),
-            float(capture), threads, len(OBSERVABLES))
+            float(capture), threads, polls(), len(OBSERVABLES))
     except MemoryError as exc:
         raise _no_memory(exc, opts) from None
     message = errmsg.decode("utf-8", "replace") if isinstance(errmsg, bytes) else str(errmsg)

@@ -7,9 +7,9 @@
 !> errmsg, and keeps no state between calls, so two threads may run two configurations at once.
 !>
 !> The routines Python calls without the GIL (config_from_text(s), run_config) poll for Ctrl-C
-!> (tmafm_api_poll) and fill a config_t or run_t that Python made before the call: when a run is
-!> interrupted, the f2py wrapper raises instead of returning, and a handle allocated inside the
-!> call would be lost with everything it holds.
+!> (tmafm_api_poll) when Python says so (on its main thread only), and fill a config_t or run_t
+!> that Python made before the call: when a run is interrupted, the f2py wrapper raises instead
+!> of returning, and a handle allocated inside the call would be lost with everything it holds.
 module tmafm_api
    use tmafm_kinds, only: dp, i8
    use tmafm_errors, only: ok, err_input, errmsg_len
@@ -41,28 +41,45 @@ module tmafm_api
 contains
 
    !> Read and validate namelist text into the caller's `config`, and choose N when &model
-   !> n_modes = 0 (the comparison runs poll for Ctrl-C).
-   subroutine config_from_text(text, source_label, config, ierr, errmsg)
+   !> n_modes = 0 (with `poll`, the comparison runs poll for Ctrl-C).
+   subroutine config_from_text(text, source_label, config, poll, ierr, errmsg)
       character(len=*), intent(in) :: text
       character(len=*), intent(in) :: source_label
       type(config_t), intent(inout) :: config
+      !> Poll for Ctrl-C (tmafm_api_poll): only on Python's main thread, the only one it helps.
+      logical, intent(in) :: poll
       integer, intent(out) :: ierr
       character(len=api_errmsg_len), intent(out) :: errmsg
       call read_config_text(text, source_label, config, ierr, errmsg)
-      if (ierr == ok) call choose_mode_count(config, ierr, errmsg, poll=python_interrupted)
+      if (ierr == ok) call choose_modes(config, poll, ierr, errmsg)
    end subroutine config_from_text
+
+   ! choose_mode_count, given python_interrupted as its poll only when `poll`.
+   subroutine choose_modes(config, poll, ierr, errmsg)
+      type(config_t), intent(inout) :: config
+      logical, intent(in) :: poll
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      if (poll) then
+         call choose_mode_count(config, ierr, errmsg, poll=python_interrupted)
+      else
+         call choose_mode_count(config, ierr, errmsg)
+      end if
+   end subroutine choose_modes
 
    !> A configuration from a base text patched key by key by an override text: both are parsed
    !> for syntax (messages name base_label or '<overrides>'), entries of the base that an override
    !> sets are dropped, and the merged text is read as one input named `source_label` into the
    !> caller's `config` (N chosen as config_from_text does).
-   subroutine config_from_texts(base_text, base_label, override_text, source_label, config, &
+   subroutine config_from_texts(base_text, base_label, override_text, source_label, config, poll, &
                                 ierr, errmsg)
       character(len=*), intent(in) :: base_text
       character(len=*), intent(in) :: base_label
       character(len=*), intent(in) :: override_text
       character(len=*), intent(in) :: source_label
       type(config_t), intent(inout) :: config
+      !> Poll for Ctrl-C, as config_from_text's `poll`.
+      logical, intent(in) :: poll
       integer, intent(out) :: ierr
       character(len=api_errmsg_len), intent(out) :: errmsg
       type(nml_document_t) :: base, over
@@ -137,7 +154,7 @@ contains
          merged = merged//'/'//nl
       end do
       call read_config_text(merged, source_label, config, ierr, errmsg)
-      if (ierr == ok) call choose_mode_count(config, ierr, errmsg, poll=python_interrupted)
+      if (ierr == ok) call choose_modes(config, poll, ierr, errmsg)
    end subroutine config_from_texts
 
    !> Number of output samples of a configuration's run.
@@ -178,15 +195,21 @@ contains
       call build_model(config, model, ierr, errmsg)
    end subroutine model_of_config
 
-   !> Run a configuration into the caller's `run`, polling for Ctrl-C.  Python calls this
-   !> without holding the GIL.  After a failure `run` holds no samples (a traceback may keep
-   !> the Python handle alive for long).
-   subroutine run_config(config, run, ierr, errmsg)
+   !> Run a configuration into the caller's `run`, polling for Ctrl-C when `poll`.  Python
+   !> calls this without holding the GIL.  After a failure `run` holds no samples (a traceback
+   !> may keep the Python handle alive for long).
+   subroutine run_config(config, run, poll, ierr, errmsg)
       type(config_t), intent(in) :: config
       type(run_t), intent(inout) :: run
+      !> Poll for Ctrl-C (tmafm_api_poll): only on Python's main thread, the only one it helps.
+      logical, intent(in) :: poll
       integer, intent(out) :: ierr
       character(len=api_errmsg_len), intent(out) :: errmsg
-      call simulate(config, run%traj, ierr, errmsg, poll=python_interrupted)
+      if (poll) then
+         call simulate(config, run%traj, ierr, errmsg, poll=python_interrupted)
+      else
+         call simulate(config, run%traj, ierr, errmsg)
+      end if
       if (ierr /= ok) run%traj = trajectory_t()
    end subroutine run_config
 

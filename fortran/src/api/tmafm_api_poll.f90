@@ -1,15 +1,18 @@
 !> The poll that runs started from Python give the core (tmafm_trajectory stop_poll), so that
 !> Ctrl-C stops them.
 !>
-!> A run from Python releases the GIL, so Python's own SIGINT handler only notes the signal.
-!> The run loops ask python_interrupted at their first step and every poll_every steps; it
-!> calls tmafm_check_signals (pywrap/tmafm_check_signals.c, linked into each extension), which
-!> takes the GIL, runs the pending signal handlers (PyErr_CheckSignals) and gives the GIL back.
-!> When a handler raised (KeyboardInterrupt, or whatever a user's handler raises), that
-!> exception stays set, the run ends with err_interrupted and no result, and the f2py wrapper,
-!> which checks PyErr_Occurred() after the call, raises it.  A handler that does not raise lets
-!> the run go on.  Off Python's main thread PyErr_CheckSignals does nothing, so such runs never
-!> stop.  Nothing here holds state: the core gets the poll as a procedure argument.
+!> A run from Python releases the GIL, so Python's own SIGINT handler only notes the signal. The
+!> run loops ask python_interrupted at their first update and then at most every
+!> poll_interval_ms of wall time (tmafm_trajectory progress_t); it calls tmafm_check_signals
+!> (pywrap/tmafm_check_signals.c, linked into each extension), which takes the GIL, runs the
+!> pending signal handlers (PyErr_CheckSignals) and gives the GIL back. When a handler raised
+!> (KeyboardInterrupt, or whatever a user's handler raises), that exception stays set, the run
+!> ends with err_interrupted and no result, and the f2py wrapper, which checks PyErr_Occurred()
+!> after the call, raises it. A handler that does not raise lets the run go on. Off Python's
+!> main thread PyErr_CheckSignals does nothing (signal handlers run only there), so the entry
+!> points pass this poll only when Python says it calls from its main thread (their `poll`
+!> flag), and runs on other threads never take the GIL. Nothing here holds state: the core gets
+!> the poll as a procedure argument.
 module tmafm_api_poll
    use, intrinsic :: iso_c_binding, only: c_int
    implicit none

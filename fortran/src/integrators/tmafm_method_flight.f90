@@ -2,7 +2,8 @@
 !> (tmafm_flight), and the next contact is the first root of V_T on that closed form; only
 !> the contact phases are integrated numerically, by the adaptive pair `contact_pair`.
 !> Each flight and its scan points are charged to &solver max_steps (one scan is itself
-!> bounded by tmafm_flight).
+!> bounded by tmafm_flight).  The caller's poll (progress_t) is asked after each flight and
+!> each chunk of a flight's samples, so a run that stays out of contact can be stopped too.
 module tmafm_method_flight
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok
@@ -78,6 +79,9 @@ contains
                                    traj%a, traj%adot)
                call traj%commit_rows(model, count, sin_block, cos_block)
                left = left - count
+               ! A long flight (no contact for many periods) must still heed a Ctrl-C.
+               call progress%tick(traj%tau(k + count - 1), settings%tau_end, ierr, errmsg)
+               if (ierr /= ok) return
             end do
             if (present(observer)) call observer%flight_segment(model, flight, tau, s_contact)
             call flight%state(model, s_contact, y)

@@ -12,7 +12,7 @@ module tmafm_trajectory
    private
 
    public :: trajectory_t, init_trajectory, check_blowup, progress_t, chatter_switches, stop_poll, &
-      poll_every
+      poll_every, poll_interval_ms, poll_spacing
 
    !> Chatter: this many switches within one step length (or with no progress in tau) end
    !> the run.  A real contact needs two switches, a grazing one inside a single step too, so
@@ -85,12 +85,20 @@ module tmafm_trajectory
       procedure :: charge => trajectory_charge
    end type trajectory_t
 
-   !> A run with a poll asks it at its first step and then every poll_every steps whether to
-   !> stop.  A poll from Python (take the GIL, run the signal handlers, give the GIL back) costs
-   !> about 550 instructions; the cheapest steps (rk4_paper, N = 1) take about 0.4 us, the
-   !> dearest (dop853 at rtol 1e-10 with N = 30) about 9 to 13 us: the polls cost under 0.1 % of
-   !> a run, and a Ctrl-C stops it within about 15 ms of CPU (benchmarks/poll_cost.py).
-   integer, parameter :: poll_every = 1024
+   !> A run with a poll asks it at its first update (step, flight or flight sample chunk), then
+   !> looks at the clock every poll_every updates and asks it again once the wall time since
+   !> the last poll returned is both poll_interval_ms and poll_spacing times what that poll took.
+   !> A poll from Python takes the GIL: about 550 instructions when the GIL is free, up to the
+   !> 5 ms switch interval while another thread runs Python code, so the polls' rate is bounded
+   !> by time, not steps, and they take at most about 1/(1 + poll_spacing) of the run's wall
+   !> time.  The cheapest steps (rk4_paper, N = 1) take about 0.4 us, the dearest (dop853 at
+   !> rtol 1e-10 with N = 30) 8 to 13 us; a Ctrl-C stops a run within about poll_interval_ms
+   !> plus poll_every updates: about 10 ms of CPU (benchmarks/poll_cost.py measures it).
+   integer, parameter :: poll_every = 256
+   !> Least wall time between the end of a poll and the next one (milliseconds).
+   integer, parameter :: poll_interval_ms = 10
+   !> Least wall time between polls, in units of the last poll's own wall time.
+   integer, parameter :: poll_spacing = 10
 
    abstract interface
       !> A caller's poll: .true. asks the run to stop (tmafm_errors err_interrupted).  It must
@@ -105,14 +113,20 @@ module tmafm_trajectory
       integer :: unit = -1
       !> Next tenth to report.
       integer :: mark = 1
-      !> The caller's poll (none when null): asked at the first update, then every poll_every.
+      !> The caller's poll (none when null): asked at the first update, then as poll_every says.
       procedure(stop_poll), pointer, nopass :: poll => null()
-      !> Updates left until the next poll.
+      !> Updates left until the next look at the clock.
       integer :: countdown = 1
+      !> system_clock count when the last poll returned (-1: not polled yet).
+      integer(i8) :: polled_at = -1
+      !> system_clock counts the last poll took.
+      integer(i8) :: poll_took = 0
    contains
       !> Report if tau passed the next tenth of tau_end; poll the caller (ierr = err_interrupted
       !> when it asks to stop).
       procedure :: update => progress_update
+      !> Only poll the caller, as update does (for work between updates: flight sample chunks).
+      procedure :: tick => progress_tick
    end type progress_t
 
 contains
@@ -390,19 +404,8 @@ contains
       integer, intent(out) :: ierr
       !> Set only when the run must stop (a step loop's message buffer, not cleared here).
       character(len=*), intent(inout) :: errmsg
-      ierr = ok
-      if (associated(self%poll)) then
-         self%countdown = self%countdown - 1
-         if (self%countdown <= 0) then
-            self%countdown = poll_every
-            if (self%poll()) then
-               ierr = err_interrupted
-               write (errmsg, '(a,g0.6,a,g0.6,a)') 'run interrupted at tau = ', tau, ' of tau_end = ', &
-                  tau_end, ': its caller asked it to stop (Ctrl-C); no result is kept'
-               return
-            end if
-         end if
-      end if
+      call self%tick(tau, tau_end, ierr, errmsg)
+      if (ierr /= ok) return
       if (self%unit < 0) return
       if (tau >= self%mark*tau_end/10) then
          write (self%unit, '(a,i0,a,g0.6,a,g0.6)') 'tmafm: ', 10*self%mark, '% tau = ', tau, &
@@ -411,5 +414,34 @@ contains
          self%mark = self%mark + 1
       end if
    end subroutine progress_update
+
+   subroutine progress_tick(self, tau, tau_end, ierr, errmsg)
+      class(progress_t), intent(inout) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: tau_end
+      integer, intent(out) :: ierr
+      !> Set only when the run must stop (a step loop's message buffer, not cleared here).
+      character(len=*), intent(inout) :: errmsg
+      integer(i8) :: now, rate, since
+      logical :: asked
+      ierr = ok
+      if (.not. associated(self%poll)) return
+      self%countdown = self%countdown - 1
+      if (self%countdown > 0) return
+      self%countdown = poll_every
+      call system_clock(now, rate)
+      if (self%polled_at >= 0) then
+         since = now - self%polled_at
+         if (since*1000 < poll_interval_ms*rate .or. since < poll_spacing*self%poll_took) return
+      end if
+      asked = self%poll()
+      call system_clock(self%polled_at)
+      self%poll_took = self%polled_at - now
+      if (asked) then
+         ierr = err_interrupted
+         write (errmsg, '(a,g0.6,a,g0.6,a)') 'run interrupted at tau = ', tau, ' of tau_end = ', &
+            tau_end, ': its caller asked it to stop (Ctrl-C); no result is kept'
+      end if
+   end subroutine progress_tick
 
 end module tmafm_trajectory

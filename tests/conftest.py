@@ -1,9 +1,14 @@
 """Shared fixtures: the installed executable, the repository's inputs, namelist helpers, private
-device nodes and a small tmpfs (full-disk tests)."""
+device nodes, a small tmpfs (full-disk tests) and a child process sent SIGINT (Ctrl-C tests)."""
 
+import json
 import os
+import signal
 import stat
 import subprocess
+import sys
+import threading
+import time
 from pathlib import Path
 
 import f90nml
@@ -67,3 +72,39 @@ def small_tmpfs(tmp_path):
         yield mount
     finally:
         subprocess.run(["umount", str(mount)], check=True)
+
+
+def drive_interrupted_child(script: str, args, delay, timeout: float = 300):
+    """Run `python -c script *args` and interrupt it.  The child prints one JSON object a line:
+    {"start": name, ...} as a phase begins (the parent sleeps delay(fields) s, then sends SIGINT;
+    no signal when delay gives None), {"phase": name, ...} with that phase's report,
+    {"reference": name, ...} with an uninterrupted reference (kept as name + "_reference"),
+    and anything else merged as it is.  Asserts a clean exit (no SIGSEGV, nothing left raised);
+    returns the reports by name and the child's stderr."""
+    proc = subprocess.Popen([sys.executable, "-c", script, *map(str, args)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    reports = {}
+    watchdog = threading.Timer(timeout, proc.kill)  # a child that hangs fails, not the suite
+    watchdog.start()
+    try:
+        for line in proc.stdout:
+            fields = json.loads(line)
+            if "start" in fields:
+                reports[fields["start"]] = {k: v for k, v in fields.items() if k != "start"}
+                seconds = delay(fields)
+                if seconds is not None:
+                    time.sleep(seconds)  # the child is inside the core by now
+                    proc.send_signal(signal.SIGINT)
+            elif "phase" in fields:
+                reports[fields["phase"]].update(fields)
+            elif "reference" in fields:
+                reports[fields["reference"] + "_reference"] = fields
+            else:
+                reports.update(fields)
+        err = proc.stderr.read()
+        proc.wait(timeout=60)
+    finally:
+        watchdog.cancel()
+        proc.kill()
+    assert proc.returncode == 0, (proc.returncode, err[-3000:])
+    return reports, err

@@ -5,9 +5,6 @@ pywrap/tmafm_check_signals.c at a run's first update and then at most every 10 m
 (runs started on Python's main thread only), which runs the pending handlers.  When one raises, the run stops and that exception comes out of the call.
 Each test runs a child Python process and sends it SIGINT while the core integrates."""
 
-import json
-import signal
-import subprocess
 import sys
 import textwrap
 import threading
@@ -15,6 +12,8 @@ import time
 
 import numpy as np
 import pytest
+
+from conftest import drive_interrupted_child
 
 ARRAYS = ("tau", "vt", "vtdot", "contact", "a", "adot", "switches")
 
@@ -61,32 +60,12 @@ DELAY_SHARE = 1 / 20
 
 
 def _drive(child: str, *args, timeout: float = 300) -> dict:
-    """Run the child; SIGINT DELAY_SHARE of its expected CPU after each phase it starts.  The
-    phases' reports by name."""
-    proc = subprocess.Popen([sys.executable, "-c", PRELUDE + textwrap.dedent(child), *map(str, args)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    reports = {}
-    watchdog = threading.Timer(timeout, proc.kill)  # a child that hangs fails, not the suite
-    watchdog.start()
-    try:
-        for line in proc.stdout:
-            fields = json.loads(line)
-            if "start" in fields:
-                reports[fields["start"]] = {"expected_cpu": fields["expected_cpu"]}
-                if fields["expected_cpu"] is not None:
-                    time.sleep(DELAY_SHARE * fields["expected_cpu"])  # inside the core by now
-                    proc.send_signal(signal.SIGINT)
-            elif "phase" in fields:
-                reports[fields["phase"]].update(fields)
-            else:
-                reports.update(fields)
-        err = proc.stderr.read()
-        proc.wait(timeout=60)
-    finally:
-        watchdog.cancel()
-        proc.kill()
-    # Exits cleanly: no SIGSEGV (f90wrap's old longjmp handler), nothing left raised.
-    assert proc.returncode == 0, (proc.returncode, err[-3000:])
+    """Run the child; SIGINT DELAY_SHARE of its expected CPU after each phase it starts (none
+    where it expects none).  The phases' reports by name."""
+    def delay(fields):
+        cpu = fields["expected_cpu"]
+        return None if cpu is None else DELAY_SHARE * cpu
+    reports, _ = drive_interrupted_child(PRELUDE + textwrap.dedent(child), args, delay, timeout)
     return reports
 
 

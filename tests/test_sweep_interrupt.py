@@ -7,16 +7,12 @@ KeyboardInterrupt sets the sweep's stop event (checked by the threads before eac
 cancels what has not started, terminates a process pool, and re-raises once the workers are
 gone.  Each test runs a child Python process and sends it SIGINT while the sweep runs."""
 
-import json
-import signal
-import subprocess
-import sys
 import textwrap
-import threading
-import time
 from pathlib import Path
 
 import pytest
+
+from conftest import drive_interrupted_child
 
 pytest.importorskip("xarray")
 pytest.importorskip("tqdm")
@@ -70,30 +66,8 @@ PRELUDE = textwrap.dedent("""
 
 def _drive(child: str, *args, timeout: float = 300) -> dict:
     """Run the child; SIGINT `delay` s after each phase it starts.  Its reports by name."""
-    proc = subprocess.Popen([sys.executable, "-c", PRELUDE + textwrap.dedent(child), *map(str, args)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    reports = {}
-    watchdog = threading.Timer(timeout, proc.kill)  # a child that hangs fails, not the suite
-    watchdog.start()
-    try:
-        for line in proc.stdout:
-            fields = json.loads(line)
-            if "start" in fields:
-                reports[fields["start"]] = {}
-                time.sleep(fields["delay"])  # the sweep's workers are inside the core by now
-                proc.send_signal(signal.SIGINT)
-            elif "phase" in fields:
-                reports[fields["phase"]].update(fields)
-            elif "reference" in fields:
-                reports[fields["reference"] + "_reference"] = fields
-            else:
-                reports.update(fields)
-        err = proc.stderr.read()
-        proc.wait(timeout=60)
-    finally:
-        watchdog.cancel()
-        proc.kill()
-    assert proc.returncode == 0, (proc.returncode, err[-3000:])
+    reports, err = drive_interrupted_child(PRELUDE + textwrap.dedent(child), args,
+                                           lambda fields: fields["delay"], timeout)
     # No worker thread or pool process printed a traceback (the child caught the main one).
     assert "Traceback" not in err and "Exception in thread" not in err, err[-3000:]
     return reports

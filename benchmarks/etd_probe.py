@@ -59,21 +59,16 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import scipy.integrate._ivp.dop853_coefficients as dop
 from numpy.polynomial import legendre
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
 import tmafm
 
+# The Lawson probe's tableau, scenes and contacts (benchmarks/ is the script's own folder).
+from lawson_probe import A_STAGE, B_WEIGHT, NODES, PERIOD, SCENES, reference_contact  # noqa: E402
+
 REPO = Path(__file__).resolve().parent.parent
-A_STAGE, B_WEIGHT, NODES = dop.A[:12, :12], dop.B, dop.C[:12]
-PERIOD = math.pi  # Omega = 2
-SCENES = {
-    "fig2": {},
-    "tilted_hertz_3": {"model": {"n_modes": 3}, "scene": {"alpha2": 7e-4, "theta": 0.2},
-                       "initial": {"a0": [2e-4, 0.0, 0.0]}},
-}
 #: the reference's uniform dop853 steps: 256 and 512 agree to 9e-14 of the scale and 1.1e-14 of
 #: S_V (the JSON's reference_vs_dop853_256); 2048 adds round-off (5e-13 from 1024)
 REF_STEPS = 512
@@ -243,7 +238,7 @@ def etd_run(split, family, s, solver, rank, y0, t0, t1, nsteps, scale, tol, taus
     nodes = nodes_of(family, s)
     first_fixed = family == "lobatto"
     split.evals = 0
-    y, prev, coll_cache = y0.copy(), None, {}
+    y, prev, prev_h, coll_cache = y0.copy(), None, None, {}
     sweeps = jacs = 0
     m = len(y0)
     for n_step in range(len(taus) - 1):
@@ -413,18 +408,8 @@ def steps_within(starts, end, t0, t1):
 
 
 def prepare(name, overrides):
-    cfg = tmafm.Config("fig2_n4", **overrides,
-                       solver={"method": "flight_exact", "tau_end": 30 * PERIOD,
-                               "rtol": 1e-12, "atol": 1e-15})
-    run, model = tmafm.run(cfg), tmafm.Model(cfg)
-    split = Split(model)
-    contact = run.contact.astype(bool)
-    edges = np.nonzero(np.diff(contact.astype(int)))[0]
-    first = [i + 1 for i in edges if contact[i + 1] and i > 0.6 * len(contact)][0]
-    last = [i for i in edges if contact[i] and i > first][0]
-    states = np.hstack([run.a, run.adot])
-    scale = np.max(np.abs(states[len(states) // 2:]), axis=0)
-    return run, model, split, states, scale, first, last
+    run, model, states, scale, first, last = reference_contact(overrides)
+    return run, model, Split(model), states, scale, first, last
 
 
 def vt_of(model):

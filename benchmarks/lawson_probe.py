@@ -98,23 +98,31 @@ def integrate(model, jac, y0, t0, t1, rtol, atol, scale, lawson):
     return y, steps, rejected
 
 
+def reference_contact(overrides):
+    """A 30-period flight_exact run of the scene at rtol 1e-12 and one contact late in it: the run,
+    its model, the sampled states, each component's largest size over the second half, and the
+    sample indices of the contact's first and last samples."""
+    cfg = tmafm.Config("fig2_n4", **overrides,
+                       solver={"method": "flight_exact", "tau_end": 30 * PERIOD,
+                               "rtol": 1e-12, "atol": 1e-15})
+    run, model = tmafm.run(cfg), tmafm.Model(cfg)
+    contact = run.contact.astype(bool)
+    edges = np.nonzero(np.diff(contact.astype(int)))[0]
+    first = [i + 1 for i in edges if contact[i + 1] and i > 0.6 * len(contact)][0]
+    last = [i for i in edges if contact[i] and i > first][0]
+    states = np.hstack([run.a, run.adot])
+    scale = np.max(np.abs(states[len(states) // 2:]), axis=0)
+    return run, model, states, scale, first, last
+
+
 def main() -> None:
     print("| scene | rtol, atol | span | plain: steps, rejected | Lawson: steps, rejected "
           "| end error / scale, plain, Lawson |")
     print("|---|---|---|---|---|---|")
     spectra = []
     for name, overrides in SCENES.items():
-        cfg = tmafm.Config("fig2_n4", **overrides,
-                           solver={"method": "flight_exact", "tau_end": 30 * PERIOD,
-                                   "rtol": 1e-12, "atol": 1e-15})
-        run, model = tmafm.run(cfg), tmafm.Model(cfg)
+        run, model, states, scale, first, last = reference_contact(overrides)
         jac = free_jacobian(model, run.n_modes)
-        contact = run.contact.astype(bool)
-        edges = np.nonzero(np.diff(contact.astype(int)))[0]
-        first = [i + 1 for i in edges if contact[i + 1] and i > 0.6 * len(contact)][0]
-        last = [i for i in edges if contact[i] and i > first][0]
-        states = np.hstack([run.a, run.adot])
-        scale = np.max(np.abs(states[len(states) // 2:]), axis=0)
         t0, t1 = run.tau[first + 2], run.tau[last - 2]
         low, high = contact_spectrum(model, states[first:last + 1], run.tau[first:last + 1], run.n_modes)
         spectra.append(f"{name}: largest |eigenvalue| free {np.max(np.abs(np.linalg.eigvals(jac))):.2f}, "

@@ -3,7 +3,7 @@
 A run started on Python's main thread asks pywrap/tmafm_check_signals.c at its first update,
 then, looking at the clock every poll_every updates, once poll_interval_ms of wall time (and
 poll_spacing times the last poll's own time) passed since the last poll returned
-(fortran/src/run/tmafm_trajectory.f90); runs on other threads never poll.  This prints:
+(fortran/src/solve/tmafm_trajectory.f90); runs on other threads never poll.  This prints:
   - one poll's CPU time, called through ctypes (which releases the GIL around the call, as a run
     does), and the same for libc's abs: their difference is the poll (GIL free, no signal);
   - with --callgrind, its instructions: PyGILState_Ensure + PyGILState_Release +
@@ -37,7 +37,7 @@ import tmafm
 import tmafm._core
 
 ROOT = Path(__file__).resolve().parents[1]
-_TRAJECTORY = (ROOT / "fortran/src/run/tmafm_trajectory.f90").read_text()
+_TRAJECTORY = (ROOT / "fortran/src/solve/tmafm_trajectory.f90").read_text()
 POLL_EVERY = int(re.search(r"integer, parameter :: poll_every = (\d+)", _TRAJECTORY)[1])
 POLL_INTERVAL_MS = int(re.search(r"integer, parameter :: poll_interval_ms = (\d+)", _TRAJECTORY)[1])
 SCENES = {

@@ -1,7 +1,7 @@
 /* The poll of runs started from Python (fortran/src/api/tmafm_api_poll.f90): a run releases
  * the GIL, so Python's SIGINT handler only notes a Ctrl-C; the core calls this at a run's first
  * update and then at most every poll_interval_ms of wall time (progress_t in
- * fortran/src/run/tmafm_trajectory.f90), only for runs started on Python's main thread.
+ * fortran/src/solve/tmafm_trajectory.f90), only for runs started on Python's main thread.
  *
  * It takes the GIL (the calling thread has a thread state: it released the GIL in the f2py
  * wrapper), runs the pending signal handlers and gives the GIL back.  It returns 1 when a

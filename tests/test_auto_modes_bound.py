@@ -2,7 +2,7 @@
 progress: `&model n_modes = 0, mode_horizon = 1e4, mode_tol = 1e-12 / &solver tau_end = 1 /`
 ran silently for hours (up to 30 comparison runs of tau = 1e4 at rtol 1e-10; the search over
 mode_horizon = 20 already takes ~14 s CPU when no N agrees), and a Python call could not be
-interrupted.  mode_horizon is now at most 100 (the worst case ~90 s) (fortran/src/io/tmafm_config.f90,
+interrupted.  mode_horizon is now at most 100 (the worst case ~90 s) (fortran/src/config/tmafm_config.f90,
 max_mode_horizon), and the executable writes one line per comparison on stderr (not with -q).
 """
 

@@ -10,9 +10,7 @@ program tmafm_main
    use tmafm, only: config_t, trajectory_t, read_config, simulate, choose_mode_count, i8, &
       tmafm_version_string, ok, errmsg_len, path_len, output_sink_t, prepare_output, &
       check_output_size, begin_output, write_output, discard_output, sample_count, target_file, &
-      printable_text
-   use tmafm_posix, only: write_text, error_text
-   use tmafm_text, only: int_text
+      printable_text, write_text, error_text, int_text
    implicit none
 
    interface

@@ -11,14 +11,16 @@ module tmafm
    use tmafm_scene, only: scene_t, physical_t, scene_from_physical
    use tmafm_errata, only: errata_t, errata_for_convention
    use tmafm_contact, only: law_hertz, law_dmt, contact_brackets_t, contact_brackets
-   use tmafm_model, only: model_t, init_model
+   use tmafm_model, only: model_t, init_model, n_powers
    use tmafm_settings, only: run_settings_t, is_known_method, method_names, max_samples, &
       max_trajectory_bytes, check_run_size, sample_count
    use tmafm_trajectory, only: trajectory_t
    use tmafm_driver, only: run_trajectory
    use tmafm_config, only: config_t, path_len
    use tmafm_namelist, only: read_config, read_config_text, write_config, config_text
-   use tmafm_text, only: real_text, lower, printable_text
+   use tmafm_text, only: real_text, int_text, lower, printable_text
+   use tmafm_posix, only: write_text, error_text
+   use tmafm_nml_syntax, only: nml_document_t, parse_namelist, entry_text, entry_source
    use tmafm_simulation, only: build_model, simulate, choose_mode_count, load_model
    use tmafm_output, only: write_trajectory_file, output_sink_t, prepare_output, check_output_size, &
       begin_output, write_output, discard_output, target_file, target_device, target_stdout
@@ -29,9 +31,11 @@ module tmafm
    public :: tmafm_version_string, max_modes, beam_roots, mode_shape
    public :: scene_t, physical_t, scene_from_physical, errata_t, errata_for_convention
    public :: law_hertz, law_dmt, contact_brackets_t, contact_brackets
-   public :: model_t, init_model, run_settings_t, trajectory_t, run_trajectory
+   public :: model_t, init_model, n_powers, run_settings_t, trajectory_t, run_trajectory
    public :: config_t, path_len, read_config, write_config, build_model, simulate, choose_mode_count
-   public :: read_config_text, config_text, real_text, lower, printable_text
+   public :: read_config_text, config_text, real_text, int_text, lower, printable_text
+   public :: write_text, error_text
+   public :: nml_document_t, parse_namelist, entry_text, entry_source
    public :: is_known_method, method_names, max_samples, max_trajectory_bytes, check_run_size
    public :: load_model
    public :: write_trajectory_file, output_sink_t, prepare_output, check_output_size, begin_output, &

@@ -11,16 +11,15 @@
 !> that Python made before the call: when a run is interrupted, the f2py wrapper raises instead
 !> of returning, and a handle allocated inside the call would be lost with everything it holds.
 module tmafm_api
-   use tmafm_kinds, only: dp, i8
-   use tmafm_errors, only: ok, err_input, errmsg_len
-   use tmafm_settings, only: sample_count
+   use tmafm, only: dp, i8, ok, err_input, errmsg_len, sample_count, n_powers, build_model, &
+      simulate, choose_mode_count, read_config_text, config_text, nml_document_t, parse_namelist, &
+      entry_text, entry_source
+   ! The types Python sees are named from the modules that define them, not the facade: f90wrap
+   ! reads only the wrapped modules' sources and resolves a type through its defining module.
    use tmafm_config, only: config_t
    use tmafm_contact, only: contact_brackets_t
-   use tmafm_model, only: model_t, n_powers
+   use tmafm_model, only: model_t
    use tmafm_trajectory, only: trajectory_t
-   use tmafm_simulation, only: build_model, simulate, choose_mode_count
-   use tmafm_namelist, only: read_config_text, config_text
-   use tmafm_nml_syntax, only: nml_document_t, parse_namelist, entry_text, entry_source
    use tmafm_api_poll, only: python_interrupted
    implicit none
    private

@@ -1,14 +1,15 @@
-"""The scipy peer (tmafm._peer, the benchmarks' second implementation in numpy) against the
-core: the same right-hand side at random states, and the same trajectory within the two
+"""The scipy peer (studies/scipy_peer.py, a second implementation in numpy) against the core:
+the same right-hand side at random states, and the same trajectory within the two
 integrators' tolerances.  The peer reads the Galerkin data in memory, through tmafm.Model."""
 
 import numpy as np
 import pytest
 
 import tmafm
-from tmafm._peer import ScipyPeer
 
 pytest.importorskip("scipy")
+
+from scipy_peer import ScipyPeer  # noqa: E402  (studies/scipy_peer.py, conftest's sys.path)
 
 SCENES = [
     ("fig2_n4", {}),

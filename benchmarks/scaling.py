@@ -44,7 +44,8 @@ def cost(n, method, repeat):
         result = tmafm.run("fig2_n4", **groups)
         best = min(best, time.perf_counter() - start)
     return {"seconds_per_period": best / PERIODS, "rhs_per_period": result.counters["rhs_evaluations"] / PERIODS,
-            "steps_per_period": result.counters["steps"] / PERIODS, **({"dtau": solver["dtau"]} if "dtau" in solver else {})}
+            "steps_per_period": result.counters["steps"] / PERIODS,
+            **({"dtau": solver["dtau"]} if "dtau" in solver else {})}
 
 
 def slope(ns, values, n_from=4):

@@ -13,7 +13,6 @@ case from its seed.
 import argparse
 import importlib.util
 import json
-import os
 import resource
 import subprocess
 import sys

@@ -148,7 +148,8 @@ def grazing_study():
             r = tmafm.run(scene, solver={"method": method, "dtau": dtau, "tau_end": 10 * math.pi})
             row[method] = int(r.counters["phase_switches"]) // 2
         rows.append(row)
-        print(f"grazing dtau {dtau:.1e}: rk4_paper finds {row['rk4_paper']}, rk4_event {row['rk4_event']} of {expected}")
+        print(f"grazing dtau {dtau:.1e}: rk4_paper finds {row['rk4_paper']}, "
+              f"rk4_event {row['rk4_event']} of {expected}")
     missing = [r["dtau"] for r in rows if r["rk4_paper"] < expected]
     durations = exact.switches[1::2] - exact.switches[0::2]
     return {"contacts": expected, "contact_duration_min": float(durations.min()),

@@ -21,9 +21,7 @@ REGRESSIONS lists concrete inputs that broke the contract once; they run on ever
 from __future__ import annotations
 
 import math
-import os
 import re
-import shutil
 import subprocess
 import tempfile
 from dataclasses import dataclass, field

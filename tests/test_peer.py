@@ -37,8 +37,8 @@ def test_peer_rhs_equals_core_derivative(name, overrides):
 
 
 def test_peer_trajectory_matches_core():
-    overrides = {"model": {"n_modes": 3}, "initial": {"a0": [2e-4, 0.0, 0.0]}, "solver": {"method": "flight_exact", "rtol": 1e-10,
-                                                     "atol": 1e-14, "tau_end": 4 * np.pi},
+    overrides = {"model": {"n_modes": 3}, "initial": {"a0": [2e-4, 0.0, 0.0]},
+                 "solver": {"method": "flight_exact", "rtol": 1e-10, "atol": 1e-14, "tau_end": 4 * np.pi},
                  "output": {"sample_dtau": 0.05}}
     core = tmafm.run("fig2_n4", **overrides)
     peer = ScipyPeer("fig2_n4", **overrides).solve(4 * np.pi, 0.05, rtol=1e-10, atol=1e-14)

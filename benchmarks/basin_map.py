@@ -6,14 +6,14 @@ states, the Dataset, labelling the attractors).
 
     /opt/tmafm-venv/bin/python benchmarks/basin_map.py [--n 200] [--workers 2] [--rtol 1e-8]
         [--steady-tol 1e-6] [--no-known] [--approach-points 200]
-        [--json benchmarks/basin_map.json]
+        [--json benchmarks/results/basin_map.json]
 
 Times are wall clock (the target is wall time on 2 cores); 'in_core_wall_s' is the wall time
 spent inside the core's batches (tmafm.observe.observe_states and observe_batch: integrating,
 GIL released).  xarray and dask.array are imported before the clock starts (about 2 s the
 first time a Dataset is built in a process: not the map's cost; 'imports_s' records it).  The
 machine's load average is recorded before and after.  Writes
-benchmarks/basin_map.json and .png (the map).  The basin runs flight_exact at --rtol.
+benchmarks/results/basin_map.json and .png (the map).  The basin runs flight_exact at --rtol.
 """
 
 import argparse
@@ -42,7 +42,7 @@ def main():
     parser.add_argument("--steady-tol", type=float, default=1e-6)
     parser.add_argument("--no-known", action="store_true",
                         help="run every point to its own steady state (no known-attractor stop)")
-    parser.add_argument("--json", default=str(REPO / "benchmarks" / "basin_map.json"))
+    parser.add_argument("--json", default=str(REPO / "benchmarks" / "results" / "basin_map.json"))
     args = parser.parse_args()
 
     inside = {"wall_s": 0.0, "periods": 0, "runs": 0}

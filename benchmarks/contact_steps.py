@@ -4,14 +4,14 @@ error they buy, for two or more `tmafm` executables side by side (e.g. main and 
     python benchmarks/contact_steps.py --exe main=/path/build-main/tmafm --exe new=build-x/tmafm \
         --out /tmp/cs [--periods 1000] [--repeats 3] [--methods flight_exact dop853 dopri5] \
         [--instructions 100]
-    python benchmarks/contact_steps.py --table benchmarks/contact_steps.json [--out DIR]   # DIR: redraw the chart
+    python benchmarks/contact_steps.py --table benchmarks/results/contact_steps.json [--out DIR]  # DIR: redraw chart
 
 The committed results compare the main branch before the `steps` work with it (quick
 builds: `git archive <commit> | tar -x -C /tmp/before && cd /tmp/before && meson setup
 build-main && ninja -C build-main tmafm`, and `meson setup build-x && ninja -C build-x tmafm`
 in this checkout), run as
     /opt/tmafm-venv/bin/python benchmarks/contact_steps.py --exe main=/tmp/before/build-main/tmafm \
-        --exe steps=build-x/tmafm --instructions 100 --methods flight_exact dop853 dopri5 --out benchmarks
+        --exe steps=build-x/tmafm --instructions 100 --methods flight_exact dop853 dopri5 --out benchmarks/results
 
 Scenes: those of benchmarks/period_cost.py.  Counters: the `counters` of a run over `periods`
 drive periods with one output row per period (npz), divided by the periods; contacts per

@@ -15,7 +15,7 @@ instructions of the output samples: flight_sample (the exact flight's state at a
 trajectory_store_at_phase (the row, V_T and dV_T of every sample), each also per call.
 --cpu N adds the least CPU time (user + sys) of N interleaved runs of each executable.
 --png FILE draws the run's instructions per scene and the Fig. 2 split (chart next to the JSON:
-benchmarks/flight_scan.png).
+benchmarks/results/flight_scan.png).
 """
 
 import argparse

@@ -2,8 +2,8 @@
 observable (the default), with each observable group alone, and with none (the Poincare
 points, contact time and count only: what a basin map needs).
 
-    python benchmarks/observe_overhead.py --out benchmarks/observe_overhead.json \
-        --png benchmarks/observe_overhead.png
+    python benchmarks/observe_overhead.py --out benchmarks/results/observe_overhead.json \
+        --png benchmarks/results/observe_overhead.png
 
 Plain runs keep their samples as before; an observed run keeps none and computes the per-period
 observables of docs/observables.md (``observables=``: tmafm.observe.OBSERVABLE_GROUPS).  Prints
@@ -61,8 +61,8 @@ def main():
             json.dump({"periods": PERIODS, "input": "fig3", "variants": {
                 k: "all" if v is None else v for k, v in VARIANTS.items()}, "rows": rows,
                 "command": "python benchmarks/observe_overhead.py --out "
-                           "benchmarks/observe_overhead.json --png "
-                           "benchmarks/observe_overhead.png",
+                           "benchmarks/results/observe_overhead.json --png "
+                           "benchmarks/results/observe_overhead.png",
                 "time": "CPU s (process_time), best of 3, one process"}, handle, indent=1)
     if args.png:
         import matplotlib

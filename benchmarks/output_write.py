@@ -54,7 +54,7 @@ def time_write(exe: str, path: Path, folder: Path):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--out", type=Path, default=HERE)
+    parser.add_argument("--out", type=Path, default=HERE / "results")
     args = parser.parse_args()
     exe = tmafm.executable()
     results = []

@@ -3,18 +3,19 @@ against scipy's solve_ivp (DOP853 with events) at equal error.
 
     /opt/tmafm-venv/bin/python benchmarks/period_cost.py [--periods 1000] [--skip-scipy]
     /opt/tmafm-venv/bin/python benchmarks/period_cost.py --out /tmp/pc --periods 50   # quick look
-    /opt/tmafm-venv/bin/python benchmarks/period_cost.py --table benchmarks/period_cost.json
+    /opt/tmafm-venv/bin/python benchmarks/period_cost.py --table benchmarks/results/period_cost.json
     /opt/tmafm-venv/bin/python benchmarks/period_cost.py --baseline OLD/build/tmafm \
         --baseline-label 'main at abc1234' --instructions --repeat 9    # before/after in one run
 
 Cost: CPU time (user + sys) of the whole `tmafm` process over `periods` drive periods, one
-output row per period, divided by the periods (the least of --repeat runs, default 3, for the adaptive methods); every number comes from the same run of this
-script, so compare ratios.  Error: max |V_T - V_T_ref| over the first 20 periods, sampled
-every 0.05, against flight_exact at rtol 1e-13, atol 1e-18.  The scipy peer
-(tmafm/_peer.py) integrates 100 periods at rtol 1e-10 (its call timed whole, in CPU time);
-tmafm is timed as a whole process at the tolerance whose error is closest to the peer's
+output row per period, divided by the periods (the least of --repeat runs, default 3, for the
+adaptive methods); every number comes from the same run of this script, so compare ratios.
+Error: max |V_T - V_T_ref| over the first 20 periods, sampled every 0.05, against flight_exact
+at rtol 1e-13, atol 1e-18.  The scipy peer (studies/scipy_peer.py) integrates 100 periods at
+rtol 1e-10 (its call timed whole, in CPU time); tmafm is timed as a whole process at the
+tolerance whose error is closest to the peer's
 without exceeding it.  Writes period_cost.json and period_cost.png into --out (default
-benchmarks/; the committed results are the default run).
+benchmarks/results/; the committed results are the default run).
 
 --baseline PATH times another tmafm executable (a build of an earlier commit) in the same loop,
 run for run interleaved with this one, so both see the same load of the shared machine; each
@@ -30,6 +31,7 @@ import os
 import resource
 import shutil
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -160,7 +162,8 @@ def study(periods, with_scipy, progress=print, methods=None, count_instructions=
 
 def scipy_comparison(scratch, progress, periods=100, scene="tilted_hertz_3"):
     """scipy DOP853 with events at rtol 1e-10 on `periods` periods, against tmafm at equal error."""
-    from tmafm._peer import ScipyPeer
+    sys.path.insert(0, str(REPO / "studies"))  # the peer is a study, not part of the package
+    from scipy_peer import ScipyPeer
     sample = 0.05
     reference = tmafm.run(groups(scene, {"method": "flight_exact", "rtol": 1e-13, "atol": 1e-18},
                                  periods, sample, "unused.dat")).vt
@@ -258,7 +261,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--table", type=Path, help="print the markdown tables of a JSON and stop")
     parser.add_argument("--periods", type=int, default=1000)
-    parser.add_argument("--out", type=Path, default=REPO / "benchmarks")
+    parser.add_argument("--out", type=Path, default=REPO / "benchmarks" / "results")
     parser.add_argument("--skip-scipy", action="store_true")
     parser.add_argument("--repeat", type=int, default=REPEAT,
                         help="time each adaptive run this many times and keep the least")
@@ -272,7 +275,7 @@ def main():
     if args.table:
         print(table(json.loads(args.table.read_text())))
         return
-    if args.out.resolve() == (REPO / "benchmarks").resolve() and (args.periods != 1000 or args.methods):
+    if args.out.resolve() == (REPO / "benchmarks" / "results").resolve() and (args.periods != 1000 or args.methods):
         parser.error("a shortened or partial run must not overwrite the committed results: pass --out")
     if args.instructions and shutil.which("valgrind") is None:
         parser.error("--instructions needs valgrind on PATH")

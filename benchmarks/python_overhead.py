@@ -13,7 +13,7 @@
    shared 2-core machine the 2-worker numbers depend on what else runs; the JSON records the
    load average.
 
-Writes benchmarks/python_overhead.json and .png next to this file.
+Writes benchmarks/results/python_overhead.json and .png.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ import numpy as np
 import tmafm
 from tmafm import _core
 
-OUT = Path(__file__).resolve().parent
+OUT = Path(__file__).resolve().parent / "results"
 SHORT = {"model": {"n_modes": 4}, "solver": {"tau_end": 0.1}}
 
 

@@ -24,7 +24,7 @@ and the working tree twice (with the working tree's meson.build, which turns on 
   an upper bound from the counters (see tests/test_rhs.py);
 - CPU time of `tmafm --version`, the mean of 200 starts, and of /bin/true.
 
-    python benchmarks/rhs_cost.py          # ~10 min on 2 cores; writes rhs_cost.json and .png
+    python benchmarks/rhs_cost.py          # ~10 min on 2 cores; writes benchmarks/results/rhs_cost.json and .png
 
 On a shared machine read the ratios within one run, not the milliseconds.
 """
@@ -186,8 +186,8 @@ def main() -> None:
     data = {"builds": results, "runs": runs, "calls": CALLS, "starts": STARTS, "rounds": RUNS,
             "start_ms_bin_true": start_cost("/bin/true"),
             "command": "python benchmarks/rhs_cost.py"}
-    (HERE / "rhs_cost.json").write_text(json.dumps(data, indent=1) + "\n")
-    chart(data, HERE / "rhs_cost.png")
+    (HERE / "results" / "rhs_cost.json").write_text(json.dumps(data, indent=1) + "\n")
+    chart(data, HERE / "results" / "rhs_cost.png")
     old, new = results["old"]["rhs"], results["new"]["rhs"]
     for n in MODES:
         o, w = old[str(n)], new[str(n)]

@@ -17,7 +17,7 @@ tree's meson options, so LTO on), each in a temporary folder, and measures with 
 - CPU time (user + sys) of those processes, RUNS interleaved rounds (default 21), median and
   the median of the per-round ratios old / new.
 
-    python benchmarks/rhs_instructions.py     # ~5 min on 2 cores; writes rhs_instructions.json, .png
+    python benchmarks/rhs_instructions.py     # ~5 min on 2 cores; writes benchmarks/results/rhs_instructions.json, .png
 
 Instruction counts do not move with the machine's load; on a shared machine read the CPU
 ratios, not the milliseconds.
@@ -123,8 +123,8 @@ def main() -> None:
         runs = run_costs(builds, tmp / "runs")
     data = {"builds": results, "runs": runs, "calls": CALLS, "rounds": RUNS,
             "command": "python benchmarks/rhs_instructions.py"}
-    (HERE / "rhs_instructions.json").write_text(json.dumps(data, indent=1) + "\n")
-    chart(data, HERE / "rhs_instructions.png")
+    (HERE / "results" / "rhs_instructions.json").write_text(json.dumps(data, indent=1) + "\n")
+    chart(data, HERE / "results" / "rhs_instructions.png")
     old, new = results["old"]["rhs"], results["new"]["rhs"]
     for n in MODES:
         print(f"N = {n:2d}: " + ", ".join(f"{kind} {old[str(n)][kind]:6.0f} -> {new[str(n)][kind]:6.0f}"

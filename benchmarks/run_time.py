@@ -1,7 +1,7 @@
 """CPU time of the tmafm executable (whole process) on a 100-period Fig. 2 run.
 
     /opt/tmafm-venv/bin/python benchmarks/run_time.py [--periods 100] [--repeat 5]
-        [--baseline PATH [--baseline-label TEXT]] [--instructions] [--out benchmarks/run_time.json]
+        [--baseline PATH [--baseline-label TEXT]] [--instructions] [--out benchmarks/results/run_time.json]
 
 Runs inputs/fig2_n4.nml (N = 4) for `periods` drive periods at the input's sampling
 (sample_dtau = 0.01), with the paper's scheme (rk4_paper, as the input asks) and with

@@ -5,7 +5,7 @@ the log-log slope.  Scene: Fig. 2 (Hertz, `paper`), 5 drive periods from rest.
 
 Fixed-step methods use dtau = min(2e-3, 0.9 * 2.78 / beta_N^2): the paper's step while it is
 stable, and the stability limit beyond (so their cost includes the stiffness N brings).
-Adaptive methods run at rtol 1e-8, atol 1e-11.  Writes benchmarks/scaling.json and .png.
+Adaptive methods run at rtol 1e-8, atol 1e-11.  Writes benchmarks/results/scaling.json and .png.
 """
 
 import argparse
@@ -20,7 +20,7 @@ import tmafm
 from tmafm import _core
 
 REPO = Path(__file__).resolve().parent.parent
-OUT = REPO / "benchmarks"
+OUT = REPO / "benchmarks" / "results"
 PERIODS = 5
 METHODS = ("rk4_paper", "rk4_event", "dopri5", "dop853", "flight_exact")
 
@@ -44,7 +44,8 @@ def cost(n, method, repeat):
         result = tmafm.run("fig2_n4", **groups)
         best = min(best, time.perf_counter() - start)
     return {"seconds_per_period": best / PERIODS, "rhs_per_period": result.counters["rhs_evaluations"] / PERIODS,
-            "steps_per_period": result.counters["steps"] / PERIODS, **({"dtau": solver["dtau"]} if "dtau" in solver else {})}
+            "steps_per_period": result.counters["steps"] / PERIODS,
+            **({"dtau": solver["dtau"]} if "dtau" in solver else {})}
 
 
 def slope(ns, values, n_from=4):

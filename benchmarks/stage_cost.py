@@ -15,7 +15,7 @@ the self cost of each function below (callgrind_annotate) is divided by the dop8
 only for the steps that hold a sample or a switch).  The counters of every executable must
 agree (the steps are the same), and it prints the largest difference of each run's arrays
 (tau, V_T, a, a', switches) from the first executable's, relative to each array's largest
-magnitude.  Writes stage_cost.json and stage_cost.png into --out (default benchmarks/).
+magnitude.  Writes stage_cost.json and stage_cost.png into --out (default benchmarks/results/).
 Instructions, unlike CPU time, do not depend on the load of the shared machine.  The step
 loop's own work (adaptive_advance, gap_state, check_blowup) and libm's pow (the PI
 controller's two real powers until it took square roots) are listed as well.
@@ -95,7 +95,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("executables", nargs="+")
     parser.add_argument("--labels", nargs="+", default=None)
-    parser.add_argument("--out", default=str(REPO / "benchmarks"))
+    parser.add_argument("--out", default=str(REPO / "benchmarks" / "results"))
     args = parser.parse_args()
     labels = args.labels or args.executables
     results = {"inputs": INPUTS, "runs": []}

@@ -9,7 +9,7 @@ scene.delta_hat x scene.alpha2, every run exactly --periods periods (stop_at_ste
 every backend does the same work).  Times are wall-clock (the point of workers is wall time),
 the median of 3 runs after a warm-up;
 the process CPU time (user+sys, this process and its threads only) is recorded too.  Writes
-benchmarks/sweep_throughput.json and .png; docs/performance.md quotes them.
+benchmarks/results/sweep_throughput.json and .png; docs/performance.md quotes them.
 """
 
 import argparse
@@ -80,7 +80,7 @@ def main():
               "periods_per_run": args.periods, "cpu_count": os.cpu_count(),
               "time": "wall clock, median of 3 (process_cpu_s: this process's user+sys only, "
                       "so not the pool's or the Dask processes' workers)", "rows": rows}
-    out = REPO / "benchmarks" / "sweep_throughput.json"
+    out = REPO / "benchmarks" / "results" / "sweep_throughput.json"
     out.write_text(json.dumps(report, indent=1))
     chart(report, out.with_suffix(".png"))
 

@@ -388,7 +388,7 @@ subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_per
    use tmafm_observers, only: observer_t, n_observables, observable_factors
    use tmafm_batch, only: observe_options_t, observe_states, config_scales
    use tmafm_units, only: scales_t
-   use ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
    use tmafm_api_poll, only: python_interrupted
    implicit none
    !f2py threadsafe

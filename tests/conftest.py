@@ -1,4 +1,5 @@
-"""Shared fixtures: the installed executable, the repository's inputs, namelist helpers, private
+"""Shared fixtures: the installed executable, the repository's inputs (and studies/ on sys.path),
+namelist helpers, private
 device nodes, a small tmpfs (full-disk tests) and a child process sent SIGINT (Ctrl-C tests)."""
 
 import json
@@ -18,6 +19,11 @@ import tmafm
 
 REPO = Path(__file__).resolve().parent.parent
 INPUTS = REPO / "inputs"
+# The studies (studies/: the scipy peer, the constructed scenes) are not part of the package;
+# the tests that check them import them from the checkout, as their sibling scripts do.
+STUDIES = REPO / "studies"
+if str(STUDIES) not in sys.path:
+    sys.path.insert(0, str(STUDIES))
 
 
 @pytest.fixture(scope="session")

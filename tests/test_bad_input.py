@@ -5,7 +5,7 @@ import pytest
 
 import tmafm
 
-from conftest import INPUTS, write_nml
+from conftest import write_nml
 
 INPUT_ERROR, FILE_ERROR = 2, 3
 

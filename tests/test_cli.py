@@ -2,7 +2,6 @@
 
 import re
 
-import f90nml
 import numpy as np
 import pytest
 

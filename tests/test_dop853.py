@@ -1,7 +1,6 @@
 """dop853 (Dormand-Prince 8(5,3)), the work counters, the step budget, switch chatter and
 the runs that used to hang."""
 
-import math
 import subprocess
 
 import numpy as np

@@ -86,7 +86,7 @@ def test_grazing_contacts_end_inside_the_warp_and_are_located(method, rtol, atol
     """Contacts 1.4e-3 long end inside the first warped step; each is still found, at the time
     flight_exact at rtol 1e-12 has it.  (dop853's free steps at rtol 1e-7 step over these
     1e-9-deep dips, before and after the warp alike: tmafm_events says why.)"""
-    from tmafm.scenes import grazing_scene
+    from scenes import grazing_scene  # studies/scenes.py (conftest's sys.path)
     scene = grazing_scene(depth=1e-9)
     solver = {"tau_end": 10 * math.pi}
     exact = tmafm.run(scene, solver={**solver, "method": "flight_exact", "rtol": 1e-12, "atol": 1e-18})

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from tmafm import _core
-from tmafm.scenes import grazing_scene as grazing_scene_dict
 
 from conftest import INPUTS, write_nml
+from scenes import grazing_scene as grazing_scene_dict  # studies/scenes.py (conftest's sys.path)
 
 EPS = np.finfo(float).eps
 PERIOD = math.pi           # 2 pi / Omega, Omega = 2
@@ -42,7 +42,7 @@ def assert_same_contact(turned, direct, tau0, noise=0.0):
 
 @pytest.fixture(scope="module")
 def orbit():
-    """A 2-mode beam on its periodic free orbit (tmafm.scenes.grazing_scene) and the depth
+    """A 2-mode beam on its periodic free orbit (studies/scenes.py's grazing_scene) and the depth
     of the sample below the orbit's lowest V_T there: delta_hat = dip - depth."""
     scene = grazing_scene_dict(depth=0.0)
     return scene, float(scene["scene"]["delta_hat"])

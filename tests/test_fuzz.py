@@ -1,6 +1,6 @@
 """Fuzzing the executable with namelist text: mutations of inputs/*.nml, each with its contract.
 
-A seeded generator (numpy's PCG64; the same engine drives benchmarks/fuzz_campaign.py over 10^4
+A seeded generator (numpy's PCG64; the same engine drives studies/fuzz_campaign.py over 10^4
 cases) builds a case from an input of inputs/ with a short run (tau_end <= 2), renders it as
 namelist text in varied valid layouts, and applies one mutation whose meaning it knows: a new
 valid value, a wrong type, an unquoted string, a repeated or unknown key or group, junk bytes
@@ -21,9 +21,7 @@ REGRESSIONS lists concrete inputs that broke the contract once; they run on ever
 from __future__ import annotations
 
 import math
-import os
 import re
-import shutil
 import subprocess
 import tempfile
 from dataclasses import dataclass, field

@@ -7,8 +7,6 @@ import re
 
 import pytest
 
-from conftest import INPUTS
-
 INPUT_ERROR, FILE_ERROR = 2, 3
 
 # name: (bytes or text of the whole input file, words the one error line must contain, exit code)

@@ -2,7 +2,8 @@
 
 A run releases the GIL, so Python's SIGINT handler only notes the signal; the core asks
 pywrap/tmafm_check_signals.c at a run's first update and then at most every 10 ms of wall time
-(runs started on Python's main thread only), which runs the pending handlers.  When one raises, the run stops and that exception comes out of the call.
+(runs started on Python's main thread only), which runs the pending handlers.  When one raises,
+the run stops and that exception comes out of the call.
 Each test runs a child Python process and sends it SIGINT while the core integrates."""
 
 import sys

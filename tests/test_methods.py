@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import tmafm
-from tmafm.scenes import grazing_scene as grazing_scene_dict
 
 from conftest import INPUTS, write_nml
+from scenes import grazing_scene as grazing_scene_dict  # studies/scenes.py (conftest's sys.path)
 
 REFERENCE = np.load(Path(__file__).parent / "reference" / "fig2_independent_tau0-10.npz")
 #: Scenes with at least 10 switches in tau <= 10 (Hertz; and DMT in `consistent`, where
@@ -101,7 +101,7 @@ def test_flight_exact_matches_rk4_event(law):
 
 @pytest.fixture(scope="module")
 def grazing_scene():
-    """Contacts about 1.4e-3 long, shorter than one free step of 2e-3 (tmafm.scenes)."""
+    """Contacts about 1.4e-3 long, shorter than one free step of 2e-3 (studies/scenes.py)."""
     return grazing_scene_dict(depth=1e-9)
 
 

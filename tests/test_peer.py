@@ -1,14 +1,15 @@
-"""The scipy peer (tmafm._peer, the benchmarks' second implementation in numpy) against the
-core: the same right-hand side at random states, and the same trajectory within the two
+"""The scipy peer (studies/scipy_peer.py, a second implementation in numpy) against the core:
+the same right-hand side at random states, and the same trajectory within the two
 integrators' tolerances.  The peer reads the Galerkin data in memory, through tmafm.Model."""
 
 import numpy as np
 import pytest
 
 import tmafm
-from tmafm._peer import ScipyPeer
 
 pytest.importorskip("scipy")
+
+from scipy_peer import ScipyPeer  # noqa: E402  (studies/scipy_peer.py, conftest's sys.path)
 
 SCENES = [
     ("fig2_n4", {}),
@@ -36,8 +37,8 @@ def test_peer_rhs_equals_core_derivative(name, overrides):
 
 
 def test_peer_trajectory_matches_core():
-    overrides = {"model": {"n_modes": 3}, "initial": {"a0": [2e-4, 0.0, 0.0]}, "solver": {"method": "flight_exact", "rtol": 1e-10,
-                                                     "atol": 1e-14, "tau_end": 4 * np.pi},
+    overrides = {"model": {"n_modes": 3}, "initial": {"a0": [2e-4, 0.0, 0.0]},
+                 "solver": {"method": "flight_exact", "rtol": 1e-10, "atol": 1e-14, "tau_end": 4 * np.pi},
                  "output": {"sample_dtau": 0.05}}
     core = tmafm.run("fig2_n4", **overrides)
     peer = ScipyPeer("fig2_n4", **overrides).solve(4 * np.pi, 0.05, rtol=1e-10, atol=1e-14)

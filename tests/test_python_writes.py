@@ -152,7 +152,7 @@ def test_summarize_of_a_file_that_is_not_a_sweep_is_one_error_line(tmp_path, dat
 
 
 def test_figures_and_reports_follow_the_same_rules(tmp_path):
-    """The sweep plots, tmafm.figures and tmafm.workprecision saved with fig.savefig(path) and
+    """The sweep plots, tmafm.figures and studies/work_precision.py saved with fig.savefig(path) and
     Path.write_text: through a symbolic link, and in place (a partial file on a failure)."""
     matplotlib = pytest.importorskip("matplotlib")
     matplotlib.use("Agg")

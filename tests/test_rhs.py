@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 
 import tmafm
-import tmafm.scenes
 from tmafm import _core
+
+import scenes  # studies/scenes.py (conftest's sys.path)
 
 DATA = Path(__file__).resolve().parent / "data" / "rhs_reference.npz"
 SCENES = ({}, {"xi0": 0.8, "theta": 0.2, "alpha4": 0.0})   # as in make_rhs_reference.py
@@ -258,7 +259,7 @@ def test_flight_scan_needs_few_evaluations():
 def test_flight_scan_finds_every_graze_and_no_false_one(depth, contacts):
     """A sample 1e-10 (gap units) above the lowest point of the free orbit is touched once per
     period, for about 5e-4; 1e-10 below it is never touched."""
-    scene = tmafm.scenes.grazing_scene(depth=depth)
+    scene = scenes.grazing_scene(depth=depth)
     result = tmafm.run(scene, solver={"method": "flight_exact", "tau_end": 10 * math.pi,
                                       "rtol": 1e-12, "atol": 1e-18},
                        output={"sample_dtau": 0.01})

@@ -79,7 +79,7 @@ def test_the_sweep_command_never_replaces_its_inputs(tmp_path, args, words):
     import subprocess
     import sys
 
-    path = _file(tmp_path, f"&sweep {GOOD} values = 0.0, max_periods = 2 /\n")
+    _file(tmp_path, f"&sweep {GOOD} values = 0.0, max_periods = 2 /\n")
     before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
     proc = subprocess.run([sys.executable, "-m", "tmafm.sweeps", "sweep.nml", *args, "--workers", "1"],
                           cwd=tmp_path, capture_output=True, text=True, timeout=300)

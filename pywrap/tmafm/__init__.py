@@ -34,6 +34,7 @@ except PackageNotFoundError:  # running from a source tree
     __version__ = "unknown"
 
 __all__ = ["run", "resolve", "load", "Config", "Model", "Result", "ContactState", "inputs",
-           "SCENE_KEYS", "COUNTER_KEYS", "observe", "observe_batch", "Observation", "POWER_NAMES", "executable", "TmafmError", "InputError",
+           "SCENE_KEYS", "COUNTER_KEYS", "observe", "observe_batch", "Observation", "POWER_NAMES", "executable",
+           "TmafmError", "InputError",
            "InputTypeError", "InputFileError", "SolverError", "BlowUpError", "__version__",
            "sweep", "approach", "frequency_sweep", "bifurcation", "basin"]

@@ -5,7 +5,8 @@ Everything works on a :class:`tmafm.Result`.  Array work is numpy; what needs th
 (contact forces, powers, modal energy) comes from the Fortran core (``tmafm.Model``),
 so no physics is written here.  The per-period measures the core observes itself
 (``tmafm.observe``: contact time and count, min and max V_T, each mode's max and min in and
-out of contact, dissipation, lock-in amplitude and phase, harmonics) are taken from it, exact to the trajectory's accuracy: the run's own input
+out of contact, dissipation, lock-in amplitude and phase, harmonics) are taken from it, exact to
+the trajectory's accuracy: the run's own input
 is integrated again over its whole drive periods, without samples (``observation``).  Only a
 Result the core cannot re-run (no input, a synthetic one, or ``rk4_event``) falls back to its
 samples.

@@ -617,7 +617,7 @@ contains
 
    !> Replace a learned step length by a new value only when it moved by more than the factor
    !> learn_band: the warp's first step and its error scale each shape the next contact's
-   !> steps, and learned at every contact they settled into a two-period cycle (tmafm.scenes'
+   !> steps, and learned at every contact they settled into a two-period cycle (inputs'
    !> fig4a from a1 = -1e-3: Poincare points 1e-6 apart in alternate periods, no steady state).
    pure subroutine learn(stored, new)
       real(dp), intent(inout) :: stored

@@ -1,10 +1,10 @@
 """Would an exponential collocation (ETD) method cut the contact steps?  A measured probe.
 
-    /opt/tmafm-venv/bin/python benchmarks/etd_probe.py [--out DIR] [--scenes fig2 ...]  # ~6 min CPU
-    /opt/tmafm-venv/bin/python benchmarks/etd_probe.py --table benchmarks/etd_probe.json [--out DIR]
+    /opt/tmafm-venv/bin/python studies/etd_probe.py [--out DIR] [--scenes fig2 ...]  # ~6 min CPU
+    /opt/tmafm-venv/bin/python studies/etd_probe.py --table studies/results/etd_probe.json [--out DIR]
 
 A study for docs/performance.md (section "An exponential collocation probe (not built)"), not a
-method of tmafm.  The contacts are those of benchmarks/lawson_probe.py: for each scene (Fig. 2
+method of tmafm.  The contacts are those of studies/lawson_probe.py: for each scene (Fig. 2
 with N = 4, and tilted_hertz_3 of benchmarks/period_cost.py), the first contact after 60 % of a
 30-period flight_exact run at rtol 1e-12; the inner interval runs from the second output sample
 after the entry to the second before the exit (samples every 0.01): the kinks stay outside.
@@ -48,7 +48,7 @@ Whole contact: from the entry tau_e (the exact flight, expm of the affine system
 drive, to V_T = 0) to the exit tau_x (scipy DOP853 at rtol 1e-13 with an event; the methods are
 given tau_x), on uniform steps and on steps graded as tau = tau_e + L w(u),
 w(u) = u^q / (u^q + (1 - u)^q), q = 2, 3 (q = 2: like tmafm's warp tau_e + sigma^2, at both ends).
-Writes etd_probe.json and etd_probe.png into --out (default benchmarks/) and prints the tables.
+Writes etd_probe.json and etd_probe.png into --out (default studies/results/) and prints the tables.
 """
 
 import argparse
@@ -65,7 +65,7 @@ from scipy.linalg import expm
 
 import tmafm
 
-# The Lawson probe's tableau, scenes and contacts (benchmarks/ is the script's own folder).
+# The Lawson probe's tableau, scenes and contacts (studies/ is the script's own folder).
 from lawson_probe import A_STAGE, B_WEIGHT, NODES, PERIOD, SCENES, reference_contact  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
@@ -80,7 +80,7 @@ PREDICTOR = 0
 STEPS = (1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64)
 RK_STEPS = STEPS + (96, 128, 192)
 #: multiply-adds per right-hand side, by N: a contact right-hand side costs 335 (N = 4) and 299
-#: (N = 3) instructions (benchmarks/rhs_instructions.json, contact_at_phase), and dop853's stage
+#: (N = 3) instructions (benchmarks/results/rhs_instructions.json, contact_at_phase), and dop853's stage
 #: algebra 1997 and 1681 instructions per step tried on Fig. 2 and the tilted scene for 816 and
 #: 612 multiply-adds (benchmarks/stage_cost.py on main df69127): 2.45 and 2.75 instructions each
 MADDS_PER_RHS = {4: 335 / (1997 / 816), 3: 299 / (1681 / 612)}
@@ -738,7 +738,7 @@ def chart(results, path):
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", help="where to write etd_probe.json and .png (default benchmarks/); "
+    parser.add_argument("--out", help="where to write etd_probe.json and .png (default studies/results/); "
                         "with --table, redraw the chart there")
     parser.add_argument("--table", help="print the summary of an existing JSON and stop")
     parser.add_argument("--scenes", nargs="*", default=list(SCENES))
@@ -750,7 +750,7 @@ def main() -> None:
             chart(results, Path(args.out) / "etd_probe.png")
         return
     results = [study(name, SCENES[name]) for name in args.scenes]
-    out = Path(args.out or REPO / "benchmarks")
+    out = Path(args.out or REPO / "studies" / "results")
     out.mkdir(parents=True, exist_ok=True)
     madds = {str(k): v for k, v in MADDS_PER_RHS.items()}
     (out / "etd_probe.json").write_text(json.dumps({"results": results, "madds_per_rhs": madds}, indent=1))

@@ -2,8 +2,9 @@
 ``scipy.integrate.solve_ivp``, phase by phase, with every switch V_T = 0 a terminal event.
 
 This is deliberately what a Python user would write, and it exists only to be measured
-against (benchmarks, work-precision chart).  Like the independent reference in
-``tests/reference``, it is a second implementation on purpose: it takes the Galerkin
+against (benchmarks/period_cost.py, studies/work_precision.py; not part of the package).  Like
+the independent reference in ``tests/reference``, it is a second implementation on purpose: it
+takes the Galerkin
 constants from the core (``tmafm.Model``, in memory) but writes the contact law and the
 equations of motion (docs/model.md §6-7) again, in numpy.
 """
@@ -15,7 +16,7 @@ import time
 
 import numpy as np
 
-from ._model import Model
+from tmafm import Model
 
 __all__ = ["ScipyPeer"]
 

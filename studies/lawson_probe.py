@@ -1,6 +1,6 @@
 """Would an integrating-factor (Lawson) form of dop853 take fewer contact steps?  A probe.
 
-    /opt/tmafm-venv/bin/python benchmarks/lawson_probe.py
+    /opt/tmafm-venv/bin/python studies/lawson_probe.py
 
 For one contact of each scene (Fig. 2 and tilted_hertz_3 of benchmarks/period_cost.py), late in
 a 30-period flight_exact run at rtol 1e-12: integrate the inner part of the contact (from the

@@ -1,10 +1,14 @@
-"""Constructed scenes for tests and benchmarks: inputs built by running tmafm itself."""
+"""Constructed scenes for tests and studies: inputs built by running tmafm itself.
+
+Not part of the package: tests import it through tests/conftest.py (which puts studies/ on
+sys.path), and the studies next to it import it as their sibling.
+"""
 
 from __future__ import annotations
 
 import math
 
-from ._run import run
+from tmafm import run
 
 __all__ = ["grazing_scene"]
 

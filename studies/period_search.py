@@ -2,9 +2,9 @@
 Hertz scene over a grid of alpha2 and a1(0), in both conventions, with flight_exact; and
 classify Fig. 7 (Hertz and DMT) over a long horizon.
 
-    /opt/tmafm-venv/bin/python benchmarks/period_search.py
+    /opt/tmafm-venv/bin/python studies/period_search.py
 
-Writes benchmarks/period_search.json; docs/reproduction.md quotes it.
+Writes studies/results/period_search.json; docs/reproduction.md quotes it.
 """
 
 import json
@@ -46,7 +46,7 @@ def main():
     for row in report["scan"]:
         kinds.setdefault(row["classification"], []).append((row["convention"], row["alpha2"], row["a1_0"]))
     report["kinds_found"] = {k: len(v) for k, v in kinds.items()}
-    (REPO / "benchmarks" / "period_search.json").write_text(json.dumps(report, indent=1))
+    (REPO / "studies" / "results" / "period_search.json").write_text(json.dumps(report, indent=1))
     print(json.dumps(report["kinds_found"]))
 
 

@@ -1,6 +1,6 @@
 """A longer check of the resolved input's real formatting than tests/test_real_text.py runs.
 
-    /opt/tmafm-venv/bin/python benchmarks/real_text_campaign.py [--values 180000] [--seed 1]
+    /opt/tmafm-venv/bin/python studies/real_text_campaign.py [--values 180000] [--seed 1]
 
 Draws random doubles three ways (random bit patterns, decimals rounded to 1..16 places, and
 m x 10^e with m of 1..16 digits, |e| < 300), and checks for each that tmafm_float_format's

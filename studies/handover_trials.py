@@ -2,12 +2,12 @@
 steps in tau after the warp"): steps, rejections and right-hand sides of a trial build whose
 hand-over from sigma to tau is chosen at run time by the environment variable TMAFM_V.
 
-The trial build is commit b2bf63b (the patch's base) with benchmarks/handover_trials.patch
+The trial build is commit b2bf63b (the patch's base) with studies/handover_trials.patch
 applied (not kept in the solver: every variant cost more right-hand sides than the hand-over it would replace):
 
     mkdir /tmp/trial && git archive b2bf63b | tar -x -C /tmp/trial && cd /tmp/trial \
-        && patch -p1 < benchmarks/handover_trials.patch && meson setup build-t && ninja -C build-t tmafm \
-        && cd - && python benchmarks/handover_trials.py --exe /tmp/trial/build-t/tmafm --out /tmp/ht
+        && patch -p1 < studies/handover_trials.patch && meson setup build-t && ninja -C build-t tmafm \
+        && cd - && python studies/handover_trials.py --exe /tmp/trial/build-t/tmafm --out /tmp/ht
 
 Variants (TMAFM_V): 0 the hand-over as built (first tau step 2 sigma dsigma from the warp's
 controller, the controller restarted, PI for 4 steps); 1 the first tau step the last warped
@@ -38,8 +38,9 @@ from pathlib import Path
 import f90nml
 import numpy as np
 
-HERE = Path(__file__).resolve().parent
-_spec = importlib.util.spec_from_file_location("contact_steps", HERE / "contact_steps.py")
+# benchmarks/contact_steps.py: its scenes, namelists and counters.
+BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
+_spec = importlib.util.spec_from_file_location("contact_steps", BENCHMARKS / "contact_steps.py")
 cs = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(cs)
 

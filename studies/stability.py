@@ -2,9 +2,9 @@
 and in contact, set against the theory; a run just past the limit; and the step above which
 the paper's scheme starts missing grazing contacts while the located methods miss none.
 
-    /opt/tmafm-venv/bin/python benchmarks/stability.py [--n-max 30]
+    /opt/tmafm-venv/bin/python studies/stability.py [--n-max 30]
 
-Writes benchmarks/stability.json and benchmarks/stability.png.
+Writes studies/results/stability.json and studies/results/stability.png.
 
 Theory: RK4 is stable while |R(h lambda)| <= 1 for every eigenvalue lambda of the Jacobian,
 R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24.  The Jacobian is taken by central differences of the
@@ -23,10 +23,10 @@ import numpy as np
 
 import tmafm
 from tmafm import _core
-from tmafm.scenes import grazing_scene
+from scenes import grazing_scene  # studies/scenes.py, this script's sibling
 
 REPO = Path(__file__).resolve().parent.parent
-OUT = REPO / "benchmarks"
+OUT = REPO / "studies" / "results"
 STEPS = 20000          # fixed steps per trial run
 TOLERANCE = 0.01       # relative width of the bisection bracket
 
@@ -148,7 +148,8 @@ def grazing_study():
             r = tmafm.run(scene, solver={"method": method, "dtau": dtau, "tau_end": 10 * math.pi})
             row[method] = int(r.counters["phase_switches"]) // 2
         rows.append(row)
-        print(f"grazing dtau {dtau:.1e}: rk4_paper finds {row['rk4_paper']}, rk4_event {row['rk4_event']} of {expected}")
+        print(f"grazing dtau {dtau:.1e}: rk4_paper finds {row['rk4_paper']}, "
+              f"rk4_event {row['rk4_event']} of {expected}")
     missing = [r["dtau"] for r in rows if r["rk4_paper"] < expected]
     durations = exact.switches[1::2] - exact.switches[0::2]
     return {"contacts": expected, "contact_duration_min": float(durations.min()),

@@ -1,9 +1,9 @@
 """The measured effect of each erratum, applied on its own, on Fig. 2's steady state
 (inputs/fig2_n4.nml, flight_exact at rtol 1e-10, 100 drive periods, second half analysed).
 
-    /opt/tmafm-venv/bin/python benchmarks/errata_effects.py
+    /opt/tmafm-venv/bin/python studies/errata_effects.py
 
-Prints JSON and writes benchmarks/errata_effects.json; docs/errata.md quotes it.
+Prints JSON and writes studies/results/errata_effects.json; docs/errata.md quotes it.
 """
 
 import json
@@ -40,7 +40,7 @@ def main():
             "max_abs_vt_change_last_period": float(np.max(np.abs(r.vt[last] - base.vt[last]))),
             "relative_change": float(np.max(np.abs(r.vt[last] - base.vt[last])) / np.ptp(base.vt[last])),
         }
-    (REPO / "benchmarks" / "errata_effects.json").write_text(json.dumps(report, indent=1))
+    (REPO / "studies" / "results" / "errata_effects.json").write_text(json.dumps(report, indent=1))
     print(json.dumps(report, indent=1))
 
 

@@ -2,10 +2,10 @@
 warm-started approach/retract curves (tmafm.approach) over the drive frequency and amplitude,
 scored by the largest relative amplitude difference between the two directions.
 
-    /opt/tmafm-venv/bin/python benchmarks/sweep_bistability_search.py
+    /opt/tmafm-venv/bin/python studies/sweep_bistability_search.py
 
 N = 2, the Sec. 3 scene otherwise, flight_exact at rtol 1e-8, 200 periods at most per point.
-Writes benchmarks/sweep_bistability_search.json.
+Writes studies/results/sweep_bistability_search.json.
 """
 
 import json
@@ -44,7 +44,7 @@ def main():
     mass, _, stiffness, _ = tmafm.Config(BASE).model().matrices(0.0, np.zeros(2), False)
     omega_1 = float(np.sqrt(np.min(np.linalg.eigvals(np.linalg.solve(mass, stiffness)).real)))
     print(f"omega_1 = {omega_1:.4f}")
-    (REPO / "benchmarks" / "sweep_bistability_search.json").write_text(
+    (REPO / "studies" / "results" / "sweep_bistability_search.json").write_text(
         json.dumps({"base": BASE, "omega_1": omega_1, "rows": rows}, indent=1))
 
 

@@ -1,7 +1,7 @@
 """Fuzz campaign: the contract of tests/test_fuzz.py over many seeded cases, on 2 processes.
 
-    /opt/tmafm-venv/bin/python benchmarks/fuzz_campaign.py [--cases 10000] [--first-seed 0]
-        [--jobs 2] [--out benchmarks/fuzz_campaign.json]
+    /opt/tmafm-venv/bin/python studies/fuzz_campaign.py [--cases 10000] [--first-seed 0]
+        [--jobs 2] [--out studies/results/fuzz_campaign.json]
 
 Writes JSON: the tmafm version and git commit, the counts per outcome class (overall and per
 mutation kind), the CPU time, and every case that broke the contract (seed, kind, class,
@@ -13,7 +13,6 @@ case from its seed.
 import argparse
 import importlib.util
 import json
-import os
 import resource
 import subprocess
 import sys
@@ -50,7 +49,7 @@ def main() -> None:
     parser.add_argument("--cases", type=int, default=10_000)
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--jobs", type=int, default=2)
-    parser.add_argument("--out", type=Path, default=REPO / "benchmarks" / "fuzz_campaign.json")
+    parser.add_argument("--out", type=Path, default=REPO / "studies" / "results" / "fuzz_campaign.json")
     args = parser.parse_args()
     exe = fuzz.executable()
     version = subprocess.run([exe, "--version"], capture_output=True, text=True).stdout.strip()
@@ -67,7 +66,7 @@ def main() -> None:
         by_kind[r["kind"]][r["outcome"]] += 1
     failures = [r for r in rows if r["outcome"] not in fuzz.GOOD]
     report = {
-        "command": "python benchmarks/fuzz_campaign.py " + " ".join(sys.argv[1:]),
+        "command": "python studies/fuzz_campaign.py " + " ".join(sys.argv[1:]),
         "tmafm": version, "commit": commit, "cases": len(rows),
         "seeds": [seeds.start, seeds.stop - 1], "time_limit_s": fuzz.TIME_LIMIT,
         "wall_s": round(time.time() - start, 1),

@@ -15,7 +15,7 @@
    attractor, how much their Poincare points still jitter, and whether a 100x tighter rtol
    finds their period.
 
-    python benchmarks/basin_labels.py --json benchmarks/basin_labels.json
+    python studies/basin_labels.py --json studies/results/basin_labels.json
 """
 
 import argparse
@@ -136,12 +136,12 @@ def maps(tight: float) -> dict:
 
 def main():
     parser = argparse.ArgumentParser()
-    parser.add_argument("--json", default=str(REPO / "benchmarks" / "basin_labels.json"))
+    parser.add_argument("--json", default=str(REPO / "studies" / "results" / "basin_labels.json"))
     parser.add_argument("--points", type=int, default=60)
     args = parser.parse_args()
     report = {"budget": budget(args.points, 1e-6), "no_period_points": floor(1e-10),
               "maps": maps(1e-10),
-              "command": "python benchmarks/basin_labels.py --json benchmarks/basin_labels.json"}
+              "command": "python studies/basin_labels.py --json studies/results/basin_labels.json"}
     print(json.dumps(report["budget"], indent=1))
     Path(args.json).write_text(json.dumps(report, indent=1))
 

@@ -1,15 +1,16 @@
 """Work-precision study: error in V_T over tau in [0, tau_end] against wall time and against
 right-hand-side evaluations, for every tmafm method and for scipy's solve_ivp with events on
-a numpy right-hand side (the peer a Python user would write).
+a numpy right-hand side (the peer a Python user would write, studies/scipy_peer.py).
 
-    python -m tmafm.workprecision --out benchmarks            # full study (minutes)
-    python -m tmafm.workprecision --out /tmp/wp --quick       # one scene, fewer points
+    /opt/tmafm-venv/bin/python studies/work_precision.py                  # full study (~15 min)
+    /opt/tmafm-venv/bin/python studies/work_precision.py --out /tmp/wp --quick   # one scene
                                                               # (never into the committed folder)
-    python -m tmafm.workprecision --summarize benchmarks/work_precision.json
+    /opt/tmafm-venv/bin/python studies/work_precision.py --summarize studies/results/work_precision.json
 
-Writes work_precision.json and work_precision.png.  The reference of each scene is
-flight_exact at rtol 1e-12; it is cross-checked against scipy DOP853 with events at rtol
-1e-12, and the difference is recorded.  Ratios at equal error are interpolated in log-log.
+Writes work_precision.json and work_precision.png into --out (default studies/results).  The
+reference of each scene is flight_exact at rtol 1e-12; it is cross-checked against scipy
+DOP853 with events at rtol 1e-12, and the difference is recorded.  Ratios at equal error are
+interpolated in log-log.
 """
 
 from __future__ import annotations
@@ -23,10 +24,13 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from ._peer import ScipyPeer
-from ._run import run
-from ._safefile import save_figure, write_text
+import tmafm
+from tmafm import __version__, run
+from tmafm._safefile import save_figure, write_text
+
+from scipy_peer import ScipyPeer  # studies/scipy_peer.py, this script's sibling
+
+REPO = Path(__file__).resolve().parent.parent
 
 __all__ = ["study", "summarize", "plot", "main", "TARGET_ERRORS"]
 
@@ -221,8 +225,9 @@ def plot(report: dict, path: Path) -> None:
 def main(argv=None) -> None:
     """Command line: regenerate work_precision.json and work_precision.png."""
     parser = argparse.ArgumentParser(description="tmafm work-precision study")
-    parser.add_argument("--out", type=Path, default=Path("benchmarks"))
-    parser.add_argument("--inputs", type=Path, default=Path("inputs"), help="folder of the figure inputs")
+    parser.add_argument("--out", type=Path, default=REPO / "studies" / "results")
+    parser.add_argument("--inputs", type=Path, default=tmafm.inputs.folder(),
+                        help="folder of the figure inputs")
     parser.add_argument("--quick", action="store_true", help="Fig. 2 in `paper` only, one repeat")
     parser.add_argument("--tau-end", type=float, default=20.0)
     parser.add_argument("--summarize", type=Path, help="print the headline ratios of an existing JSON and stop")

@@ -55,14 +55,16 @@ contains
 
    !> Read and validate the namelist file `path` into `config` (the whole file is read first;
    !> pipes work).  A file problem gives err_file, an input problem err_input.
-   subroutine read_config(path, config, ierr, errmsg)
+   subroutine read_config(path, config, ierr, errmsg, notice_unit)
       character(len=*), intent(in) :: path
       type(config_t), intent(out) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      !> Where to say that tmafm waits for a FIFO's writer (tmafm_input_file; nowhere if absent).
+      integer, intent(in), optional :: notice_unit
       character(len=:), allocatable :: text
 
-      call read_text_file(path, text, ierr, errmsg)
+      call read_text_file(path, text, ierr, errmsg, notice_unit)
       if (ierr /= ok) return
       call read_config_text(text, trim(path), config, ierr, errmsg)
    end subroutine read_config
@@ -140,7 +142,7 @@ contains
       type(errata_t) :: errata
       integer :: ierr
       character(len=64) :: bad
-      call parse_errata(config%errata, errata, ierr, bad)
+      call parse_errata(trim(config%errata), errata, ierr, bad)
    end function config_errata
 
    ! --- the groups -------------------------------------------------------------------------
@@ -155,7 +157,7 @@ contains
       real(dp) :: mode_tol, mode_horizon
       character(len=:), allocatable :: contact_law, convention, errata
       type(errata_t) :: parsed
-      character(len=64) :: bad
+      character(len=160) :: bad
       integer :: k
 
       n_modes = config%n_modes
@@ -188,24 +190,23 @@ contains
                                  ' comparison runs of this length at rtol 1e-10', ierr, errmsg)
                end if
             case ('contact_law')
-               call get_string(p, e, len(config%contact_law), contact_law, ierr, errmsg)
-               contact_law = lower(trim(adjustl(contact_law)))
+               call get_choice(p, e, len(config%contact_law), "'hertz' or 'dmt'", contact_law, ierr, errmsg)
                if (ierr == ok .and. contact_law /= 'hertz' .and. contact_law /= 'dmt') then
                   call key_error(p, e, "must be 'hertz' or 'dmt'", ierr, errmsg)
                end if
             case ('convention')
-               call get_string(p, e, len(config%convention), convention, ierr, errmsg)
-               convention = lower(trim(adjustl(convention)))
+               call get_choice(p, e, len(config%convention), "'paper' or 'consistent'", convention, &
+                               ierr, errmsg)
                if (ierr == ok .and. convention /= 'paper' .and. convention /= 'consistent') then
                   call key_error(p, e, "must be 'paper' or 'consistent'", ierr, errmsg)
                end if
             case ('errata')
                call get_string(p, e, len(config%errata), errata, ierr, errmsg)
-               if (ierr == ok .and. lower(trim(adjustl(errata))) /= 'convention') then
+               if (ierr == ok .and. lower(errata) /= 'convention') then
                   call parse_errata(errata, parsed, ierr, bad)
-                  if (ierr /= ok) call key_error(p, e, "'"//trim(bad)//"': must be 'convention', "// &
-                                                 "'all', 'none' or a list of distinct E1,E2,E3,E4,E6,E7", &
-                                                 ierr, errmsg)
+                  if (ierr /= ok) call key_error(p, e, trim(bad)//": must be 'convention', 'all', "// &
+                                                 "'none' or a comma-separated list of distinct "// &
+                                                 "E1,E2,E3,E4,E6,E7", ierr, errmsg)
                end if
             case default
                call unknown_key(p, e, model_keys, ierr, errmsg)
@@ -214,7 +215,7 @@ contains
       end do
       if (ierr == ok) call check_repeats(p, g, ierr, errmsg)
       if (ierr /= ok) return
-      if (lower(trim(adjustl(errata))) == 'convention') then
+      if (lower(errata) == 'convention') then
          parsed = errata_for_convention(convention)
       else
          call parse_errata(errata, parsed, ierr, bad)
@@ -396,8 +397,7 @@ contains
          associate (e => g%entries(k))
             select case (e%key)
             case ('method')
-               call get_string(p, e, len(s%method), method, ierr, errmsg)
-               method = lower(trim(adjustl(method)))
+               call get_choice(p, e, len(s%method), method_choices(), method, ierr, errmsg)
                if (ierr == ok .and. .not. is_known_method(method)) then
                   call key_error(p, e, 'must be '//method_choices(), ierr, errmsg)
                end if
@@ -466,14 +466,18 @@ contains
                   if (file(1:1) == ' ' .or. file(len(file):) == ' ') &
                      call key_error(p, e, 'begins or ends with a blank, which tmafm would not keep: '// &
                                     'remove it', ierr, errmsg)
+                  ! '-' would be standard output to the executable and a file named '-' to
+                  ! anything else: standard output is asked for on the command line only.
+                  if (ierr == ok .and. file == '-') &
+                     call key_error(p, e, "is ambiguous (standard output or a file named '-'): "// &
+                                    "name a file; standard output is the executable's -o -", ierr, errmsg)
                end if
             case ('sample_dtau')
                call get_real(p, e, sample_dtau, ierr, errmsg)
                call check_range(p, e, sample_dtau, 0.0_dp, config%solver%tau_end, .false., .false., &
                                 ierr, errmsg)
             case ('format')
-               call get_string(p, e, len(config%output_format), format, ierr, errmsg)
-               format = lower(trim(adjustl(format)))
+               call get_choice(p, e, len(config%output_format), "'text' or 'npy'", format, ierr, errmsg)
                if (ierr == ok .and. .not. any(output_formats == format)) then
                   call key_error(p, e, "must be 'text' or 'npy'", ierr, errmsg)
                end if
@@ -640,8 +644,28 @@ contains
          end if
       else
          read (low, *, iostat=iostat) x
-         if (iostat /= 0) call key_error(p, e, 'cannot be read as a real number', ierr, errmsg)
+         if (iostat /= 0) then
+            call key_error(p, e, 'cannot be read as a real number', ierr, errmsg)
+         else if (.not. ieee_is_finite(x)) then
+            ! A finite literal beyond the largest double: never read as Infinity.
+            call key_error(p, e, trim(value%text)//' overflows a double (largest '// &
+                           real_text(huge(1.0_dp))//')', ierr, errmsg)
+         else if (x == 0 .and. scan(mantissa(low), '123456789') > 0) then
+            call key_error(p, e, trim(value%text)//' underflows to 0 in a double (smallest '// &
+                           'normal '//real_text(tiny(1.0_dp))//'): write 0 or a normal number', ierr, errmsg)
+         else if (x /= 0 .and. abs(x) < tiny(1.0_dp)) then
+            call key_error(p, e, trim(value%text)//' is below the smallest normal double ('// &
+                           real_text(tiny(1.0_dp))//'), a subnormal that keeps fewer digits: '// &
+                           'write 0 or a normal number', ierr, errmsg)
+         end if
       end if
+   contains
+      !> The digits before the exponent of a real literal (sign and point included).
+      pure function mantissa(literal) result(digits)
+         character(len=*), intent(in) :: literal
+         character(len=merge(len(literal), scan(literal, 'ed') - 1, scan(literal, 'ed') == 0)) :: digits
+         digits = literal(1:len(digits))
+      end function mantissa
    end subroutine value_to_real
 
    subroutine get_integer(p, e, i, ierr, errmsg)
@@ -693,6 +717,26 @@ contains
          text = value%text
       end if
    end subroutine get_string
+
+   !> A quoted name from a fixed set (`choices`, for the message), in lower case: get_string,
+   !> and a blank anywhere in it is refused (' paper' is not read as 'paper').
+   subroutine get_choice(p, e, max_len, choices, text, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_entry_t), intent(in) :: e
+      integer, intent(in) :: max_len
+      character(len=*), intent(in) :: choices
+      character(len=:), allocatable, intent(inout) :: text
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+
+      call get_string(p, e, max_len, text, ierr, errmsg)
+      if (ierr /= ok) return
+      if (scan(text, ' '//achar(9)) > 0) then
+         call key_error(p, e, 'holds a blank: must be '//choices//', without blanks', ierr, errmsg)
+         return
+      end if
+      text = lower(text)
+   end subroutine get_choice
 
    !> A list of numbers (r*value repeats expanded), at most size(values) of them.
    subroutine get_real_list(p, e, values, n, ierr, errmsg)

@@ -96,7 +96,11 @@ module tmafm_nml_syntax
       logical :: skip_outside = .false.
    end type scanner_t
 
-   character(len=*), parameter :: blank_chars = ' '//achar(9)//achar(13)//achar(12)
+   !> Blanks between tokens: space and tab.  A CR counts only right before a LF (a CRLF line
+   !> end); a lone CR or a form feed is refused with its line and column.
+   character(len=*), parameter :: blank_chars = ' '//achar(9)
+   !> What ends an unquoted token besides blanks and the line end.
+   character(len=*), parameter :: cr = achar(13)
    character(len=*), parameter :: letters = 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ'
    character(len=*), parameter :: digits = '0123456789'
    !> Longest value text kept for messages.
@@ -339,7 +343,7 @@ contains
                return
             end if
             if (s%p <= len(s%text)) then
-               if (scan(s%text(s%p:s%p), blank_chars//new_line('a')//',/!&$') == 0) then
+               if (scan(s%text(s%p:s%p), blank_chars//cr//new_line('a')//',/!&$') == 0) then
                   entry%written = join(entry%written, s%text(start:s%p - 1))
                   call fail('text right after the closing quote: '''//snippet(s%text, s%p)// &
                             ''' (put a comma or a blank between values)')
@@ -371,7 +375,9 @@ contains
             if (verify(token, printable()) /= 0) then
                entry%written = join(entry%written, '(non-text bytes)')
                call fail('a non-text byte (code '//int_text(iachar(token(verify(token, printable()): &
-                         verify(token, printable()))))//') outside strings and comments')
+                         verify(token, printable()))))//', column '// &
+                         int_text(column_of(s%text, save_p + verify(token, printable()) - 1))// &
+                         ') outside strings and comments')
                return
             end if
             value = classify(token)
@@ -455,7 +461,7 @@ contains
       type(scanner_t), intent(inout) :: s
       character(len=:), allocatable, intent(out) :: token
       integer :: stop
-      stop = scan(s%text(s%p:), blank_chars//new_line('a')//',/!&$=''"')
+      stop = scan(s%text(s%p:), blank_chars//cr//new_line('a')//',/!&$=''"')
       if (stop == 0) then
          token = s%text(s%p:)
       else
@@ -641,18 +647,45 @@ contains
             s%p = s%p + 1
          else if (index(blank_chars, c) > 0) then
             s%p = s%p + 1
+         else if (c == cr) then
+            if (s%p == len(s%text)) then
+               call refuse('a carriage return (code 13) not followed by a line feed: line ends '// &
+                           'must be LF or CRLF')
+               return
+            else if (s%text(s%p + 1:s%p + 1) /= new_line('a')) then
+               call refuse('a carriage return (code 13) not followed by a line feed: line ends '// &
+                           'must be LF or CRLF')
+               return
+            end if
+            s%p = s%p + 1
          else if (c == '!') then
             call skip_line(s)
+         else if (c == achar(12)) then
+            call refuse('a form feed (code 12) outside strings and comments: the input must be text')
+            return
          else if (iachar(c) < 32 .or. iachar(c) > 126) then
-            ierr = err_input
-            errmsg = label//': line '//int_text(s%line)//': a non-text byte (code '// &
-                     int_text(iachar(c))//') outside strings and comments: the input must be text'
+            call refuse('a non-text byte (code '//int_text(iachar(c))//') outside strings and '// &
+                        'comments: the input must be text')
             return
          else
             return
          end if
       end do
+   contains
+      subroutine refuse(what)
+         character(len=*), intent(in) :: what
+         ierr = err_input
+         errmsg = label//': line '//int_text(s%line)//', column '//int_text(column_of(s%text, s%p))// &
+                  ': '//what
+      end subroutine refuse
    end subroutine skip_blanks
+
+   !> Column (1 = first character) of position p of `text` in its line.
+   pure integer function column_of(text, p)
+      character(len=*), intent(in) :: text
+      integer, intent(in) :: p
+      column_of = p - index(text(1:p - 1), new_line('a'), back=.true.)
+   end function column_of
 
    !> Move to the start of the next line.
    subroutine skip_line(s)

@@ -32,7 +32,8 @@ module tmafm_namelist
    implicit none
    private
 
-   public :: read_config, read_config_text, write_config, config_text, config_errata, real_text
+   public :: read_config, read_config_text, read_config_document, write_config, config_text, &
+             config_errata, real_text
 
    !> The namelist groups tmafm knows.
    character(len=*), parameter :: known_groups(6) = &
@@ -78,24 +79,37 @@ contains
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       type(nml_document_t) :: doc
-      integer :: where(size(known_groups)), g, k
 
       call parse_namelist(text, source_label, doc, ierr, errmsg)
       if (ierr /= ok) return
+      call read_config_document(doc, source_label, config, ierr, errmsg)
+   end subroutine read_config_text
+
+   !> Type-check and validate a parsed namelist `doc` into `config` (read_config_text after
+   !> the syntax; tmafm_api gives it a base document patched by overrides, whose entries say
+   !> where they came from: a line of the base, or an override).
+   subroutine read_config_document(doc, source_label, config, ierr, errmsg)
+      type(nml_document_t), intent(in) :: doc
+      character(len=*), intent(in) :: source_label
+      type(config_t), intent(out) :: config
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      integer :: where(size(known_groups)), g, k
+
       ierr = err_input
       where = 0
       do g = 1, doc%n_groups
          k = index_of(known_groups, doc%groups(g)%name)
          if (k == 0) then
-            errmsg = source_label//': unknown namelist group &'//doc%groups(g)%name//' at line '// &
-                     int_text(doc%groups(g)%line)//' (known: &model, &scene, &physical, '// &
+            errmsg = source_label//': unknown namelist group &'//doc%groups(g)%name//' at '// &
+                     trim(line_text(doc%groups(g)%line))//' (known: &model, &scene, &physical, '// &
                      '&initial, &solver, &output)'
             return
          end if
          if (where(k) /= 0) then
             errmsg = source_label//': namelist group &'//doc%groups(g)%name//' appears twice '// &
-                     '(lines '//int_text(doc%groups(where(k))%line)//' and '// &
-                     int_text(doc%groups(g)%line)//')'
+                     '('//trim(line_text(doc%groups(where(k))%line))//' and '// &
+                     trim(line_text(doc%groups(g)%line))//')'
             return
          end if
          where(k) = g
@@ -134,7 +148,20 @@ contains
          p%label = source_label
          p%group = trim(known_groups(k))
       end function place
-   end subroutine read_config_text
+   end subroutine read_config_document
+
+   !> Where an entry or group came from, for messages: 'line N', or 'override' for line 0 (an
+   !> entry or group that a base input did not have: tmafm_api config_from_texts); blank-padded
+   !> to 24 characters (trim it).
+   pure function line_text(line) result(text)
+      integer, intent(in) :: line
+      character(len=24) :: text
+      if (line <= 0) then
+         text = 'override'
+      else
+         write (text, '(a,i0)') 'line ', line
+      end if
+   end function line_text
 
    !> The corrections a config asks for (its resolved &model errata list).
    pure function config_errata(config) result(errata)
@@ -831,8 +858,8 @@ contains
             if (g%entries(j)%key == g%entries(k)%key) then
                ierr = err_input
                errmsg = p%label//': &'//p%group//' '//g%entries(k)%key//' = '//g%entries(k)%written// &
-                        ': the key is given twice (lines '//int_text(g%entries(j)%line)//' and '// &
-                        int_text(g%entries(k)%line)//')'
+                        ': the key is given twice ('//trim(line_text(entry_line(g%entries(j))))//' and '// &
+                        trim(line_text(entry_line(g%entries(k))))//')'
                return
             end if
          end do
@@ -860,8 +887,18 @@ contains
       written = e%written
       if (len(written) > 80) written = written(1:77)//'...'
       errmsg = p%label//': &'//p%group//' '//e%key//' = '//written//': '//what
-      if (e%line > 0) errmsg = trim(errmsg)//' (line '//int_text(e%line)//')'
+      if (e%override) then
+         errmsg = trim(errmsg)//' (override)'
+      else if (e%line > 0) then
+         errmsg = trim(errmsg)//' (line '//int_text(e%line)//')'
+      end if
    end subroutine key_error
+
+   !> The line of an entry for line_text: 0 for an override.
+   pure integer function entry_line(e)
+      type(nml_entry_t), intent(in) :: e
+      entry_line = merge(0, e%line, e%override)
+   end function entry_line
 
    !> The entry for `key` in group g, or a stand-in holding the default value (line 0).
    function entry_or_default(g, key, value) result(e)

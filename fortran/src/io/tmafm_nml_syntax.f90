@@ -20,7 +20,7 @@ module tmafm_nml_syntax
 
    public :: nml_document_t, nml_group_t, nml_entry_t, nml_value_t, parse_namelist
    public :: value_integer, value_real, value_logical, value_string, value_word, value_other
-   public :: value_kind_name, entry_text, entry_source, output_header_mark
+   public :: value_kind_name, entry_text, entry_source, output_header_mark, patch_document
 
    !> A value that reads as an integer: [+-]digits.
    integer, parameter :: value_integer = 1
@@ -64,6 +64,9 @@ module tmafm_nml_syntax
       character(len=:), allocatable :: source
       !> The values in order.
       type(nml_value_t), allocatable :: values(:)
+      !> .true. for an entry that overrides a base input (patch_document): messages name it as
+      !> an override, not by a line.
+      logical :: override = .false.
    end type nml_entry_t
 
    !> One namelist group.
@@ -628,6 +631,72 @@ contains
       character(len=len(entry%key) + 3 + len(entry%source)) :: text
       text = entry%key//' = '//entry%source
    end function entry_source
+
+   !> `base` patched key by key by `over` into `merged`: each group of `base` keeps its
+   !> entries (with their lines) but those `over` sets in the same group, followed by `over`'s
+   !> entries, marked as overrides; groups only `over` has come last (line 0).  The documents
+   !> are merged, not their texts, so that a message names a base entry by its own line and
+   !> an override as such (tmafm_api config_from_texts).
+   subroutine patch_document(base, over, merged)
+      type(nml_document_t), intent(in) :: base
+      type(nml_document_t), intent(in) :: over
+      type(nml_document_t), intent(out) :: merged
+      logical :: used(over%n_groups)
+      integer :: g, h, e, k
+
+      allocate (merged%groups(max(8, base%n_groups + over%n_groups)))
+      merged%from_output_file = base%from_output_file
+      used = .false.
+      do g = 1, base%n_groups
+         associate (b => base%groups(g))
+            h = 0
+            do k = 1, over%n_groups
+               if (over%groups(k)%name == b%name) h = k
+            end do
+            block
+               type(nml_group_t) :: group
+               group%name = b%name
+               group%line = b%line
+               allocate (group%entries(max(8, b%n_entries + 8)))
+               do e = 1, b%n_entries
+                  if (h > 0) then
+                     if (any([(over%groups(h)%entries(k)%key == b%entries(e)%key, &
+                               k = 1, over%groups(h)%n_entries)])) cycle
+                  end if
+                  call add_entry(group, b%entries(e))
+               end do
+               if (h > 0) then
+                  used(h) = .true.
+                  call add_overrides(group, over%groups(h))
+               end if
+               call add_group(merged, group)
+            end block
+         end associate
+      end do
+      do h = 1, over%n_groups
+         if (used(h)) cycle
+         block
+            type(nml_group_t) :: group
+            group%name = over%groups(h)%name
+            group%line = 0
+            allocate (group%entries(max(8, over%groups(h)%n_entries)))
+            call add_overrides(group, over%groups(h))
+            call add_group(merged, group)
+         end block
+      end do
+   contains
+      subroutine add_overrides(group, from)
+         type(nml_group_t), intent(inout) :: group
+         type(nml_group_t), intent(in) :: from
+         type(nml_entry_t) :: entry
+         integer :: j
+         do j = 1, from%n_entries
+            entry = from%entries(j)
+            entry%override = .true.
+            call add_entry(group, entry)
+         end do
+      end subroutine add_overrides
+   end subroutine patch_document
 
    ! --- scanning helpers -------------------------------------------------------------------
 

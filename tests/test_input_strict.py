@@ -3,7 +3,10 @@ are refused with exit 2 (3 for file problems), exactly one `tmafm: error:` line 
 group, the key and the value as written, and no output file.  Each case here ran silently (or
 crashed) with `read(nml=)`."""
 
+import os
 import re
+import select
+import subprocess
 
 import pytest
 
@@ -186,6 +189,28 @@ def test_still_valid(tmp_path, run_exe, name):
     proc = run_exe(write_input(tmp_path, content), "-q", "-o", "out.dat")
     assert proc.returncode == 0 and proc.stderr == "", proc.stderr
     assert line in (tmp_path / "out.dat").read_text().splitlines()
+
+
+def test_a_fifo_input_without_a_writer_says_that_it_waits(tmp_path, exe):
+    """A FIFO nobody writes to hung without a word (issue 18): tmafm now says on stderr that it
+    waits for input, and reads the input once it comes."""
+    os.mkfifo(tmp_path / "in.nml")
+    proc = subprocess.Popen([exe, "-q", "in.nml", "-o", "out.dat"], cwd=tmp_path, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        ready, _, _ = select.select([proc.stderr], [], [], 30)
+        assert ready, "no line on stderr within 30 s: a silent hang"
+        line = proc.stderr.readline()
+        assert line == "tmafm: waiting for input: nothing has been written to the FIFO 'in.nml' yet\n"
+        with open(tmp_path / "in.nml", "w") as writer:
+            writer.write("&model n_modes = 2 /\n&solver tau_end = 0.5 /\n")
+        out, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0 and err == "" and out == "", err
+    assert "#     n_modes = 2" in (tmp_path / "out.dat").read_text().splitlines()
 
 
 def test_directory_as_input_is_a_file_error(tmp_path, run_exe):

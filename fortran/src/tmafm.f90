@@ -16,9 +16,10 @@ module tmafm
       max_trajectory_bytes, check_run_size, sample_count
    use tmafm_trajectory, only: trajectory_t
    use tmafm_driver, only: run_trajectory
-   ! A base input patched by overrides (tmafm_api).
+   ! A base input patched by overrides (tmafm_api), and the rename held apart (the executable).
    use tmafm_namelist, only: read_config_document
    use tmafm_nml_syntax, only: patch_document
+   use tmafm_output, only: commit_output
    use tmafm_config, only: config_t, path_len
    use tmafm_namelist, only: read_config, read_config_text, write_config, config_text
    use tmafm_text, only: real_text, lower, printable_text
@@ -37,7 +38,7 @@ module tmafm
    public :: read_config_text, config_text, real_text, lower, printable_text
    public :: is_known_method, method_names, max_samples, max_trajectory_bytes, check_run_size
    public :: load_model
-   public :: read_config_document, patch_document
+   public :: read_config_document, patch_document, commit_output
    public :: write_trajectory_file, output_sink_t, prepare_output, check_output_size, begin_output, &
              write_output, discard_output, sample_count, target_file, target_device, target_stdout
 

@@ -62,6 +62,29 @@ def test_an_output_file_rerun_from_its_own_header_keeps_itself(tmp_path, run_exe
     assert run_exe("short.dat", "-q", "-o", "again.dat").returncode == 0
 
 
+def test_standard_output_keeps_a_header_that_reruns(tmp_path, exe, run_exe):
+    """`-o -` wrote file = '-' into the header, which then ran to standard output again, and a
+    namelist with file = '-' wrote to standard output (issue 18).  '-' in a namelist is refused
+    as ambiguous; the header of a `-o -` run keeps the input's &output file, so the saved
+    stream is a valid input that writes a file."""
+    import subprocess
+
+    path = short_input(tmp_path)
+    with open(tmp_path / "saved.dat", "wb") as saved:
+        proc = subprocess.run([exe, str(path), "-q", "-o", "-"], cwd=tmp_path, stdout=saved,
+                              stderr=subprocess.PIPE, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    header = (tmp_path / "saved.dat").read_text().splitlines()
+    assert "#     file = 'short.dat'" in header and "#     file = '-'" not in header
+    rerun = run_exe("saved.dat", "-q")
+    assert rerun.returncode == 0 and rerun.stdout == "", rerun.stderr
+    assert (tmp_path / "short.dat").read_text().splitlines()[2:] == header[2:]
+    dash = short_input(tmp_path, "dash.nml", output={"file": "-"})
+    proc = run_exe(dash, "-q")
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert "&output file = '-': is ambiguous" in _one_error(proc)
+
+
 @pytest.mark.parametrize("name", ["  lead.dat", "trail.dat  "])
 def test_blanks_around_a_file_name_are_refused_not_dropped(tmp_path, run_exe, name):
     """&output file = '  lead.dat' wrote lead.dat (and the header said so): a value silently

@@ -3,7 +3,10 @@ are refused with exit 2 (3 for file problems), exactly one `tmafm: error:` line 
 group, the key and the value as written, and no output file.  Each case here ran silently (or
 crashed) with `read(nml=)`."""
 
+import os
 import re
+import select
+import subprocess
 
 import pytest
 
@@ -94,6 +97,64 @@ CASES = {
     "max_steps_real": ("&solver max_steps = 1e8 /\n", ["&solver max_steps = 1e8:", "integer"], INPUT_ERROR),
     "bad_format": ("&output format = 'xml' /\n", ["&output format = 'xml':", "'text' or 'npy'"], INPUT_ERROR),
     "unquoted_format": ("&output format = npy /\n", ["&output format = npy:", "quoted"], INPUT_ERROR),
+    # Issue 18.  &model errata is 'convention', 'all', 'none' or a list of distinct known names
+    # with no empty item and no blank: each of these ran, read leniently ('' and 'E1,,E4' as
+    # lists with empty items dropped, 'none,E1' as E1, 'all,none' as all).
+    "errata_empty": ("&model errata = '' /\n", ["&model errata = '':", "empty"], INPUT_ERROR),
+    "errata_empty_item": ("&model errata = 'E1,,E4' /\n", ["&model errata = 'E1,,E4':", "empty item"],
+                          INPUT_ERROR),
+    "errata_trailing_comma": ("&model errata = 'E1,E4,' /\n", ["&model errata = 'E1,E4,':", "empty item"],
+                              INPUT_ERROR),
+    "errata_leading_comma": ("&model errata = ',E1' /\n", ["&model errata = ',E1':", "empty item"],
+                             INPUT_ERROR),
+    "errata_none_in_list": ("&model errata = 'none,E1' /\n", ["&model errata = 'none,E1':", "'none'",
+                                                              "inside a list"], INPUT_ERROR),
+    "errata_all_in_list": ("&model errata = 'all,none' /\n", ["&model errata = 'all,none':", "'all'",
+                                                              "inside a list"], INPUT_ERROR),
+    "errata_blank": ("&model errata = 'E1, E4' /\n", ["&model errata = 'E1, E4':", "blank"], INPUT_ERROR),
+    "errata_e5": ("&model errata = 'E1,E5' /\n", ["&model errata = 'E1,E5':", "'E5'", "not a known"],
+                  INPUT_ERROR),
+    # A form feed or a lone carriage return outside strings was read as a blank.
+    "form_feed": ("&model\fn_modes = 2 /\n", ["line 1, column 7", "form feed"], INPUT_ERROR),
+    "form_feed_in_value": ("&solver tau_end = 5\f /\n", ["&solver tau_end", "code 12, column 20",
+                                                          "(line 1)"], INPUT_ERROR),
+    "lone_cr": ("&model n_modes = 2\r/\n", ["line 1, column 19", "carriage return"], INPUT_ERROR),
+    "lone_cr_second_line": ("&model n_modes = 2 /\n&solver\rtau_end = 1 /\n",
+                            ["line 2, column 8", "carriage return"], INPUT_ERROR),
+    # Blanks inside a name were stripped: ' paper' ran as 'paper'.
+    "blank_in_convention": ("&model convention = ' paper' /\n", ["&model convention = ' paper':", "blank"],
+                            INPUT_ERROR),
+    "blank_in_method": ("&solver method = 'dopri5 ' /\n", ["&solver method = 'dopri5 ':", "blank"],
+                        INPUT_ERROR),
+    "blank_in_law": ("&model contact_law = 'd mt' /\n", ["&model contact_law = 'd mt':", "blank"],
+                     INPUT_ERROR),
+    "blank_in_format": ("&output format = ' npy' /\n", ["&output format = ' npy':", "blank"], INPUT_ERROR),
+    # '-' in a namelist wrote to standard output; standard output is the command line's -o -.
+    "file_dash": ("&output file = '-' /\n", ["&output file = '-':", "ambiguous"], INPUT_ERROR),
+    # A nonzero literal below the smallest normal double was read as 0 or as a subnormal.
+    "underflow_to_zero": ("&scene alpha2 = 1e-400 /\n", ["&scene alpha2 = 1e-400:", "underflows to 0"],
+                          INPUT_ERROR),
+    "underflow_in_list": ("&initial a0 = 0, 2.5d-999, 0, 0 /\n", ["&initial a0 = 0, 2.5d-999, 0, 0:",
+                                                                  "underflows to 0"], INPUT_ERROR),
+    "subnormal": ("&solver atol = 1e-310 /\n", ["&solver atol = 1e-310:", "subnormal"], INPUT_ERROR),
+    "overflow": ("&solver tau_end = 1e400 /\n", ["&solver tau_end = 1e400:", "overflows"], INPUT_ERROR),
+}
+
+#: Layouts and values that stay valid under the rules above (issue 18): each runs, and the
+#: header echoes the value.
+VALID = {
+    "crlf_line_ends": ("&model n_modes = 2,\r\n  errata = 'E4,e1' /\r\n&solver tau_end = 0.5 /\r\n",
+                       "#     errata = 'E1,E4'"),
+    "errata_all_upper": ("&model errata = 'ALL' /\n&solver tau_end = 0.5 /\n",
+                         "#     errata = 'E1,E2,E3,E4,E6,E7'"),
+    "errata_none": ("&model errata = 'none', convention = 'consistent' /\n&solver tau_end = 0.5 /\n",
+                    "#     errata = 'none'"),
+    "zero_with_exponent": ("&initial a0 = 0.0e-999, 0, 0, 0 /\n&solver tau_end = 0.5 /\n",
+                           "#     a0 = 0.0E+000, 0.0E+000, 0.0E+000, 0.0E+000"),
+    "smallest_normal": ("&solver atol = 2.2250738585072014e-308, tau_end = 0.5 /\n",
+                        "#     atol = 2.2250738585072014E-308"),
+    "form_feed_in_comment": ("&model n_modes = 4 / ! a \f in a comment\n&solver tau_end = 0.5 /\n",
+                             "#     n_modes = 4"),
 }
 
 
@@ -118,6 +179,36 @@ def test_refused_with_one_line_naming_the_key(tmp_path, run_exe, name):
     assert not re.search(r"\d[+-]\d{3}\b", proc.stderr.replace("E+", "").replace("E-", "")), proc.stderr
     assert "Backtrace" not in proc.stderr and proc.stdout == ""
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in.nml"]
+
+
+@pytest.mark.parametrize("name", sorted(VALID))
+def test_still_valid(tmp_path, run_exe, name):
+    content, line = VALID[name]
+    proc = run_exe(write_input(tmp_path, content), "-q", "-o", "out.dat")
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    assert line in (tmp_path / "out.dat").read_text().splitlines()
+
+
+def test_a_fifo_input_without_a_writer_says_that_it_waits(tmp_path, exe):
+    """A FIFO nobody writes to hung without a word (issue 18): tmafm now says on stderr that it
+    waits for input, and reads the input once it comes."""
+    os.mkfifo(tmp_path / "in.nml")
+    proc = subprocess.Popen([exe, "-q", "in.nml", "-o", "out.dat"], cwd=tmp_path, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        ready, _, _ = select.select([proc.stderr], [], [], 30)
+        assert ready, "no line on stderr within 30 s: a silent hang"
+        line = proc.stderr.readline()
+        assert line == "tmafm: waiting for input: nothing has been written to the FIFO 'in.nml' yet\n"
+        with open(tmp_path / "in.nml", "w") as writer:
+            writer.write("&model n_modes = 2 /\n&solver tau_end = 0.5 /\n")
+        out, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0 and err == "" and out == "", err
+    assert "#     n_modes = 2" in (tmp_path / "out.dat").read_text().splitlines()
 
 
 def test_directory_as_input_is_a_file_error(tmp_path, run_exe):

@@ -231,3 +231,93 @@ def test_replacing_a_file_is_atomic(tmp_path, run_exe):
         assert old_reader.read() == "old\n"  # a reader of the old file still sees it whole
     assert os.stat(target).st_ino != inode
     assert np.loadtxt(target).shape == (1001, 12)
+
+
+_RENAME_SHIM = r"""
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <signal.h>
+#include <stdlib.h>
+/* rename(2), then the signal TMAFM_TEST_SIGNAL to this process: a signal that comes right
+   after the complete output was put in place. */
+int rename(const char *from, const char *to)
+{
+    int (*real)(const char *, const char *) =
+        (int (*)(const char *, const char *))dlsym(RTLD_NEXT, "rename");
+    int status = real(from, to);
+    raise(atoi(getenv("TMAFM_TEST_SIGNAL")));
+    return status;
+}
+"""
+
+
+@pytest.fixture(scope="module")
+def rename_shim(tmp_path_factory):
+    """A preload library whose rename(2) signals the process right after renaming."""
+    import shutil
+    compiler = shutil.which("cc") or shutil.which("gcc")
+    if compiler is None:
+        pytest.skip("no C compiler for the rename shim")
+    folder = tmp_path_factory.mktemp("shim")
+    (folder / "shim.c").write_text(_RENAME_SHIM)
+    subprocess.run([compiler, "-shared", "-fPIC", "-o", str(folder / "shim.so"), str(folder / "shim.c"),
+                    "-ldl"], check=True, capture_output=True)
+    return folder / "shim.so"
+
+
+@pytest.mark.parametrize("signo", [signal.SIGTERM, signal.SIGINT, signal.SIGHUP])
+@pytest.mark.parametrize("fmt", ["text", "npy"])
+def test_a_signal_right_after_the_rename_is_a_success(tmp_path, exe, rename_shim, signo, fmt):
+    """Once the complete output is renamed into place the run has succeeded: a signal then
+    exits 0 with the file kept (issue 18: it died with 128 + signo over a finished file, so a
+    caller took a complete result for a failed run)."""
+    name = "short.npz" if fmt == "npy" else "short.dat"
+    path = short_input(tmp_path, output={"format": fmt, "file": name})
+    reference = subprocess.run([exe, path, "-q"], cwd=tmp_path, capture_output=True, timeout=300)
+    assert reference.returncode == 0, reference.stderr
+    os.replace(tmp_path / name, tmp_path / ("reference." + name.split(".")[1]))
+    (tmp_path / name).write_text("old\n")
+    env = dict(os.environ, LD_PRELOAD=str(rename_shim), TMAFM_TEST_SIGNAL=str(int(signo)))
+
+    def start():
+        signal.signal(signo, signal.SIG_DFL)  # as a shell's foreground job has it
+
+    proc = subprocess.run([exe, path, "-q"], cwd=tmp_path, env=env, capture_output=True,
+                          preexec_fn=start, timeout=300)
+    assert proc.returncode == 0, (proc.returncode, proc.stderr)
+    assert proc.stderr == b""
+    if fmt == "text":
+        assert (tmp_path / name).read_bytes() == (tmp_path / "reference.dat").read_bytes()
+    else:
+        piped, filed = np.load(tmp_path / name), np.load(tmp_path / "reference.npz")
+        for key in ("tau", "vt", "a", "adot", "contact", "switches", "counters"):
+            np.testing.assert_array_equal(piped[key], filed[key])
+    assert leftovers(tmp_path) == []
+
+
+def test_a_fifo_output_is_opened_before_the_run_and_says_that_it_waits(tmp_path, exe):
+    """A FIFO with no reader was opened only after the whole run, then blocked without a word
+    (issue 18).  It is opened before anything is integrated, with one line on stderr saying
+    that tmafm waits for a reader, before any progress line."""
+    import select
+
+    os.mkfifo(tmp_path / "pipe")
+    path = short_input(tmp_path, tau_end=20.0)
+    proc = subprocess.Popen([exe, path, "-o", "pipe"], cwd=tmp_path, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        ready, _, _ = select.select([proc.stderr], [], [], 30)
+        assert ready, "no line on stderr within 30 s"
+        first = proc.stderr.readline()
+        assert first.startswith("tmafm: waiting for a reader of the FIFO 'pipe'"), first
+        with open(tmp_path / "pipe", "rb") as reader:
+            data = reader.read()
+        out, err = proc.communicate(timeout=300)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, err
+    assert "tmafm: 10%" in err  # the progress lines came after the wait, not before it
+    assert subprocess.run([exe, path, "-q"], cwd=tmp_path, timeout=300).returncode == 0
+    assert data.replace(b"'pipe'", b"'short.dat'") == (tmp_path / "short.dat").read_bytes()

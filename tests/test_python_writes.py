@@ -6,7 +6,10 @@ IsADirectoryError, files got mode 0600 whatever the umask, and write_dataset wro
 symbolic link planted at its fixed temporary name ``.NAME.partial``."""
 
 import os
+import signal
 import stat
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -204,3 +207,80 @@ def test_a_name_ending_in_a_slash_is_refused(tmp_path, result, how):
     with pytest.raises(tmafm.InputFileError, match="ends in /"):
         _writers(result)[how](str(tmp_path / "out") + "/")
     assert list(tmp_path.iterdir()) == []
+
+
+#: A child that saves a Result whose write stalls after its first bytes (the temporary exists),
+#: says so on stdout, and waits there for the parent's signal.
+_STALLED_SAVE = r"""
+import os, signal, sys, time
+import tmafm, tmafm._safefile as safefile
+if sys.argv[2] == "default":
+    signal.signal(int(sys.argv[3]), signal.SIG_DFL)
+result = tmafm.run("fig2_n4", solver={"tau_end": 0.2})
+def stalled(fd, data):
+    os.write(fd, bytes(data)[:100])
+    print("writing", flush=True)
+    time.sleep(60)
+safefile._write_all = stalled
+result.save(sys.argv[1])
+print("saved", flush=True)
+"""
+
+
+@pytest.mark.parametrize("signo, disposition", [(signal.SIGTERM, "default"), (signal.SIGHUP, "default"),
+                                                (signal.SIGINT, "default"), (signal.SIGINT, "python")])
+def test_a_signal_during_save_leaves_no_temporary(tmp_path, signo, disposition):
+    """SIGTERM (whose default action kills at once, past every finally) during Result.save left
+    its .r.npz.partial-* behind (issue 18).  The temporary is removed, then the process dies of
+    the signal as it would have (SIGINT with Python's handler: a KeyboardInterrupt)."""
+    target = tmp_path / "out" / "r.npz"
+    target.parent.mkdir()
+    proc = subprocess.Popen([sys.executable, "-c", _STALLED_SAVE, str(target), disposition, str(int(signo))],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline() == "writing\n", proc.stderr.read() if proc.poll() is not None else ""
+        assert _leftovers(target.parent)  # the stalled save has its temporary
+        proc.send_signal(signo)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    if disposition == "python":
+        # An uncaught KeyboardInterrupt ends Python with SIGINT (Python >= 3.8).
+        assert proc.returncode == -signal.SIGINT and "KeyboardInterrupt" in err, err
+    else:
+        assert proc.returncode == -signo, (proc.returncode, err)
+    assert "saved" not in out
+    assert list(target.parent.iterdir()) == []
+
+
+_FIFO_WRITE = r"""
+import sys
+import tmafm._safefile as safefile
+safefile.write_bytes(sys.argv[1], b"some bytes\n")
+"""
+
+
+def test_a_fifo_without_a_reader_says_that_it_waits(tmp_path):
+    """Writing to a FIFO nobody reads blocked without a word (issue 18)."""
+    import select
+
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    proc = subprocess.Popen([sys.executable, "-c", _FIFO_WRITE, str(fifo)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        ready, _, _ = select.select([proc.stderr], [], [], 60)
+        assert ready, "no line on stderr within 60 s"
+        line = proc.stderr.readline()
+        assert line.startswith("tmafm: waiting for a reader of the FIFO ") and "pipe" in line, line
+        with open(fifo, "rb") as reader:
+            assert reader.read() == b"some bytes\n"
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0 and err == "", err
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode)

@@ -3,14 +3,15 @@
 !> Exit status: 0 success, 1 bad command line, 2 bad input, 3 file error,
 !> 4 blow-up, 5 other run failure.  Errors go to stderr as one line.  A terminating signal
 !> (SIGINT, SIGTERM, SIGHUP, ...) removes the output's temporary file (tmafm_signals.c) before
-!> the process dies.
+!> the process dies; once the output is complete in place, the run has succeeded and such a
+!> signal ends it with status 0.
 program tmafm_main
    use, intrinsic :: iso_c_binding, only: c_char, c_size_t
    use, intrinsic :: iso_fortran_env, only: error_unit
    use tmafm, only: config_t, trajectory_t, read_config, simulate, choose_mode_count, i8, &
       tmafm_version_string, ok, errmsg_len, path_len, output_sink_t, prepare_output, &
       check_output_size, begin_output, write_output, discard_output, sample_count, target_file, &
-      printable_text, write_text, error_text, int_text
+      target_device, printable_text, commit_output, write_text, error_text, int_text
    implicit none
 
    interface
@@ -25,9 +26,11 @@ program tmafm_main
       end subroutine tmafm_signals_guard
       subroutine tmafm_signals_release() bind(c, name='tmafm_signals_release')
       end subroutine tmafm_signals_release
+      subroutine tmafm_signals_complete() bind(c, name='tmafm_signals_complete')
+      end subroutine tmafm_signals_complete
    end interface
 
-   character(len=:), allocatable :: input_path, output_override, argument, output_format
+   character(len=:), allocatable :: input_path, output_override, argument, output_format, output_target
    character(len=errmsg_len) :: errmsg
    type(config_t) :: config
    type(trajectory_t) :: traj
@@ -84,16 +87,28 @@ program tmafm_main
    end do
    if (.not. have_input) call fail(1, 'no input file given (usage: tmafm INPUT.nml [-o FILE])')
 
-   call read_config(input_path, config, ierr, errmsg)
+   ! A FIFO nobody writes to is waited for with a line on stderr, never silently.
+   call read_config(input_path, config, ierr, errmsg, notice_unit=error_unit)
    if (ierr /= ok) call fail(ierr, errmsg)
-   if (have_output) config%output_file = output_override
+   ! -o - is standard output; the header keeps the input's &output file then, so that it stays
+   ! a valid input ('-' in a namelist is refused as ambiguous).
+   if (have_output .and. output_override /= '-') config%output_file = output_override
    output_format = trim(config%output_format)
+   if (have_output) then
+      output_target = output_override
+   else
+      output_target = trim(config%output_file)
+   end if
 
    ! The target is checked before anything is integrated.  The check creates and removes a
    ! temporary: signals wait meanwhile, so none can leave it behind.
    call tmafm_signals_hold()
-   call prepare_output(trim(config%output_file), output_format, sink, ierr, errmsg, input_path=input_path)
+   call prepare_output(output_target, output_format, sink, ierr, errmsg, input_path=input_path)
    call tmafm_signals_release()
+   if (ierr /= ok) call fail(ierr, errmsg)
+   ! A device or FIFO is opened before the run too: a FIFO with no reader is waited for now,
+   ! with a line on stderr, and not after the whole run (signals stop the wait as usual).
+   if (sink%target == target_device) call begin_output(sink, ierr, errmsg, notice_unit=error_unit)
    if (ierr /= ok) call fail(ierr, errmsg)
 
    call mark(1)
@@ -117,16 +132,26 @@ program tmafm_main
    end if
    call mark(2)
 
-   ! Signals wait from the temporary's creation until the handler knows its name (not while
-   ! a FIFO's open waits for a reader: that must stay interruptible).
-   if (sink%target == target_file) call tmafm_signals_hold()
-   call begin_output(sink, ierr, errmsg)
-   if (ierr == ok .and. len(sink%temporary) > 0) then
-      call tmafm_signals_guard(sink%temporary, len(sink%temporary, kind=c_size_t))
-   else
-      call tmafm_signals_release()
+   ! Signals wait from the temporary's creation until the handler knows its name (a device or
+   ! FIFO is already open).
+   if (sink%target == target_file) then
+      call tmafm_signals_hold()
+      call begin_output(sink, ierr, errmsg)
+      if (ierr == ok) then
+         call tmafm_signals_guard(sink%temporary, len(sink%temporary, kind=c_size_t))
+      else
+         call tmafm_signals_release()
+      end if
    end if
-   if (ierr == ok) call write_output(sink, input_path, config, traj, ierr, errmsg)
+   if (ierr == ok) call write_output(sink, input_path, config, traj, ierr, errmsg, commit=.false.)
+   if (ierr == ok) then
+      ! Signals wait across the rename: once the complete file is in place, the run has
+      ! succeeded, and a signal that came meanwhile or comes later ends it with status 0
+      ! (before, one right after the rename died with 128 + signo over a finished file).
+      call tmafm_signals_hold()
+      call commit_output(sink, ierr, errmsg)
+      if (ierr == ok) call tmafm_signals_complete()
+   end if
    call tmafm_signals_release()
    if (ierr /= ok) call fail(ierr, errmsg)
    call mark(3)

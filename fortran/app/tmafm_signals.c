@@ -5,9 +5,14 @@
  * limit is a write error (EFBIG).  SIGPROF and SIGVTALRM are left to profilers.  The one piece
  * of global state, the temporary's name, lives here in the executable, never in the library.
  *
+ * Once the output is complete in place (renamed over its name, or written whole to a device,
+ * a FIFO or standard output), the run has succeeded: a terminating signal from then on ends the
+ * process with exit status 0, and the file stays (docs/reliability.md, Signals).
+ *
  * Use: tmafm_signals_install() once; tmafm_signals_hold() before the temporary is created;
  * tmafm_signals_guard(name) right after (this also releases the hold); tmafm_signals_release()
- * once the temporary is gone (renamed or removed).
+ * once the temporary is gone (removed).  Around the rename: tmafm_signals_hold(), the rename,
+ * then tmafm_signals_complete() (the output is in place; this also releases the hold).
  */
 #include <signal.h>
 #include <stddef.h>
@@ -19,9 +24,11 @@ enum { n_handled = sizeof handled / sizeof handled[0] };
 
 static char guarded_name[16384];
 static volatile sig_atomic_t guarded = 0;
+static volatile sig_atomic_t completed = 0;
 
 static void on_signal(int signo)
 {
+    if (completed) _exit(0); /* the output is in place: the run succeeded */
     if (guarded) unlink(guarded_name); /* async-signal-safe */
     signal(signo, SIG_DFL);
     raise(signo); /* delivered on return: the process dies of signo */
@@ -71,7 +78,19 @@ void tmafm_signals_guard(const char *name, size_t n)
     sigprocmask(SIG_UNBLOCK, &set, NULL);
 }
 
-/* Forget the name (the temporary has been renamed or removed) and unblock. */
+/* The output is complete in place (call with the signals held, right after the rename or the
+ * last write): forget the temporary, and from now on a terminating signal exits with status 0;
+ * then unblock (a signal that came meanwhile is delivered here, and exits 0). */
+void tmafm_signals_complete(void)
+{
+    sigset_t set;
+    guarded = 0;
+    completed = 1;
+    mask_of_handled(&set);
+    sigprocmask(SIG_UNBLOCK, &set, NULL);
+}
+
+/* Forget the name (the temporary has been removed) and unblock. */
 void tmafm_signals_release(void)
 {
     sigset_t set;

@@ -16,11 +16,15 @@ module tmafm
       max_trajectory_bytes, check_run_size, sample_count
    use tmafm_trajectory, only: trajectory_t
    use tmafm_driver, only: run_trajectory
+   ! A base input patched by overrides (tmafm_api), and the rename held apart (the executable).
+   use tmafm_namelist, only: read_config_document
+   use tmafm_nml_syntax, only: patch_document
+   use tmafm_output, only: commit_output
    use tmafm_config, only: config_t, path_len
    use tmafm_namelist, only: read_config, read_config_text, write_config, config_text
    use tmafm_text, only: real_text, int_text, lower, printable_text
    use tmafm_posix, only: write_text, error_text
-   use tmafm_nml_syntax, only: nml_document_t, parse_namelist, entry_text, entry_source
+   use tmafm_nml_syntax, only: nml_document_t, parse_namelist, entry_text
    use tmafm_simulation, only: build_model, simulate, choose_mode_count, load_model
    use tmafm_output, only: write_trajectory_file, output_sink_t, prepare_output, check_output_size, &
       begin_output, write_output, discard_output, target_file, target_device, target_stdout
@@ -35,9 +39,10 @@ module tmafm
    public :: config_t, path_len, read_config, write_config, build_model, simulate, choose_mode_count
    public :: read_config_text, config_text, real_text, int_text, lower, printable_text
    public :: write_text, error_text
-   public :: nml_document_t, parse_namelist, entry_text, entry_source
+   public :: nml_document_t, parse_namelist, entry_text
    public :: is_known_method, method_names, max_samples, max_trajectory_bytes, check_run_size
    public :: load_model
+   public :: read_config_document, patch_document, commit_output
    public :: write_trajectory_file, output_sink_t, prepare_output, check_output_size, begin_output, &
              write_output, discard_output, sample_count, target_file, target_device, target_stdout
 

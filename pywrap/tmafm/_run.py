@@ -20,7 +20,7 @@ from . import inputs as _inputs
 from ._fortran import api as _api
 from ._fortran import config_t as _config_t
 from ._fortran import polls
-from ._namelist import KEY_TYPES, check_groups, merge, shown, to_text
+from ._namelist import KEY_TYPES, check_groups, shown, to_text
 from .errors import InputError, InputFileError, InputTypeError, SolverError, raise_for
 
 __all__ = ["Config", "Result", "run", "resolve", "SCENE_KEYS", "COUNTER_KEYS"]
@@ -162,7 +162,12 @@ def _source(nml, overrides: Mapping) -> tuple[str | bytes, str, str | None]:
     if isinstance(nml, Mapping):
         groups = check_groups(nml, "<dict input>")
         _check_known(groups, "<dict input>")
-        return to_text(merge(groups, overrides or {})), "<dict input>", None
+        if not groups:
+            # As an empty file is refused, with overrides or without (the core says so for text).
+            raise InputError("<dict input>: no namelist group given (an empty input is refused, "
+                             "also with overrides; give {'model': {}} to run every default)")
+        # Patched by the core like a file, so that a bad override is named as one.
+        return to_text(groups), "<dict input>", override_text
     raise InputTypeError(f"nml must be a path, a packaged input name, a dict of groups or a Config, "
                          f"not {type(nml).__name__}")
 

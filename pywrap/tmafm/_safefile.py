@@ -7,15 +7,27 @@ and renamed over NAME: the file is complete under its name or absent, and has th
 also through a symbolic link) is written directly and stays what it is.  A directory, a symbolic
 link to a file or to nothing, a socket or a block device is refused.  Every failure, and an
 interruption (KeyboardInterrupt), removes the temporary; OSErrors become InputFileError.
+
+Signals: on the main thread, a SIGTERM, SIGHUP or SIGINT whose action is to kill the process
+(SIG_DFL: Python's own SIGINT handler raises KeyboardInterrupt instead) is caught while a
+write runs, the temporaries are removed, and the signal is then delivered again with its
+default action, so the process still dies of it, leaving no ``.partial`` file.  A signal that
+comes while the temporary is created or renamed waits for that step to end.  A FIFO with no
+reader is waited for after a line on stderr saying so.
 """
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import os
 import secrets
+import signal
 import stat
 import string
+import sys
 import tempfile
+import threading
 from pathlib import Path
 from typing import Callable
 
@@ -75,6 +87,60 @@ def _target(path: Path, what: str) -> str:
     return _REPLACE
 
 
+class _Signalled(BaseException):
+    """A terminating signal came while a file was being written (raised by _Guard)."""
+
+    def __init__(self, signo: int):
+        super().__init__(signo)
+        self.signo = signo
+
+
+class _Guard:
+    """While a write runs on the main thread: SIGTERM, SIGHUP and SIGINT left at their default
+    action (which kills the process at once, past every ``finally``) raise _Signalled instead,
+    except inside ``held()`` (creating or renaming the temporary), where they wait for its end.
+    On leaving, the previous actions are restored and a signal that came is delivered again:
+    the process dies of it as it would have, with no temporary left."""
+
+    _SIGNALS = ("SIGTERM", "SIGHUP", "SIGINT")
+
+    def __init__(self):
+        self.pending = None
+        self.holding = False
+        self.previous = {}
+
+    def _handler(self, signo, frame):
+        self.pending = signo
+        if not self.holding:
+            raise _Signalled(signo)
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            for name in self._SIGNALS:
+                signo = getattr(signal, name, None)
+                if signo is not None and signal.getsignal(signo) == signal.SIG_DFL:
+                    self.previous[signo] = signal.signal(signo, self._handler)
+        return self
+
+    @contextlib.contextmanager
+    def held(self):
+        """Signals wait until the block ends (then _Signalled, if one came)."""
+        self.holding = True
+        try:
+            yield
+        finally:
+            self.holding = False
+        if self.pending is not None:
+            raise _Signalled(self.pending)
+
+    def __exit__(self, kind, value, traceback):
+        for signo, action in self.previous.items():
+            signal.signal(signo, action)
+        if self.pending is not None and self.previous:
+            signal.raise_signal(self.pending)  # the default action: the process ends here
+        return False
+
+
 def _create_temporary(path: Path) -> tuple[int, Path]:
     """A new, empty file next to `path`, created exclusively: (descriptor, name)."""
     base = path.name.encode("utf-8", "surrogateescape")[:200].decode("utf-8", "ignore")
@@ -96,25 +162,32 @@ def _write_all(fd: int, data) -> None:
         view = view[os.write(fd, view):]
 
 
-def _replace(path: Path, fill: Callable[[int, Path], None], what: str) -> None:
+def _replace(path: Path, fill: Callable[[int, Path], None], what: str, guard: _Guard) -> None:
     """Create the temporary, let `fill` write it (given its descriptor and name), sync it and
-    rename it over `path`; remove it on any failure or interruption."""
+    rename it over `path`; remove it on any failure or interruption (a signal: `guard`)."""
+    temporary = None
+    renamed = False
     try:
-        fd, temporary = _create_temporary(path)
-    except OSError as exc:
-        raise InputFileError(f"cannot write {what} {shown(str(path))}: {exc.strerror}") from None
-    try:
+        with guard.held():
+            try:
+                fd, temporary = _create_temporary(path)
+            except OSError as exc:
+                raise InputFileError(f"cannot write {what} {shown(str(path))}: "
+                                     f"{exc.strerror}") from None
         try:
             fill(fd, temporary)
             os.fsync(fd)
         finally:
             os.close(fd)
-        os.replace(temporary, path)
+        with guard.held():
+            os.replace(temporary, path)
+            renamed = True
     except BaseException as exc:
-        try:
-            os.unlink(temporary)
-        except OSError:
-            pass
+        if temporary is not None and not renamed:
+            try:
+                os.unlink(temporary)
+            except OSError:
+                pass
         if isinstance(exc, OSError):
             raise InputFileError(f"writing {what} {shown(str(path))} failed: "
                                  f"{exc.strerror or exc}") from None
@@ -129,9 +202,25 @@ def _sync_name(name: Path) -> None:
         os.close(fd)
 
 
+def _open_direct(path: Path) -> int:
+    """Open a device or FIFO for writing; a FIFO with no reader is waited for, after a line on
+    stderr saying so (never a silent hang)."""
+    flags = os.O_WRONLY | os.O_NOCTTY | getattr(os, "O_CLOEXEC", 0)
+    try:
+        fd = os.open(path, flags | os.O_NONBLOCK)
+    except OSError as exc:
+        if exc.errno != errno.ENXIO:  # ENXIO: a FIFO with no reader yet
+            raise
+        print(f"tmafm: waiting for a reader of the FIFO {shown(str(path))} (the output goes "
+              f"there; Ctrl-C stops)", file=sys.stderr, flush=True)
+        return os.open(path, flags)
+    os.set_blocking(fd, True)
+    return fd
+
+
 def _direct(path: Path, data, what: str) -> None:
     try:
-        fd = os.open(path, os.O_WRONLY | os.O_NOCTTY | getattr(os, "O_CLOEXEC", 0))
+        fd = _open_direct(path)
         try:
             _write_all(fd, data)
         finally:
@@ -144,10 +233,11 @@ def _direct(path: Path, data, what: str) -> None:
 def write_bytes(path, data, what: str = "output file") -> Path:
     """Write `data` (bytes) to `path` by the rules above; return the path."""
     path = as_path(path, what)
-    if _target(path, what) == _DIRECT:
-        _direct(path, data, what)
-    else:
-        _replace(path, lambda fd, _: _write_all(fd, data), what)
+    with _Guard() as guard:
+        if _target(path, what) == _DIRECT:
+            _direct(path, data, what)
+        else:
+            _replace(path, lambda fd, _: _write_all(fd, data), what, guard)
     return path
 
 
@@ -155,18 +245,20 @@ def write_with(path, writer: Callable[[Path], None], what: str = "output file") 
     """Write `path` with `writer(name)`, a function that writes a whole file by its name (a
     NetCDF or PNG writer), by the rules above; return the path."""
     path = as_path(path, what)
-    if _target(path, what) == _DIRECT:
-        # A device or FIFO: the writer works on a private file, whose bytes are then copied.
-        with tempfile.TemporaryDirectory() as folder:
-            scratch = Path(folder) / path.name
-            writer(scratch)
-            with open(scratch, "rb") as source:
-                data = source.read()
-        _direct(path, data, what)
-    else:
-        # The writer opens the temporary by name (our own new file, never a link) and may
-        # replace it: it is synced by name too.
-        _replace(path, lambda fd, name: (writer(name), _sync_name(name)), what)
+    with _Guard() as guard:
+        if _target(path, what) == _DIRECT:
+            # A device or FIFO: the writer works on a private file, whose bytes are then copied
+            # (the private folder goes on any exception, a signal's included: guard).
+            with tempfile.TemporaryDirectory() as folder:
+                scratch = Path(folder) / path.name
+                writer(scratch)
+                with open(scratch, "rb") as source:
+                    data = source.read()
+            _direct(path, data, what)
+        else:
+            # The writer opens the temporary by name (our own new file, never a link) and may
+            # replace it: it is synced by name too.
+            _replace(path, lambda fd, name: (writer(name), _sync_name(name)), what, guard)
     return path
 
 

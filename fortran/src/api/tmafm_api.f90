@@ -13,7 +13,7 @@
 module tmafm_api
    use tmafm, only: dp, i8, ok, err_input, errmsg_len, sample_count, n_powers, build_model, &
       simulate, choose_mode_count, read_config_text, config_text, nml_document_t, parse_namelist, &
-      entry_text, entry_source
+      entry_text, read_config_document, patch_document
    ! The types Python sees are named from the modules that define them, not the facade: f90wrap
    ! reads only the wrapped modules' sources and resolves a type through its defining module.
    use tmafm_config, only: config_t
@@ -68,8 +68,10 @@ contains
 
    !> A configuration from a base text patched key by key by an override text: both are parsed
    !> for syntax (messages name base_label or '<overrides>'), entries of the base that an override
-   !> sets are dropped, and the merged text is read as one input named `source_label` into the
-   !> caller's `config` (N chosen as config_from_text does).
+   !> sets are dropped, and the patched document is read as one input named `source_label` into
+   !> the caller's `config` (N chosen as config_from_text does).  A message names an entry of the
+   !> base by its line in the base text, and an override as '(override)'.  An empty base (no
+   !> group) is refused as it is without overrides.
    subroutine config_from_texts(base_text, base_label, override_text, source_label, config, poll, &
                                 ierr, errmsg)
       character(len=*), intent(in) :: base_text
@@ -81,14 +83,18 @@ contains
       logical, intent(in) :: poll
       integer, intent(out) :: ierr
       character(len=api_errmsg_len), intent(out) :: errmsg
-      type(nml_document_t) :: base, over
-      character(len=:), allocatable :: merged
-      logical, allocatable :: used(:)
-      integer :: g, h, e, k
-      character(len=*), parameter :: nl = new_line('a')
+      type(nml_document_t) :: base, over, merged
+      integer :: g, k
 
       call parse_namelist(base_text, base_label, base, ierr, errmsg)
       if (ierr /= ok) return
+      if (base%n_groups == 0) then
+         ! The overrides alone would run every other default from an empty file.
+         ierr = err_input
+         errmsg = base_label//': no namelist group found (an empty input is refused, also with '// &
+                  'overrides; write &model / to run every default)'
+         return
+      end if
       call parse_namelist(override_text, '<overrides>', over, ierr, errmsg)
       if (ierr /= ok) return
       ! A resolved input (a Config, an output file) pins &model errata to the list its
@@ -119,40 +125,8 @@ contains
             end do
          end if
       end block
-      allocate (used(over%n_groups), source=.false.)
-      merged = ''
-      do g = 1, base%n_groups
-         associate (group => base%groups(g))
-            h = 0
-            do k = 1, over%n_groups
-               if (over%groups(k)%name == group%name) h = k
-            end do
-            merged = merged//'&'//group%name//nl
-            do e = 1, group%n_entries
-               if (h > 0) then
-                  if (any([(over%groups(h)%entries(k)%key == group%entries(e)%key, &
-                            k = 1, over%groups(h)%n_entries)])) cycle
-               end if
-               merged = merged//'    '//entry_source(group%entries(e))//nl
-            end do
-            if (h > 0) then
-               used(h) = .true.
-               do k = 1, over%groups(h)%n_entries
-                  merged = merged//'    '//entry_source(over%groups(h)%entries(k))//nl
-               end do
-            end if
-            merged = merged//'/'//nl
-         end associate
-      end do
-      do h = 1, over%n_groups
-         if (used(h)) cycle
-         merged = merged//'&'//over%groups(h)%name//nl
-         do k = 1, over%groups(h)%n_entries
-            merged = merged//'    '//entry_source(over%groups(h)%entries(k))//nl
-         end do
-         merged = merged//'/'//nl
-      end do
-      call read_config_text(merged, source_label, config, ierr, errmsg)
+      call patch_document(base, over, merged)
+      call read_config_document(merged, source_label, config, ierr, errmsg)
       if (ierr == ok) call choose_modes(config, poll, ierr, errmsg)
    end subroutine config_from_texts
 

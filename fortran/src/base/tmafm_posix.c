@@ -8,6 +8,7 @@
 #define _GNU_SOURCE
 #include <errno.h>
 #include <fcntl.h>
+#include <poll.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
@@ -84,6 +85,75 @@ int tmafm_open_device(const char *path)
 {
     int fd = open(path, O_WRONLY | O_NOCTTY | O_CLOEXEC);
     return fd >= 0 ? fd : -errno;
+}
+
+/* Open a character device or FIFO for writing without waiting: a FIFO with no reader is
+ * not waited for but reported, *no_reader = 1 (ENXIO), so that the caller can say it will
+ * wait before it calls tmafm_open_device.  The descriptor returned blocks as usual. */
+int tmafm_open_device_now(const char *path, int *no_reader)
+{
+    *no_reader = 0;
+    int fd = open(path, O_WRONLY | O_NOCTTY | O_CLOEXEC | O_NONBLOCK);
+    if (fd < 0) {
+        if (errno == ENXIO) *no_reader = 1;
+        return -errno;
+    }
+    int flags = fcntl(fd, F_GETFL);
+    if (flags < 0 || fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) != 0) {
+        int code = errno;
+        close(fd);
+        return -code;
+    }
+    return fd;
+}
+
+/* Open an input file for reading (its bytes are then read with tmafm_read_some). */
+int tmafm_open_input(const char *path)
+{
+    int fd = open(path, O_RDONLY | O_NOCTTY | O_CLOEXEC);
+    return fd >= 0 ? fd : -errno;
+}
+
+/* Open a FIFO (or a pipe, through /dev/stdin or /dev/fd/N) for reading without waiting for a
+ * writer, and wait at most wait_ms milliseconds for its first bytes (or for a writer to come
+ * and go): *ready = 1 if something is there to read, 0 if nothing came.  Returns the
+ * descriptor, non-blocking until tmafm_wait_input. */
+int tmafm_open_fifo_reader(const char *path, int wait_ms, int *ready)
+{
+    *ready = 0;
+    int fd = open(path, O_RDONLY | O_NOCTTY | O_CLOEXEC | O_NONBLOCK);
+    if (fd < 0) return -errno;
+    struct pollfd pfd = {fd, POLLIN, 0};
+    int n;
+    do n = poll(&pfd, 1, wait_ms); while (n < 0 && errno == EINTR);
+    if (n < 0) {
+        int code = errno;
+        close(fd);
+        return -code;
+    }
+    *ready = n > 0;
+    return fd;
+}
+
+/* Wait (without a limit) until the FIFO opened by tmafm_open_fifo_reader has bytes to read or
+ * its writer closed it, then make its reads blocking: they end at the writers' close. */
+int tmafm_wait_input(int fd)
+{
+    struct pollfd pfd = {fd, POLLIN, 0};
+    int n;
+    do n = poll(&pfd, 1, -1); while (n < 0 && errno == EINTR);
+    if (n < 0) return -errno;
+    int flags = fcntl(fd, F_GETFL);
+    if (flags < 0 || fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) != 0) return -errno;
+    return 0;
+}
+
+/* read(2) of at most n bytes, resumed after interruptions: the count read (0 at the end). */
+int64_t tmafm_read_some(int fd, void *buf, int64_t n)
+{
+    ssize_t done;
+    do done = read(fd, buf, (size_t)n); while (done < 0 && errno == EINTR);
+    return done < 0 ? -errno : (int64_t)done;
 }
 
 /* 0 if fd is open for writing. */

@@ -9,7 +9,8 @@ module tmafm_posix
 
    public :: kind_missing, kind_regular, kind_directory, kind_char_device, kind_fifo, &
              kind_symlink, kind_other
-   public :: path_kind, create_temporary, open_device, check_descriptor, write_bytes, &
+   public :: path_kind, create_temporary, open_device, open_device_now, open_input, open_fifo_reader, &
+             wait_input, read_some, check_descriptor, write_bytes, &
              write_text, sync_descriptor, close_descriptor, rename_path, remove_path, &
              check_writable, same_file, error_text, crc32_table_size, crc32_table, crc32_update, crc32_text, &
              prefault
@@ -40,6 +41,38 @@ module tmafm_posix
          character(kind=c_char), intent(in) :: path(*)
          integer(c_int) :: fd
       end function c_open_device
+      function c_open_device_now(path, no_reader) result(fd) bind(c, name='tmafm_open_device_now')
+         import :: c_char, c_int
+         character(kind=c_char), intent(in) :: path(*)
+         integer(c_int), intent(out) :: no_reader
+         integer(c_int) :: fd
+      end function c_open_device_now
+      function c_open_input(path) result(fd) bind(c, name='tmafm_open_input')
+         import :: c_char, c_int
+         character(kind=c_char), intent(in) :: path(*)
+         integer(c_int) :: fd
+      end function c_open_input
+      function c_open_fifo_reader(path, wait_ms, ready) result(fd) bind(c, name='tmafm_open_fifo_reader')
+         import :: c_char, c_int
+         character(kind=c_char), intent(in) :: path(*)
+         integer(c_int), value :: wait_ms
+         integer(c_int), intent(out) :: ready
+         integer(c_int) :: fd
+      end function c_open_fifo_reader
+      !> Wait until a FIFO opened by open_fifo_reader has input (or its writer left), then
+      !> make its reads blocking.
+      function wait_input(fd) result(status) bind(c, name='tmafm_wait_input')
+         import :: c_int
+         integer(c_int), value :: fd
+         integer(c_int) :: status
+      end function wait_input
+      function c_read_some(fd, buf, n) result(count) bind(c, name='tmafm_read_some')
+         import :: c_char, c_int, c_int64_t
+         integer(c_int), value :: fd
+         character(kind=c_char), intent(out) :: buf(*)
+         integer(c_int64_t), value :: n
+         integer(c_int64_t) :: count
+      end function c_read_some
       !> 0 if the descriptor is open for writing.
       function check_descriptor(fd) result(status) bind(c, name='tmafm_check_descriptor')
          import :: c_int
@@ -162,6 +195,44 @@ contains
       integer :: fd
       fd = c_open_device(path//c_null_char)
    end function open_device
+
+   !> Open a character device or FIFO for writing without waiting for a FIFO's reader:
+   !> `no_reader` is .true. (and the result negative) when a FIFO has none yet.
+   function open_device_now(path, no_reader) result(fd)
+      character(len=*), intent(in) :: path
+      logical, intent(out) :: no_reader
+      integer :: fd
+      integer(c_int) :: flag
+      fd = c_open_device_now(path//c_null_char, flag)
+      no_reader = flag /= 0
+   end function open_device_now
+
+   !> Open an input file for reading (read_some reads it).
+   function open_input(path) result(fd)
+      character(len=*), intent(in) :: path
+      integer :: fd
+      fd = c_open_input(path//c_null_char)
+   end function open_input
+
+   !> Open a FIFO (or pipe) for reading without waiting for a writer, and wait at most
+   !> `wait_ms` milliseconds for input: `ready` tells whether any came.
+   function open_fifo_reader(path, wait_ms, ready) result(fd)
+      character(len=*), intent(in) :: path
+      integer, intent(in) :: wait_ms
+      logical, intent(out) :: ready
+      integer :: fd
+      integer(c_int) :: flag
+      fd = c_open_fifo_reader(path//c_null_char, int(wait_ms, c_int), flag)
+      ready = flag /= 0
+   end function open_fifo_reader
+
+   !> read(2) into `buffer`: the number of bytes read (0 at the end), or -errno.
+   function read_some(fd, buffer) result(count)
+      integer, intent(in) :: fd
+      character(len=*), intent(inout) :: buffer
+      integer :: count
+      count = int(c_read_some(fd, buffer, int(len(buffer), c_int64_t)))
+   end function read_some
 
    !> Write all of `text`.
    function write_text(fd, text) result(status)

@@ -32,7 +32,8 @@ module tmafm_namelist
    implicit none
    private
 
-   public :: read_config, read_config_text, write_config, config_text, config_errata, real_text
+   public :: read_config, read_config_text, read_config_document, write_config, config_text, &
+             config_errata, real_text
 
    !> The namelist groups tmafm knows.
    character(len=*), parameter :: known_groups(6) = &
@@ -55,14 +56,16 @@ contains
 
    !> Read and validate the namelist file `path` into `config` (the whole file is read first;
    !> pipes work).  A file problem gives err_file, an input problem err_input.
-   subroutine read_config(path, config, ierr, errmsg)
+   subroutine read_config(path, config, ierr, errmsg, notice_unit)
       character(len=*), intent(in) :: path
       type(config_t), intent(out) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      !> Where to say that tmafm waits for a FIFO's writer (tmafm_input_file; nowhere if absent).
+      integer, intent(in), optional :: notice_unit
       character(len=:), allocatable :: text
 
-      call read_text_file(path, text, ierr, errmsg)
+      call read_text_file(path, text, ierr, errmsg, notice_unit)
       if (ierr /= ok) return
       call read_config_text(text, trim(path), config, ierr, errmsg)
    end subroutine read_config
@@ -76,24 +79,37 @@ contains
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       type(nml_document_t) :: doc
-      integer :: where(size(known_groups)), g, k
 
       call parse_namelist(text, source_label, doc, ierr, errmsg)
       if (ierr /= ok) return
+      call read_config_document(doc, source_label, config, ierr, errmsg)
+   end subroutine read_config_text
+
+   !> Type-check and validate a parsed namelist `doc` into `config` (read_config_text after
+   !> the syntax; tmafm_api gives it a base document patched by overrides, whose entries say
+   !> where they came from: a line of the base, or an override).
+   subroutine read_config_document(doc, source_label, config, ierr, errmsg)
+      type(nml_document_t), intent(in) :: doc
+      character(len=*), intent(in) :: source_label
+      type(config_t), intent(out) :: config
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      integer :: where(size(known_groups)), g, k
+
       ierr = err_input
       where = 0
       do g = 1, doc%n_groups
          k = index_of(known_groups, doc%groups(g)%name)
          if (k == 0) then
-            errmsg = source_label//': unknown namelist group &'//doc%groups(g)%name//' at line '// &
-                     int_text(doc%groups(g)%line)//' (known: &model, &scene, &physical, '// &
+            errmsg = source_label//': unknown namelist group &'//doc%groups(g)%name//' at '// &
+                     trim(line_text(doc%groups(g)%line))//' (known: &model, &scene, &physical, '// &
                      '&initial, &solver, &output)'
             return
          end if
          if (where(k) /= 0) then
             errmsg = source_label//': namelist group &'//doc%groups(g)%name//' appears twice '// &
-                     '(lines '//int_text(doc%groups(where(k))%line)//' and '// &
-                     int_text(doc%groups(g)%line)//')'
+                     '('//trim(line_text(doc%groups(where(k))%line))//' and '// &
+                     trim(line_text(doc%groups(g)%line))//')'
             return
          end if
          where(k) = g
@@ -132,7 +148,20 @@ contains
          p%label = source_label
          p%group = trim(known_groups(k))
       end function place
-   end subroutine read_config_text
+   end subroutine read_config_document
+
+   !> Where an entry or group came from, for messages: 'line N', or 'override' for line 0 (an
+   !> entry or group that a base input did not have: tmafm_api config_from_texts); blank-padded
+   !> to 24 characters (trim it).
+   pure function line_text(line) result(text)
+      integer, intent(in) :: line
+      character(len=24) :: text
+      if (line <= 0) then
+         text = 'override'
+      else
+         write (text, '(a,i0)') 'line ', line
+      end if
+   end function line_text
 
    !> The corrections a config asks for (its resolved &model errata list).
    pure function config_errata(config) result(errata)
@@ -140,7 +169,7 @@ contains
       type(errata_t) :: errata
       integer :: ierr
       character(len=64) :: bad
-      call parse_errata(config%errata, errata, ierr, bad)
+      call parse_errata(trim(config%errata), errata, ierr, bad)
    end function config_errata
 
    ! --- the groups -------------------------------------------------------------------------
@@ -155,7 +184,7 @@ contains
       real(dp) :: mode_tol, mode_horizon
       character(len=:), allocatable :: contact_law, convention, errata
       type(errata_t) :: parsed
-      character(len=64) :: bad
+      character(len=160) :: bad
       integer :: k
 
       n_modes = config%n_modes
@@ -188,24 +217,23 @@ contains
                                  ' comparison runs of this length at rtol 1e-10', ierr, errmsg)
                end if
             case ('contact_law')
-               call get_string(p, e, len(config%contact_law), contact_law, ierr, errmsg)
-               contact_law = lower(trim(adjustl(contact_law)))
+               call get_choice(p, e, len(config%contact_law), "'hertz' or 'dmt'", contact_law, ierr, errmsg)
                if (ierr == ok .and. contact_law /= 'hertz' .and. contact_law /= 'dmt') then
                   call key_error(p, e, "must be 'hertz' or 'dmt'", ierr, errmsg)
                end if
             case ('convention')
-               call get_string(p, e, len(config%convention), convention, ierr, errmsg)
-               convention = lower(trim(adjustl(convention)))
+               call get_choice(p, e, len(config%convention), "'paper' or 'consistent'", convention, &
+                               ierr, errmsg)
                if (ierr == ok .and. convention /= 'paper' .and. convention /= 'consistent') then
                   call key_error(p, e, "must be 'paper' or 'consistent'", ierr, errmsg)
                end if
             case ('errata')
                call get_string(p, e, len(config%errata), errata, ierr, errmsg)
-               if (ierr == ok .and. lower(trim(adjustl(errata))) /= 'convention') then
+               if (ierr == ok .and. lower(errata) /= 'convention') then
                   call parse_errata(errata, parsed, ierr, bad)
-                  if (ierr /= ok) call key_error(p, e, "'"//trim(bad)//"': must be 'convention', "// &
-                                                 "'all', 'none' or a list of distinct E1,E2,E3,E4,E6,E7", &
-                                                 ierr, errmsg)
+                  if (ierr /= ok) call key_error(p, e, trim(bad)//": must be 'convention', 'all', "// &
+                                                 "'none' or a comma-separated list of distinct "// &
+                                                 "E1,E2,E3,E4,E6,E7", ierr, errmsg)
                end if
             case default
                call unknown_key(p, e, model_keys, ierr, errmsg)
@@ -214,7 +242,7 @@ contains
       end do
       if (ierr == ok) call check_repeats(p, g, ierr, errmsg)
       if (ierr /= ok) return
-      if (lower(trim(adjustl(errata))) == 'convention') then
+      if (lower(errata) == 'convention') then
          parsed = errata_for_convention(convention)
       else
          call parse_errata(errata, parsed, ierr, bad)
@@ -396,8 +424,7 @@ contains
          associate (e => g%entries(k))
             select case (e%key)
             case ('method')
-               call get_string(p, e, len(s%method), method, ierr, errmsg)
-               method = lower(trim(adjustl(method)))
+               call get_choice(p, e, len(s%method), method_choices(), method, ierr, errmsg)
                if (ierr == ok .and. .not. is_known_method(method)) then
                   call key_error(p, e, 'must be '//method_choices(), ierr, errmsg)
                end if
@@ -466,14 +493,18 @@ contains
                   if (file(1:1) == ' ' .or. file(len(file):) == ' ') &
                      call key_error(p, e, 'begins or ends with a blank, which tmafm would not keep: '// &
                                     'remove it', ierr, errmsg)
+                  ! '-' would be standard output to the executable and a file named '-' to
+                  ! anything else: standard output is asked for on the command line only.
+                  if (ierr == ok .and. file == '-') &
+                     call key_error(p, e, "is ambiguous (standard output or a file named '-'): "// &
+                                    "name a file; standard output is the executable's -o -", ierr, errmsg)
                end if
             case ('sample_dtau')
                call get_real(p, e, sample_dtau, ierr, errmsg)
                call check_range(p, e, sample_dtau, 0.0_dp, config%solver%tau_end, .false., .false., &
                                 ierr, errmsg)
             case ('format')
-               call get_string(p, e, len(config%output_format), format, ierr, errmsg)
-               format = lower(trim(adjustl(format)))
+               call get_choice(p, e, len(config%output_format), "'text' or 'npy'", format, ierr, errmsg)
                if (ierr == ok .and. .not. any(output_formats == format)) then
                   call key_error(p, e, "must be 'text' or 'npy'", ierr, errmsg)
                end if
@@ -640,8 +671,28 @@ contains
          end if
       else
          read (low, *, iostat=iostat) x
-         if (iostat /= 0) call key_error(p, e, 'cannot be read as a real number', ierr, errmsg)
+         if (iostat /= 0) then
+            call key_error(p, e, 'cannot be read as a real number', ierr, errmsg)
+         else if (.not. ieee_is_finite(x)) then
+            ! A finite literal beyond the largest double: never read as Infinity.
+            call key_error(p, e, trim(value%text)//' overflows a double (largest '// &
+                           real_text(huge(1.0_dp))//')', ierr, errmsg)
+         else if (x == 0 .and. scan(mantissa(low), '123456789') > 0) then
+            call key_error(p, e, trim(value%text)//' underflows to 0 in a double (smallest '// &
+                           'normal '//real_text(tiny(1.0_dp))//'): write 0 or a normal number', ierr, errmsg)
+         else if (x /= 0 .and. abs(x) < tiny(1.0_dp)) then
+            call key_error(p, e, trim(value%text)//' is below the smallest normal double ('// &
+                           real_text(tiny(1.0_dp))//'), a subnormal that keeps fewer digits: '// &
+                           'write 0 or a normal number', ierr, errmsg)
+         end if
       end if
+   contains
+      !> The digits before the exponent of a real literal (sign and point included).
+      pure function mantissa(literal) result(digits)
+         character(len=*), intent(in) :: literal
+         character(len=merge(len(literal), scan(literal, 'ed') - 1, scan(literal, 'ed') == 0)) :: digits
+         digits = literal(1:len(digits))
+      end function mantissa
    end subroutine value_to_real
 
    subroutine get_integer(p, e, i, ierr, errmsg)
@@ -693,6 +744,26 @@ contains
          text = value%text
       end if
    end subroutine get_string
+
+   !> A quoted name from a fixed set (`choices`, for the message), in lower case: get_string,
+   !> and a blank anywhere in it is refused (' paper' is not read as 'paper').
+   subroutine get_choice(p, e, max_len, choices, text, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_entry_t), intent(in) :: e
+      integer, intent(in) :: max_len
+      character(len=*), intent(in) :: choices
+      character(len=:), allocatable, intent(inout) :: text
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+
+      call get_string(p, e, max_len, text, ierr, errmsg)
+      if (ierr /= ok) return
+      if (scan(text, ' '//achar(9)) > 0) then
+         call key_error(p, e, 'holds a blank: must be '//choices//', without blanks', ierr, errmsg)
+         return
+      end if
+      text = lower(text)
+   end subroutine get_choice
 
    !> A list of numbers (r*value repeats expanded), at most size(values) of them.
    subroutine get_real_list(p, e, values, n, ierr, errmsg)
@@ -787,8 +858,8 @@ contains
             if (g%entries(j)%key == g%entries(k)%key) then
                ierr = err_input
                errmsg = p%label//': &'//p%group//' '//g%entries(k)%key//' = '//g%entries(k)%written// &
-                        ': the key is given twice (lines '//int_text(g%entries(j)%line)//' and '// &
-                        int_text(g%entries(k)%line)//')'
+                        ': the key is given twice ('//trim(line_text(entry_line(g%entries(j))))//' and '// &
+                        trim(line_text(entry_line(g%entries(k))))//')'
                return
             end if
          end do
@@ -816,8 +887,18 @@ contains
       written = e%written
       if (len(written) > 80) written = written(1:77)//'...'
       errmsg = p%label//': &'//p%group//' '//e%key//' = '//written//': '//what
-      if (e%line > 0) errmsg = trim(errmsg)//' (line '//int_text(e%line)//')'
+      if (e%override) then
+         errmsg = trim(errmsg)//' (override)'
+      else if (e%line > 0) then
+         errmsg = trim(errmsg)//' (line '//int_text(e%line)//')'
+      end if
    end subroutine key_error
+
+   !> The line of an entry for line_text: 0 for an override.
+   pure integer function entry_line(e)
+      type(nml_entry_t), intent(in) :: e
+      entry_line = merge(0, e%line, e%override)
+   end function entry_line
 
    !> The entry for `key` in group g, or a stand-in holding the default value (line 0).
    function entry_or_default(g, key, value) result(e)

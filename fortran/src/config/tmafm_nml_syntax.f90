@@ -20,7 +20,7 @@ module tmafm_nml_syntax
 
    public :: nml_document_t, nml_group_t, nml_entry_t, nml_value_t, parse_namelist
    public :: value_integer, value_real, value_logical, value_string, value_word, value_other
-   public :: value_kind_name, entry_text, entry_source, output_header_mark
+   public :: value_kind_name, entry_text, entry_source, output_header_mark, patch_document
 
    !> A value that reads as an integer: [+-]digits.
    integer, parameter :: value_integer = 1
@@ -64,6 +64,9 @@ module tmafm_nml_syntax
       character(len=:), allocatable :: source
       !> The values in order.
       type(nml_value_t), allocatable :: values(:)
+      !> .true. for an entry that overrides a base input (patch_document): messages name it as
+      !> an override, not by a line.
+      logical :: override = .false.
    end type nml_entry_t
 
    !> One namelist group.
@@ -96,7 +99,11 @@ module tmafm_nml_syntax
       logical :: skip_outside = .false.
    end type scanner_t
 
-   character(len=*), parameter :: blank_chars = ' '//achar(9)//achar(13)//achar(12)
+   !> Blanks between tokens: space and tab.  A CR counts only right before a LF (a CRLF line
+   !> end); a lone CR or a form feed is refused with its line and column.
+   character(len=*), parameter :: blank_chars = ' '//achar(9)
+   !> What ends an unquoted token besides blanks and the line end.
+   character(len=*), parameter :: cr = achar(13)
    character(len=*), parameter :: letters = 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ'
    character(len=*), parameter :: digits = '0123456789'
    !> Longest value text kept for messages.
@@ -339,7 +346,7 @@ contains
                return
             end if
             if (s%p <= len(s%text)) then
-               if (scan(s%text(s%p:s%p), blank_chars//new_line('a')//',/!&$') == 0) then
+               if (scan(s%text(s%p:s%p), blank_chars//cr//new_line('a')//',/!&$') == 0) then
                   entry%written = join(entry%written, s%text(start:s%p - 1))
                   call fail('text right after the closing quote: '''//snippet(s%text, s%p)// &
                             ''' (put a comma or a blank between values)')
@@ -371,7 +378,9 @@ contains
             if (verify(token, printable()) /= 0) then
                entry%written = join(entry%written, '(non-text bytes)')
                call fail('a non-text byte (code '//int_text(iachar(token(verify(token, printable()): &
-                         verify(token, printable()))))//') outside strings and comments')
+                         verify(token, printable()))))//', column '// &
+                         int_text(column_of(s%text, save_p + verify(token, printable()) - 1))// &
+                         ') outside strings and comments')
                return
             end if
             value = classify(token)
@@ -455,7 +464,7 @@ contains
       type(scanner_t), intent(inout) :: s
       character(len=:), allocatable, intent(out) :: token
       integer :: stop
-      stop = scan(s%text(s%p:), blank_chars//new_line('a')//',/!&$=''"')
+      stop = scan(s%text(s%p:), blank_chars//cr//new_line('a')//',/!&$=''"')
       if (stop == 0) then
          token = s%text(s%p:)
       else
@@ -623,6 +632,72 @@ contains
       text = entry%key//' = '//entry%source
    end function entry_source
 
+   !> `base` patched key by key by `over` into `merged`: each group of `base` keeps its
+   !> entries (with their lines) but those `over` sets in the same group, followed by `over`'s
+   !> entries, marked as overrides; groups only `over` has come last (line 0).  The documents
+   !> are merged, not their texts, so that a message names a base entry by its own line and
+   !> an override as such (tmafm_api config_from_texts).
+   subroutine patch_document(base, over, merged)
+      type(nml_document_t), intent(in) :: base
+      type(nml_document_t), intent(in) :: over
+      type(nml_document_t), intent(out) :: merged
+      logical :: used(over%n_groups)
+      integer :: g, h, e, k
+
+      allocate (merged%groups(max(8, base%n_groups + over%n_groups)))
+      merged%from_output_file = base%from_output_file
+      used = .false.
+      do g = 1, base%n_groups
+         associate (b => base%groups(g))
+            h = 0
+            do k = 1, over%n_groups
+               if (over%groups(k)%name == b%name) h = k
+            end do
+            block
+               type(nml_group_t) :: group
+               group%name = b%name
+               group%line = b%line
+               allocate (group%entries(max(8, b%n_entries + 8)))
+               do e = 1, b%n_entries
+                  if (h > 0) then
+                     if (any([(over%groups(h)%entries(k)%key == b%entries(e)%key, &
+                               k = 1, over%groups(h)%n_entries)])) cycle
+                  end if
+                  call add_entry(group, b%entries(e))
+               end do
+               if (h > 0) then
+                  used(h) = .true.
+                  call add_overrides(group, over%groups(h))
+               end if
+               call add_group(merged, group)
+            end block
+         end associate
+      end do
+      do h = 1, over%n_groups
+         if (used(h)) cycle
+         block
+            type(nml_group_t) :: group
+            group%name = over%groups(h)%name
+            group%line = 0
+            allocate (group%entries(max(8, over%groups(h)%n_entries)))
+            call add_overrides(group, over%groups(h))
+            call add_group(merged, group)
+         end block
+      end do
+   contains
+      subroutine add_overrides(group, from)
+         type(nml_group_t), intent(inout) :: group
+         type(nml_group_t), intent(in) :: from
+         type(nml_entry_t) :: entry
+         integer :: j
+         do j = 1, from%n_entries
+            entry = from%entries(j)
+            entry%override = .true.
+            call add_entry(group, entry)
+         end do
+      end subroutine add_overrides
+   end subroutine patch_document
+
    ! --- scanning helpers -------------------------------------------------------------------
 
    !> Skip blanks, line ends and comments; a non-text byte in a comment is fine, a NUL never
@@ -641,18 +716,45 @@ contains
             s%p = s%p + 1
          else if (index(blank_chars, c) > 0) then
             s%p = s%p + 1
+         else if (c == cr) then
+            if (s%p == len(s%text)) then
+               call refuse('a carriage return (code 13) not followed by a line feed: line ends '// &
+                           'must be LF or CRLF')
+               return
+            else if (s%text(s%p + 1:s%p + 1) /= new_line('a')) then
+               call refuse('a carriage return (code 13) not followed by a line feed: line ends '// &
+                           'must be LF or CRLF')
+               return
+            end if
+            s%p = s%p + 1
          else if (c == '!') then
             call skip_line(s)
+         else if (c == achar(12)) then
+            call refuse('a form feed (code 12) outside strings and comments: the input must be text')
+            return
          else if (iachar(c) < 32 .or. iachar(c) > 126) then
-            ierr = err_input
-            errmsg = label//': line '//int_text(s%line)//': a non-text byte (code '// &
-                     int_text(iachar(c))//') outside strings and comments: the input must be text'
+            call refuse('a non-text byte (code '//int_text(iachar(c))//') outside strings and '// &
+                        'comments: the input must be text')
             return
          else
             return
          end if
       end do
+   contains
+      subroutine refuse(what)
+         character(len=*), intent(in) :: what
+         ierr = err_input
+         errmsg = label//': line '//int_text(s%line)//', column '//int_text(column_of(s%text, s%p))// &
+                  ': '//what
+      end subroutine refuse
    end subroutine skip_blanks
+
+   !> Column (1 = first character) of position p of `text` in its line.
+   pure integer function column_of(text, p)
+      character(len=*), intent(in) :: text
+      integer, intent(in) :: p
+      column_of = p - index(text(1:p - 1), new_line('a'), back=.true.)
+   end function column_of
 
    !> Move to the start of the next line.
    subroutine skip_line(s)

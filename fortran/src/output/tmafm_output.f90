@@ -12,8 +12,11 @@
 !> is left under the target's name.
 !>
 !> The steps are separate so that the executable can check the target before the run
-!> (prepare_output), and know the temporary's name while it exists (begin_output ..
-!> write_output) to remove it on a signal.
+!> (prepare_output), open a device or FIFO before the run too (begin_output: a FIFO with no
+!> reader is waited for then, with a line saying so, not after a long run), know the
+!> temporary's name while it exists (begin_output .. write_output) to remove it on a signal,
+!> and hold signals around the rename (commit_output) so that a complete file in place is
+!> never reported as an interrupted run.
 module tmafm_output
    use, intrinsic :: iso_c_binding, only: c_int32_t
    use tmafm_kinds, only: dp, i8
@@ -25,7 +28,8 @@ module tmafm_output
    use tmafm_text, only: int_text, lower
    use tmafm_float_format, only: put_es25, es25_width
    use tmafm_posix, only: kind_missing, kind_regular, kind_directory, kind_char_device, kind_fifo, &
-                          kind_symlink, path_kind, create_temporary, open_device, check_descriptor, &
+                          kind_symlink, path_kind, create_temporary, open_device, open_device_now, &
+                          check_descriptor, &
                           write_text, sync_descriptor, close_descriptor, rename_path, remove_path, &
                           check_writable, same_file, error_text
    use tmafm_npz, only: npz_archive_t, npy_header, npz_begin, npz_add, npz_add_text, npz_finish, &
@@ -34,7 +38,7 @@ module tmafm_output
    private
 
    public :: output_sink_t, prepare_output, check_output_size, begin_output, write_output, &
-             discard_output, write_trajectory_file, format_names
+             commit_output, discard_output, write_trajectory_file, format_names
    public :: target_file, target_device, target_stdout
 
    !> How the target is written: through a temporary and a rename, directly, or to stdout.
@@ -208,11 +212,15 @@ contains
    end subroutine check_output_size
 
    !> Create the temporary file (target_file; from here until write_output returns, the
-   !> temporary is sink%temporary), or open the device (a FIFO waits here for its reader).
-   subroutine begin_output(sink, ierr, errmsg)
+   !> temporary is sink%temporary), or open the device (a FIFO waits here for its reader, after
+   !> a line on `notice_unit` saying so; a device already open is kept).
+   subroutine begin_output(sink, ierr, errmsg, notice_unit)
       type(output_sink_t), intent(inout) :: sink
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      !> Where to say that tmafm waits for a FIFO's reader (nowhere if absent).
+      integer, intent(in), optional :: notice_unit
+      logical :: no_reader
 
       ierr = ok
       errmsg = ''
@@ -220,7 +228,16 @@ contains
       case (target_file)
          sink%fd = create_temporary(sink%path, sink%temporary)
       case (target_device)
-         sink%fd = open_device(sink%path)
+         if (sink%fd >= 0) return
+         sink%fd = open_device_now(sink%path, no_reader)
+         if (no_reader) then
+            if (present(notice_unit)) then
+               write (notice_unit, '(a)') 'tmafm: waiting for a reader of the FIFO '//shown(sink%path)// &
+                  ' (the output goes there; Ctrl-C stops)'
+               flush (notice_unit)
+            end if
+            sink%fd = open_device(sink%path)
+         end if
       end select
       if (sink%fd < 0) then
          ierr = err_file
@@ -230,19 +247,25 @@ contains
    end subroutine begin_output
 
    !> Write the run in the sink's format, then complete it: for a file, sync, close and rename
-   !> the temporary over the target.  On any failure nothing is left but the target as it was.
-   subroutine write_output(sink, input_path, config, traj, ierr, errmsg)
+   !> the temporary over the target (with commit = .false., the rename is left to
+   !> commit_output).  On any failure nothing is left but the target as it was.
+   subroutine write_output(sink, input_path, config, traj, ierr, errmsg, commit)
       type(output_sink_t), intent(inout) :: sink
       character(len=*), intent(in) :: input_path
       type(config_t), intent(in) :: config
       type(trajectory_t), intent(in) :: traj
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      !> Rename the temporary over the target here (.true., the default).
+      logical, intent(in), optional :: commit
       character(len=:), allocatable :: resolved
       integer :: status
+      logical :: rename_now
 
       ierr = ok
       errmsg = ''
+      rename_now = .true.
+      if (present(commit)) rename_now = commit
       if (sink%fd < 0) then
          ierr = err_file
          errmsg = 'output file '//shown(sink%path)//' was not opened'
@@ -260,8 +283,8 @@ contains
             status = close_descriptor(sink%fd)
             sink%fd = -1
          end if
-         if (status == 0) status = rename_path(sink%temporary, sink%path)
-         if (status == 0) sink%temporary = ''
+         if (status == 0 .and. rename_now) status = rename_path(sink%temporary, sink%path)
+         if (status == 0 .and. rename_now) sink%temporary = ''
       else if (ierr == ok .and. status == 0 .and. sink%target == target_device) then
          status = close_descriptor(sink%fd)
          sink%fd = -1
@@ -272,6 +295,36 @@ contains
       end if
       if (ierr /= ok) call discard_output(sink)
    end subroutine write_output
+
+   !> Put a file written by write_output(commit = .false.) in place: rename the temporary over
+   !> the target (nothing to do for a device or standard output).  On failure the temporary is
+   !> removed and the target left as it was.
+   subroutine commit_output(sink, ierr, errmsg)
+      type(output_sink_t), intent(inout) :: sink
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      integer :: status
+
+      ierr = ok
+      errmsg = ''
+      if (sink%target /= target_file) return
+      ierr = err_file
+      errmsg = 'output file '//shown(sink%path)//' was not written'
+      if (.not. allocated(sink%temporary)) return
+      if (len(sink%temporary) == 0 .or. sink%fd >= 0) then
+         call discard_output(sink)
+         return
+      end if
+      status = rename_path(sink%temporary, sink%path)
+      if (status == 0) then
+         ierr = ok
+         errmsg = ''
+         sink%temporary = ''
+         return
+      end if
+      errmsg = 'writing output file '//shown(sink%path)//' failed: '//error_text(status)
+      call discard_output(sink)
+   end subroutine commit_output
 
    !> Give up the output: close the descriptor (never standard output) and remove the temporary.
    subroutine discard_output(sink)

@@ -37,68 +37,71 @@ contains
       errata = errata_t(fix, fix, fix, fix, fix, fix)
    end function errata_for_convention
 
-   !> Parse a list such as 'E1,E4', 'none' or 'all' into corrections; ierr /= 0 on a bad name.
+   !> Parse &model errata into corrections: exactly 'all' or 'none', or a comma-separated list
+   !> of distinct known names (E1, E2, E3, E4, E6, E7), case-insensitive, with no blank and no
+   !> empty item ('convention' is the caller's business).  On anything else ierr = err_input
+   !> and `bad_item` says which item is wrong and why.
    pure subroutine parse_errata(text, errata, ierr, bad_item)
       character(len=*), intent(in) :: text
       type(errata_t), intent(out) :: errata
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: bad_item
-      integer :: first, last, length, k
-      character(len=len(text)) :: item
-      character(len=4) :: seen(16)
-      integer :: n_seen
+      character(len=*), parameter :: names(6) = ['E1', 'E2', 'E3', 'E4', 'E6', 'E7']
+      logical :: seen(size(names))
+      integer :: first, last, k
 
-      ierr = ok
+      ierr = err_input
       bad_item = ''
       errata = errata_t()
-      n_seen = 0
-      length = len_trim(text)
+      if (scan(text, ' '//achar(9)) > 0) then
+         bad_item = "'"//text//"' (a blank: write the names without blanks, e.g. 'E1,E4')"
+         return
+      end if
+      select case (upper(text))
+      case ('ALL')
+         errata = errata_for_convention('consistent')
+         ierr = ok
+         return
+      case ('NONE')
+         ierr = ok
+         return
+      case ('')
+         bad_item = "'' (empty: write 'none' for no correction)"
+         return
+      end select
+      seen = .false.
       first = 1
-      do while (first <= length)
-         last = index(text(first:length), ',')
+      do
+         last = index(text(first:), ',')
          if (last == 0) then
-            last = length
+            last = len(text)
          else
             last = first + last - 2
          end if
-         item = adjustl(text(first:last))
-         ! A name given twice is a typo more often than not: refuse it rather than fold it.
-         if (len_trim(item) > 0) then
-            do k = 1, n_seen
-               if (seen(k) == upper(item(1:min(4, len(item))))) then
-                  ierr = err_input
-                  bad_item = trim(item)//' (repeated)'
-                  return
-               end if
-            end do
-            if (n_seen < size(seen)) then
-               n_seen = n_seen + 1
-               seen(n_seen) = upper(item(1:min(4, len(item))))
-            end if
-         end if
-         select case (trim(upper(item)))
-         case ('E1')
-            errata%e1_base_damping_velocity = .true.
-         case ('E2')
-            errata%e2_axial_span_to_tip = .true.
-         case ('E3')
-            errata%e3_moment_through_slope = .true.
-         case ('E4')
-            errata%e4_half_force_scales = .true.
-         case ('E6')
-            errata%e6_tip_mass_at_xi0 = .true.
-         case ('E7')
-            errata%e7_signed_slope = .true.
-         case ('ALL')
-            errata = errata_for_convention('consistent')
-         case ('NONE', '')
-         case default
-            ierr = err_input
-            bad_item = trim(item)
+         if (last < first) then
+            bad_item = "'' (an empty item: two commas in a row, or a comma at an end)"
             return
-         end select
+         end if
+         k = findloc(names, upper(text(first:last)), dim=1)
+         if (k == 0) then
+            if (upper(text(first:last)) == 'ALL' .or. upper(text(first:last)) == 'NONE') then
+               bad_item = "'"//text(first:last)//"' (inside a list: give it alone)"
+            else
+               bad_item = "'"//text(first:last)//"' (not a known erratum)"
+            end if
+            return
+         end if
+         ! A name given twice is a typo more often than not: refuse it rather than fold it.
+         if (seen(k)) then
+            bad_item = "'"//text(first:last)//"' (repeated)"
+            return
+         end if
+         seen(k) = .true.
+         if (last >= len(text)) exit
          first = last + 2
       end do
+      errata = errata_t(seen(1), seen(2), seen(3), seen(4), seen(5), seen(6))
+      ierr = ok
    end subroutine parse_errata
 
    !> The corrections as a list of names, 'none' if there are none.

@@ -75,14 +75,14 @@ def _time(tau) -> float:
     return value
 
 
-def _finite_result(method: str, arguments: str, **outputs) -> None:
-    """InputError naming the state `arguments` when an output of `method` is not finite: the
-    state lies outside what the model covers (e.g. an indentation past the tip's geometry, or
-    values so large that the forces overflow)."""
+def _finite_result(method: str, arguments: dict, **outputs) -> None:
+    """InputError naming the state `arguments` ({name: value}) when an output of `method` is
+    not finite: the state lies outside what the model covers (e.g. an indentation past the
+    tip's geometry, or values so large that the forces overflow)."""
     for name, value in outputs.items():
-        array = np.asarray(value, dtype=float)
-        if not np.all(np.isfinite(array)):
-            raise InputError(f"Model.{method}: {arguments} gives {name} = {shown(value)}, not "
+        if not np.isfinite(value).all():
+            given = ", ".join(f"{key} = {shown(array)}" for key, array in arguments.items())
+            raise InputError(f"Model.{method}: {given} gives {name} = {shown(value)}, not "
                              f"finite: the state is outside the range the model covers")
 
 
@@ -140,7 +140,7 @@ class Model:
         y = _vector("y", y, 2 * n)
         rate = np.zeros(2 * n)
         self._f.derivative(_time(tau), y, _phase(in_contact), rate)
-        _finite_result("derivative", f"y = {shown(y)}", rate=rate)
+        _finite_result("derivative", {"y": y}, rate=rate)
         return rate
 
     def matrices(self, tau: float, a, in_contact: bool):
@@ -150,7 +150,7 @@ class Model:
         mass, damping, stiffness = (np.zeros((n, n), order="F") for _ in range(3))
         force = np.zeros(n)
         self._f.matrices(_time(tau), a, _phase(in_contact), mass, damping, stiffness, force)
-        _finite_result("matrices", f"a = {shown(a)}", M=mass, C=damping, K=stiffness, F=force)
+        _finite_result("matrices", {"a": a}, M=mass, C=damping, K=stiffness, F=force)
         return mass, damping, stiffness, force
 
     def contact(self, tau: float, a) -> ContactState:
@@ -161,7 +161,7 @@ class Model:
         s = self._f.contact(_time(tau), a)
         state = ContactState(vt, float(s.theta1), float(s.radius), float(s.normal),
                              float(s.friction), float(s.transverse), float(s.axial))
-        _finite_result("contact", f"a = {shown(a)}",
+        _finite_result("contact", {"a": a},
                        **{name: getattr(state, name) for name in ContactState._fields})
         return state
 
@@ -174,7 +174,7 @@ class Model:
         energy = self._f.energy_flow(_time(tau), a, adot, _phase(in_contact), power)
         out = dict(zip(POWER_NAMES, map(float, power)))
         out["energy"] = float(energy)
-        _finite_result("energy_flow", f"a = {shown(a)}, adot = {shown(adot)}", **out)
+        _finite_result("energy_flow", {"a": a, "adot": adot}, **out)
         return out
 
     def trajectory_energy_flow(self, tau, a, adot, contact):

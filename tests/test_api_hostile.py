@@ -291,3 +291,67 @@ def test_observe_batch_reads_a_config_with_non_ascii_text():
         assert observation.periods == second.periods
         assert np.array_equal(observation.per_period["contact_time"],
                               second.per_period["contact_time"])
+
+
+# --- Model methods never return NaN or Inf for finite input (issue 18, item 5) ---------------
+# (the module's `model` fixture above: Fig. 2's model)
+
+def _calls(model, tau, a, adot, in_contact):
+    return {
+        "derivative": lambda: model.derivative(tau, np.concatenate([a, adot]), in_contact),
+        "matrices": lambda: model.matrices(tau, a, in_contact),
+        "contact": lambda: model.contact(tau, a),
+        "energy_flow": lambda: model.energy_flow(tau, a, adot, in_contact),
+        "trajectory_energy_flow": lambda: model.trajectory_energy_flow(
+            np.full(2, tau), np.tile(a, (2, 1)), np.tile(adot, (2, 1)), np.full(2, int(in_contact))),
+    }
+
+
+def _finite(value):
+    if isinstance(value, dict):
+        value = list(value.values())
+    if isinstance(value, tuple) and not hasattr(value, "_fields"):
+        return all(_finite(v) for v in value)
+    return bool(np.all(np.isfinite(np.asarray(value, dtype=float))))
+
+
+@pytest.mark.parametrize("case, tau, a", [
+    ("a_1e308", 0.0, [1e308, 0, 0, 0]),   # forces overflow
+    ("a_minus_1e3", 0.0, [-1e3, 0, 0, 0]),  # an indentation past the tip's geometry: radius NaN
+    ("a_minus_1e10", 0.0, [-1e10, 0, 0, 0]),
+    ("tau_1e308", 1e308, [0, 0, 0, 0]),   # Omega tau overflows: the drive is NaN
+], ids=lambda x: x if isinstance(x, str) else None)
+def test_a_model_method_refuses_a_state_whose_result_is_not_finite(model, case, tau, a):
+    """Model.contact(0, [-1e3, 0, 0, 0]) returned radius = nan, derivative(1e308, ...) NaN
+    rates, matrices at a = 1e308 inf: silently.  Each is now an InputError naming the
+    argument (the state, or tau past the largest tau_end)."""
+    a = np.asarray(a, dtype=float)
+    for name, call in _calls(model, tau, a, a, True).items():
+        try:
+            out = call()
+        except tmafm.InputError as exc:
+            message = str(exc)
+            assert "\n" not in message and ("tau" in message or "a = " in message
+                                            or "y = " in message), (name, message)
+        else:
+            assert _finite(out), (case, name, out)
+
+
+def test_model_methods_are_finite_or_refuse_over_finite_input(model):
+    """Property: for finite tau and states (any magnitude), each method returns finite values
+    or raises InputError; never NaN or Inf."""
+    finite = st.floats(allow_nan=False, allow_infinity=False)
+    n = model.n_modes
+
+    @hypothesis.settings(max_examples=150, deadline=None, database=None)
+    @hypothesis.given(finite, st.lists(finite, min_size=2 * n, max_size=2 * n), st.booleans())
+    def check(tau, state, in_contact):
+        a, adot = np.array(state[:n]), np.array(state[n:])
+        for name, call in _calls(model, tau, a, adot, in_contact).items():
+            try:
+                out = call()
+            except tmafm.InputError:
+                continue
+            assert _finite(out), (name, tau, state, out)
+
+    check()

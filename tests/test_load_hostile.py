@@ -119,3 +119,80 @@ def test_the_untouched_archive_still_loads_and_a_big_endian_one_too(tmp_path, sa
     back = tmafm.load(tmp_path / "big.npz")
     assert np.array_equal(back.vt, loaded.vt) and np.array_equal(back.a, loaded.a)
     assert back.counters == loaded.counters
+
+
+@pytest.fixture(scope="module")
+def auto_n(tmp_path_factory):
+    """A result of an automatic N (&model n_modes = 0), saved."""
+    path = tmp_path_factory.mktemp("auto") / "auto.npz"
+    result = tmafm.run("fig2_n4", model={"n_modes": 0}, solver={"tau_end": 1.0})
+    result.save(path)
+    return path, result
+
+
+def _no_search(monkeypatch):
+    """Make the core's readers fail the test when asked for an automatic N, which runs the
+    search for N (tmafm_api choose_modes); returns the list of the texts they were given."""
+    import re
+
+    from tmafm import _run
+    api = _run._api
+    given = []
+    automatic = re.compile(r"^\s*n_modes\s*=\s*0\s*$", re.MULTILINE)
+
+    def one(text, *args):
+        given.append(text)
+        assert not automatic.search(text.decode("utf-8", "replace")), "the search for N ran"
+        return real_one(text, *args)
+
+    def two(text, label, override, *args):
+        given.append(text)
+        if automatic.search(text.decode("utf-8", "replace")):
+            assert re.search(rb"n_modes = [1-9]", override), "the search for N ran"
+        return real_two(text, label, override, *args)
+
+    real_one, real_two = api.config_from_text, api.config_from_texts
+    monkeypatch.setattr(api, "config_from_text", one)
+    monkeypatch.setattr(api, "config_from_texts", two)
+    return given
+
+
+def test_loading_an_automatic_n_result_runs_nothing_and_gives_the_fresh_result(monkeypatch, auto_n):
+    """tmafm.load read the resolved input (n_modes = 0) with the core, which ran the search for
+    N again (8.4 s for one result of issue 18); it now takes the N the input records."""
+    path, fresh = auto_n
+    given = _no_search(monkeypatch)
+    loaded = tmafm.load(path)
+    assert given, "load read no resolved input"
+    assert loaded.n_modes == fresh.n_modes == loaded.config.n_modes == 3
+    assert loaded.resolved_text == fresh.resolved_text  # with n_modes = 0 and the chosen N
+    assert "chosen n_modes = 3" in loaded.resolved_text
+    assert loaded.scene == fresh.scene and loaded.counters == fresh.counters
+    assert loaded.config.n_samples == fresh.config.n_samples
+    for name in ("tau", "vt", "vtdot", "contact", "a", "adot", "switches"):
+        assert np.array_equal(getattr(loaded, name), getattr(fresh, name)), name
+    # The loaded Config is the fresh one with its N fixed (and &initial cut to N).
+    mine, theirs = loaded.config.to_dict(), fresh.config.to_dict()
+    assert mine["model"].pop("n_modes") == 3 and theirs["model"].pop("n_modes") == 0
+    assert mine.pop("initial") == {"a0": [0.0] * 3, "adot0": [0.0] * 3}
+    theirs.pop("initial")
+    assert mine == theirs
+
+
+@pytest.mark.parametrize("change, words", [
+    (lambda t: t.replace(b"chosen n_modes = 3", b"chosen n_modes = 4"), "chosen N = 4"),
+    (lambda t: t.replace(b"! chosen n_modes = 3", b"! nothing chosen"), "records no chosen N"),
+    (lambda t: t.replace(b"n_modes = 0", b"n_modes = 3"), "records a chosen N"),
+    (lambda t: t.replace(b"a0 = 0.0E+000, 0.0E+000, 0.0E+000, 0.0E+000",
+                         b"a0 = 0.0E+000, 0.0E+000, 0.0E+000, 1.0E-003"), "nonzero value past mode 3"),
+], ids=["other_chosen_n", "no_chosen_n", "fixed_n_with_a_chosen_n", "initial_value_past_n"])
+def test_an_automatic_n_that_the_arrays_contradict_is_refused_without_a_search(
+        tmp_path, monkeypatch, auto_n, change, words):
+    path, _ = auto_n
+    with np.load(path) as data:
+        members = {name: data[name] for name in data.files}
+    members["resolved"] = np.array(change(members["resolved"].item()))
+    np.savez(tmp_path / "bad.npz", **members)
+    _no_search(monkeypatch)
+    with pytest.raises(tmafm.InputError, match=words):
+        tmafm.load(tmp_path / "bad.npz")

@@ -284,3 +284,89 @@ def test_a_fifo_without_a_reader_says_that_it_waits(tmp_path):
             proc.wait()
     assert proc.returncode == 0 and err == "", err
     assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
+
+
+# --- Result.save writes only what tmafm.load reads (issue 18, item 6) -------------------------
+
+def _mutations(result):
+    """Named changes to a Result's fields: each gives {field: new value} from the result."""
+    n = result.tau.size
+    text = result.resolved_text
+    return {
+        "nan_sample": lambda k: {"vt": np.where(np.arange(n) == k % n, np.nan, result.vt)},
+        "inf_amplitude": lambda k: {"a": np.where(np.arange(n)[:, None] == k % n, np.inf, result.a)},
+        "contact_256": lambda k: {"contact": np.where(np.arange(n) == k % n, 256, result.contact)},
+        "contact_half": lambda k: {"contact": result.contact + 0.5},
+        "contact_bool": lambda k: {"contact": result.contact.astype(bool)},
+        "complex_vt": lambda k: {"vt": result.vt + 1j},
+        "object_tau": lambda k: {"tau": np.array([object()] * n)},
+        "string_vtdot": lambda k: {"vtdot": np.array(["0.5"] * n)},
+        "float32_tau": lambda k: {"tau": result.tau.astype(np.float32)},
+        "one_sample_less": lambda k: {"vt": result.vt[:-1]},
+        "a_1d": lambda k: {"a": result.a[:, 0]},
+        "adot_extra_mode": lambda k: {"adot": np.hstack([result.adot, result.adot[:, :1]])},
+        "switches_2d": lambda k: {"switches": np.zeros((2, 2))},
+        "switches_list": lambda k: {"switches": [0.1 * k, 0.2]},
+        "counters_negative": lambda k: {"counters": dict(result.counters, steps=-k - 1)},
+        "counters_huge": lambda k: {"counters": dict(result.counters, steps=10**400)},
+        "counters_float": lambda k: {"counters": dict(result.counters, steps=1.5)},
+        "counters_missing": lambda k: {"counters": {}},
+        "counters_none": lambda k: {"counters": None},
+        "resolved_bytes": lambda k: {"resolved_text": text.encode()},
+        "resolved_surrogate": lambda k: {"resolved_text": text + "! \ud800\n"},
+        "resolved_latin1_comment": lambda k: {"resolved_text": text + "! caf\udce9\n"},
+        "resolved_nul": lambda k: {"resolved_text": text.replace("&scene", "&scene\0", 1)},
+        "resolved_huge": lambda k: {"resolved_text": text + ("!" + "x" * 1000 + "\n") * 1100},
+        "resolved_other_tau_end": lambda k: {"resolved_text": text.replace(
+            "tau_end = 5.0E-001", f"tau_end = {0.5 + 0.01 * (k + 1)}")},
+        "resolved_other_n": lambda k: {"resolved_text": text.replace("n_modes = 4", "n_modes = 3")},
+        "resolved_garbage": lambda k: {"resolved_text": "garbage"},
+        "resolved_empty": lambda k: {"resolved_text": ""},
+        "resolved_control_file_name": lambda k: {"resolved_text": text.replace(
+            "&output", "&output\n    file = 'a\x1bb'", 1)},
+        "nothing": lambda k: {},
+    }
+
+
+def test_save_writes_only_what_load_reads_back(tmp_path_factory, result):
+    """Property: for a Result changed in any of these ways, Result.save either refuses with a
+    typed tmafm error and writes nothing, or writes a file that tmafm.load reads back equal.
+    Before, save wrote NaN samples, contact flags of 256 (as 0), complex values (their real
+    part), a resolved input that contradicts the arrays, or one with a NUL byte, and load then
+    refused the file (or, for the cast flags and values, read back something else)."""
+    from hypothesis import given, settings, strategies as st
+
+    from tmafm._run import Result
+
+    base = {name: getattr(result, name) for name in ("tau", "vt", "vtdot", "contact", "a", "adot",
+                                                      "switches", "counters")}
+    mutations = _mutations(result)
+    outcomes = {"saved": 0, "refused": 0}
+
+    @settings(max_examples=80, deadline=None, database=None)
+    @given(st.lists(st.tuples(st.sampled_from(sorted(mutations)), st.integers(0, 10**6)),
+                    min_size=1, max_size=2))
+    def check(changes):
+        fields = dict(base, resolved_text=result.resolved_text)
+        for name, k in changes:
+            fields.update(mutations[name](k))
+        candidate = Result(**fields)
+        folder = tmp_path_factory.mktemp("save")
+        path = folder / "r.npz"
+        try:
+            candidate.save(path)
+        except tmafm.TmafmError as exc:
+            assert "\n" not in str(exc) and len(str(exc)) < 1200, str(exc)
+            assert list(folder.iterdir()) == [], changes
+            outcomes["refused"] += 1
+            return
+        outcomes["saved"] += 1
+        back = tmafm.load(path)  # must not raise
+        for name in ("tau", "vt", "vtdot", "a", "adot", "switches"):
+            assert np.array_equal(getattr(back, name), np.asarray(fields[name], dtype=float)), name
+        assert np.array_equal(back.contact, np.asarray(fields["contact"]).astype(np.int8))
+        assert back.counters == {k: candidate.counters.get(k, 0) for k in tmafm.COUNTER_KEYS}
+        assert back.resolved_text == fields["resolved_text"]
+
+    check()
+    assert outcomes["saved"] and outcomes["refused"], outcomes

@@ -85,7 +85,8 @@ def _assert_stopped(report: dict) -> None:
 def test_ctrl_c_stops_threaded_continuation_curves_and_the_sweep_command(tmp_path):
     """4 frequency curves on 2 threads, SIGINT a quarter of the way in: once the handler has
     run, the threads finish the point they are in and stop (before, the whole sweep ran
-    first).  The sweep command, interrupted the same way, leaves no file behind."""
+    first).  The sweep command, interrupted the same way, prints one line, returns 130 and
+    leaves no file behind (before, a 25-line traceback)."""
     sweep_file = tmp_path / "curves.nml"
     sweep_file.write_text(textwrap.dedent(f"""\
         &sweep
@@ -102,12 +103,25 @@ def test_ctrl_c_stops_threaded_continuation_curves_and_the_sweep_command(tmp_pat
             workers=2, progress=True, max_periods=200, stop_at_steady=False)
         wall = reference("curves", sweep)
         phase("curves", sweep, 0.25 * wall)
-        phase("command", lambda: tmafm.sweeps.main([sys.argv[2], "-o", sys.argv[3], "--progress"]),
-              0.25 * wall)
+        def command():
+            import contextlib, io
+            err = io.StringIO()
+            with contextlib.redirect_stderr(err):
+                code = tmafm.sweeps.main([sys.argv[2], "-o", sys.argv[3], "--progress"])
+            report(command_code=code, command_err=err.getvalue())
+        phase("command", command, 0.25 * wall)
     """, BISTABLE, sweep_file, tmp_path / "curves.nc")
     full = reports["curves_reference"]
-    for name in ("curves", "command"):
-        _assert_stopped(reports[name])
+    _assert_stopped(reports["curves"])
+    # The command catches the KeyboardInterrupt: one line and exit status 130 (128 + SIGINT,
+    # as a shell reports the executable's death by SIGINT), not a traceback.
+    assert reports["command"]["outcome"] == "returned", reports["command"]
+    assert reports["command_code"] == 130, reports
+    lines = [line for line in reports["command_err"].splitlines() if "tmafm.sweeps" in line]
+    assert lines == ["tmafm.sweeps: interrupted"], reports["command_err"]
+    assert "Traceback" not in reports["command_err"], reports["command_err"]
+    assert reports["command"]["handled"] == 1 and reports["command"]["threads"] == 0, reports
+    assert reports["command"]["children"] == 0 and reports["command"]["bars"] == 0, reports
     # The work done after the handler: the points in progress, 2 of the 96 (4 curves, 12
     # values, up and down); CPU of all threads, against the undisturbed sweep's.
     assert reports["curves"]["cpu_after"] < 0.1 * full["cpu"], (reports, full)

@@ -55,6 +55,11 @@ def _vector(name: str, value, size: int) -> np.ndarray:
     return array
 
 
+#: The largest |tau| the methods take: the largest &solver tau_end (tmafm_namelist), so every
+#: time a run reaches is in range (Omega tau, and so the drive, stays finite).
+MAX_TAU = 1.0e7
+
+
 def _time(tau) -> float:
     if isinstance(tau, (str, bytes, bool, np.bool_)):
         raise InputError(f"tau must be a number, got {shown(tau)}")
@@ -64,7 +69,21 @@ def _time(tau) -> float:
         raise InputError(f"tau must be a finite number, got {shown(tau)}") from None
     if not np.isfinite(value):
         raise InputError(f"tau = {shown(tau)}: must be finite")
+    if abs(value) > MAX_TAU:
+        raise InputError(f"tau = {shown(tau)}: must be within +-{MAX_TAU:g} (the largest &solver "
+                         f"tau_end)")
     return value
+
+
+def _finite_result(method: str, arguments: dict, **outputs) -> None:
+    """InputError naming the state `arguments` ({name: value}) when an output of `method` is
+    not finite: the state lies outside what the model covers (e.g. an indentation past the
+    tip's geometry, or values so large that the forces overflow)."""
+    for name, value in outputs.items():
+        if not np.isfinite(value).all():
+            given = ", ".join(f"{key} = {shown(array)}" for key, array in arguments.items())
+            raise InputError(f"Model.{method}: {given} gives {name} = {shown(value)}, not "
+                             f"finite: the state is outside the range the model covers")
 
 
 def _phase(in_contact) -> bool:
@@ -121,6 +140,7 @@ class Model:
         y = _vector("y", y, 2 * n)
         rate = np.zeros(2 * n)
         self._f.derivative(_time(tau), y, _phase(in_contact), rate)
+        _finite_result("derivative", {"y": y}, rate=rate)
         return rate
 
     def matrices(self, tau: float, a, in_contact: bool):
@@ -130,6 +150,7 @@ class Model:
         mass, damping, stiffness = (np.zeros((n, n), order="F") for _ in range(3))
         force = np.zeros(n)
         self._f.matrices(_time(tau), a, _phase(in_contact), mass, damping, stiffness, force)
+        _finite_result("matrices", {"a": a}, M=mass, C=damping, K=stiffness, F=force)
         return mass, damping, stiffness, force
 
     def contact(self, tau: float, a) -> ContactState:
@@ -138,8 +159,11 @@ class Model:
         a = _vector("a", a, n)
         vt = float(self._f.tip_gap(_time(tau), a))
         s = self._f.contact(_time(tau), a)
-        return ContactState(vt, float(s.theta1), float(s.radius), float(s.normal),
-                            float(s.friction), float(s.transverse), float(s.axial))
+        state = ContactState(vt, float(s.theta1), float(s.radius), float(s.normal),
+                             float(s.friction), float(s.transverse), float(s.axial))
+        _finite_result("contact", {"a": a},
+                       **{name: getattr(state, name) for name in ContactState._fields})
+        return state
 
     def energy_flow(self, tau: float, a, adot, in_contact: bool) -> dict:
         """The power of each generalized force (POWER_NAMES) and the modal energy ('energy')."""
@@ -150,14 +174,21 @@ class Model:
         energy = self._f.energy_flow(_time(tau), a, adot, _phase(in_contact), power)
         out = dict(zip(POWER_NAMES, map(float, power)))
         out["energy"] = float(energy)
+        _finite_result("energy_flow", {"a": a, "adot": adot}, **out)
         return out
 
     def trajectory_energy_flow(self, tau, a, adot, contact):
         """Along samples: (powers samples x 5, energy, contact state samples x 6)."""
         tau = _finite_array("tau", tau)
+        if tau.size and np.max(np.abs(tau)) > MAX_TAU:
+            raise InputError(f"tau must be within +-{MAX_TAU:g} (the largest &solver tau_end)")
         a = _finite_array("a", a, order="F")
         adot = _finite_array("adot", adot, order="F")
-        phases = np.asarray(contact)
+        try:
+            phases = np.asarray(contact)
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"contact must be 0 or 1 per sample: {shown(str(exc))[1:-1]}") \
+                from None
         if phases.dtype.kind not in "biuf" or not np.all((phases == 0) | (phases == 1)):
             raise InputError(f"contact must be 0 or 1 (or bools) per sample, got {shown(contact)}")
         contact = np.ascontiguousarray(phases, dtype=np.int32)
@@ -170,6 +201,12 @@ class Model:
         energy = np.zeros(k)
         state = np.zeros((k, 6), order="F")
         _api.trajectory_energy_flow(self._f, tau, a, adot, contact, power, energy, state)
+        finite = np.isfinite(power).all(axis=1) & np.isfinite(energy) & np.isfinite(state).all(axis=1)
+        if not finite.all():
+            k = int(np.flatnonzero(~finite)[0])
+            raise InputError(f"Model.trajectory_energy_flow: sample {k} (a = {shown(a[k])}, adot = "
+                             f"{shown(adot[k])}) gives powers or a contact state that are not "
+                             f"finite: the state is outside the range the model covers")
         return power, energy, state
 
     def __repr__(self) -> str:

@@ -398,11 +398,19 @@ def run(nml: NamelistLike, max_switches: int | None = None, **overrides) -> Resu
     return Config(nml, **overrides).run(max_switches)
 
 
-def _config_from_resolved_text(text: str, label: str) -> Config:
-    """A Config rebuilt from its resolved text (how a pickled Config is unpickled)."""
+def _config_from_resolved_text(text: str, label: str, override: str | None = None) -> Config:
+    """A Config rebuilt from its resolved text (how a pickled Config is unpickled); ``override``
+    (namelist text) patches it key by key, as Config's overrides do (tmafm.load fixes an
+    automatic N so: tmafm._resultio)."""
     config = Config.__new__(Config)
     handle = _config_t()
-    ierr, errmsg = _api.config_from_text(_for_core(text), _for_core(label), handle, polls())
+    if override is None:
+        ierr, errmsg = _api.config_from_text(_for_core(text), _for_core(label), handle, polls())
+    else:
+        ierr, errmsg = _api.config_from_texts(_for_core(text), _for_core(label),
+                                              _for_core(override), _for_core(label), handle,
+                                              polls())
+        text = None  # the Config's text is the patched one, read back from the core
     raise_for(ierr, errmsg)
     config.label, config._f, config._text, config._scene = label, handle, text, None
     return config

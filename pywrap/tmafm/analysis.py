@@ -31,7 +31,9 @@ import math
 import numpy as np
 
 from ._model import POWER_NAMES, Model
-from ._run import Config
+from ._namelist import shown
+from ._run import Config, Result
+from .errors import InputError, InputTypeError
 
 __all__ = ["observation", "drive_period", "sample_dtau_for", "poincare_sections", "section_distances",
            "default_tolerance", "state_scale",
@@ -45,10 +47,80 @@ __all__ = ["observation", "drive_period", "sample_dtau_for", "poincare_sections"
 _CORE_HARMONICS = 10
 
 
+# Arguments: a wrong type or value is a typed tmafm error naming it, before any work.
+
+def _result(result, what: str):
+    if not isinstance(result, Result):
+        raise InputTypeError(f"{what}: result must be a tmafm.Result, not {type(result).__name__}")
+    return result
+
+
+def _real(what: str, name: str, value, optional: bool = False, positive: bool = False):
+    """A finite real number (None too when optional); InputError otherwise."""
+    if value is None and optional:
+        return None
+    ok = not isinstance(value, (bool, np.bool_)) and isinstance(value, (int, float, np.integer,
+                                                                          np.floating))
+    try:
+        ok = ok and math.isfinite(float(value)) and (not positive or float(value) > 0)
+    except OverflowError:
+        ok = False
+    if not ok:
+        raise InputError(f"{what}: {name} = {shown(value)}: must be a finite number"
+                         + (" > 0" if positive else "") + (" or None" if optional else ""))
+    return float(value)
+
+
+def _scale(what: str, scale, sections: np.ndarray) -> np.ndarray:
+    """A scale per state component: finite numbers > 0, one per column of the sections."""
+    scale = _array(what, "scale", scale, 1)
+    if scale.shape != sections.shape[1:] or not np.all(scale > 0):
+        raise InputError(f"{what}: scale must be {sections.shape[1]} numbers > 0, one per state "
+                         f"component, got shape {scale.shape}")
+    return scale
+
+
+def _since(what: str, result, since) -> float:
+    """A time within the run's samples; InputError otherwise."""
+    since = _real(what, "since", since)
+    start, end = (float(result.tau[0]), float(result.tau[-1])) if np.size(result.tau) else (0, 0)
+    if not start <= since <= end:
+        raise InputError(f"{what}: since = {since:g}: must lie within the run's samples, "
+                         f"{start:g} <= tau <= {end:g}")
+    return since
+
+
+def _count(what: str, name: str, value, optional: bool = False, low: int = 1) -> int | None:
+    """An integer from `low` to 10**7 (None too when optional); InputError otherwise."""
+    if value is None and optional:
+        return None
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) \
+            or not low <= value <= 10_000_000:
+        raise InputError(f"{what}: {name} = {shown(value)}: must be an integer from {low} to "
+                         f"10000000" + (" or None" if optional else ""))
+    return int(value)
+
+
+def _array(what: str, name: str, value, ndim: int) -> np.ndarray:
+    """Finite real numbers of `ndim` dimensions; InputError otherwise."""
+    try:
+        if isinstance(value, (str, bytes)):
+            raise TypeError("not numbers")
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InputError(f"{what}: {name} must be real numbers: {shown(str(exc))[1:-1]}") from None
+    if array.ndim != ndim or not np.all(np.isfinite(array)):
+        raise InputError(f"{what}: {name} must be finite numbers of {ndim} dimension(s), got "
+                         f"shape {array.shape}")
+    return array
+
+
 def observation(result, harmonics: int = _CORE_HARMONICS):
     """The core's per-period observables (a tmafm.Observation) of the run behind `result`: its
     input (method, tolerances, initial state) integrated again over the run's whole drive
     periods.  None when the core cannot re-run it (no input, a synthetic Result, rk4_event)."""
+    _result(result, "observation")
+    harmonics = _count("observation", "harmonics", harmonics)
     cache = result.__dict__.setdefault("_observations", {})
     for count, obs in cache.items():
         if count >= harmonics:
@@ -76,11 +148,14 @@ def observation(result, harmonics: int = _CORE_HARMONICS):
 
 def drive_period(result) -> float:
     """T = 2 pi / Omega of the run."""
+    _result(result, "drive_period")
     return 2 * math.pi / result.scene["omega"]
 
 
 def sample_dtau_for(omega: float, per_period: int = 200) -> float:
     """The output interval that puts `per_period` samples in each drive period."""
+    omega = _real("sample_dtau_for", "omega", omega, positive=True)
+    per_period = _count("sample_dtau_for", "per_period", per_period)
     return 2 * math.pi / omega / per_period
 
 
@@ -89,13 +164,14 @@ def _stride(result) -> int:
     ratio = drive_period(result) / dt
     stride = int(round(ratio))
     if stride < 2 or abs(ratio - stride) > 1e-6 * ratio:
-        raise ValueError(f"sample_dtau = {dt!r} does not divide the drive period "
+        raise InputError(f"sample_dtau = {dt!r} does not divide the drive period "
                          f"{drive_period(result)!r}: use sample_dtau_for(omega, m)")
     return stride
 
 
 def poincare_sections(result) -> tuple[np.ndarray, np.ndarray]:
     """Times k T and states (a, adot) at every whole drive period of the run."""
+    _result(result, "poincare_sections")
     stride = _stride(result)
     index = np.arange(0, result.tau.size, stride)
     return result.tau[index], np.hstack([result.a[index], result.adot[index]])
@@ -103,6 +179,8 @@ def poincare_sections(result) -> tuple[np.ndarray, np.ndarray]:
 
 def state_scale(result, since: float = 0.0) -> np.ndarray:
     """Range of each state component (a, adot) over the samples after `since`."""
+    _result(result, "state_scale")
+    since = _since("state_scale", result, since)
     keep = result.tau >= since
     states = np.hstack([result.a[keep], result.adot[keep]])
     scale = np.ptp(states, axis=0)
@@ -114,6 +192,7 @@ def default_tolerance(result) -> float:
     """A section-distance tolerance above the integrator's own error: 2e-3 (dtau/2e-3) for
     rk4_paper (first order), 1e-5 (dtau/2e-3)^4 for rk4_event, 1e3 rtol for the adaptive
     methods; never below 1e-9."""
+    _result(result, "default_tolerance")
     solver = result.resolved["solver"]
     method = solver["method"]
     if method == "rk4_paper":
@@ -128,6 +207,13 @@ def default_tolerance(result) -> float:
 def section_distances(sections: np.ndarray, n: int, scale: np.ndarray | None = None) -> np.ndarray:
     """Scaled max-norm distances between sections k and k - n, for k = n .. end.
     `scale` defaults to the largest |value| of each component over the sections."""
+    sections = _array("section_distances", "sections", sections, 2)
+    n = _count("section_distances", "n", n)
+    if n >= sections.shape[0]:
+        raise InputError(f"section_distances: n = {n}: must be less than the {sections.shape[0]} "
+                         f"sections")
+    if scale is not None:
+        scale = _scale("section_distances", scale, sections)
     if scale is None:
         scale = np.abs(sections).max(axis=0)
         scale[scale == 0] = 1.0
@@ -139,9 +225,15 @@ def classify_sections(sections: np.ndarray, tol: float = 1e-6, max_period: int =
     """Period-n (smallest n <= max_period whose section distances over the last `window`
     sections all stay below tol) or non-periodic.  Returns the evidence: for each n, the
     largest distance seen."""
+    sections = _array("classify_sections", "sections", sections, 2)
+    tol = _real("classify_sections", "tol", tol, positive=True)
+    max_period = _count("classify_sections", "max_period", max_period)
+    window = _count("classify_sections", "window", window, optional=True)
+    if scale is not None:
+        scale = _scale("classify_sections", scale, sections)
     window = window or 2 * max_period
     if sections.shape[0] < window + max_period:
-        raise ValueError(f"need at least {window + max_period} drive periods, have {sections.shape[0]}")
+        raise InputError(f"need at least {window + max_period} drive periods, have {sections.shape[0]}")
     tail = sections[-(window + max_period):]
     evidence = {n: float(section_distances(tail, n, scale)[-window:].max())
                 for n in range(1, max_period + 1)}
@@ -155,6 +247,8 @@ def classify_period(result, tol: float | None = None, max_period: int = 16,
                     window: int | None = None) -> dict:
     """classify_sections on the Poincare sections of a run, scaled by the size of the
     motion over the second half of the run; tol defaults to default_tolerance."""
+    _result(result, "classify_period")
+    tol = _real("classify_period", "tol", tol, optional=True, positive=True)
     tol = default_tolerance(result) if tol is None else tol
     return classify_sections(poincare_sections(result)[1], tol, max_period, window,
                              state_scale(result, result.tau[-1] / 2))
@@ -164,6 +258,10 @@ def steady_state(result, tol: float | None = None, max_period: int = 16, hold: i
     """The first drive period from which the sections repeat with some period n <= max_period
     (distance <= tol) for all later sections, at least `hold` cycles.  ``reached`` is False
     otherwise.  tol defaults to default_tolerance."""
+    _result(result, "steady_state")
+    tol = _real("steady_state", "tol", tol, optional=True, positive=True)
+    max_period = _count("steady_state", "max_period", max_period)
+    hold = _count("steady_state", "hold", hold)
     tol = default_tolerance(result) if tol is None else tol
     times, sections = poincare_sections(result)
     scale = state_scale(result, result.tau[-1] / 2)
@@ -201,6 +299,7 @@ def _model_of(result) -> Model:
 
 def energy_flow(result) -> dict:
     """Per sample: the powers (POWER_NAMES), the modal energy, and the contact state."""
+    _result(result, "energy_flow")
     power, energy, state = _model_of(result).trajectory_energy_flow(
         result.tau, result.a, result.adot, result.contact)
     out = {name: power[:, k] for k, name in enumerate(POWER_NAMES)}
@@ -233,6 +332,12 @@ def _integrate(power, result, first, last):
 def energy_balance(result, tau0: float, tau1: float) -> dict:
     """Change of modal energy over [tau0, tau1] against the work of each force, integrated
     from the samples with the switches split out (error O(sample_dtau^2))."""
+    _result(result, "energy_balance")
+    tau0 = _real("energy_balance", "tau0", tau0)
+    tau1 = _real("energy_balance", "tau1", tau1)
+    if not result.tau.size or not result.tau[0] <= tau0 <= tau1 <= result.tau[-1] + 1e-12:
+        raise InputError(f"energy_balance: tau0 = {tau0:g}, tau1 = {tau1:g}: must lie in the "
+                         f"run's samples, tau0 <= tau1")
     flow = energy_flow(result)
     first = int(np.searchsorted(result.tau, tau0 - 1e-12))
     last = int(np.searchsorted(result.tau, tau1 + 1e-12)) - 1
@@ -259,6 +364,8 @@ def modal_amplitudes(result, since: float = 0.0) -> dict:
     the switches over the whole drive periods after `since` (``observation``); a Result the
     core cannot re-run falls back to its samples after `since`.  ``samples`` counts the
     samples of each phase after `since` either way."""
+    _result(result, "modal_amplitudes")
+    since = _since("modal_amplitudes", result, since)
     keep = result.tau >= since
     observed = _observed_periods(result, since)
     out = {}
@@ -285,6 +392,8 @@ def modal_amplitudes(result, since: float = 0.0) -> dict:
 def vt_max(result, since: float = 0.0) -> float:
     """The largest V_T after `since`: the core's located maximum over the whole drive periods
     after `since` (``observation``), or the largest sample when the core cannot re-run it."""
+    _result(result, "vt_max")
+    since = _since("vt_max", result, since)
     observed = _observed_periods(result, since)
     if observed is not None:
         obs, rows = observed
@@ -298,6 +407,8 @@ def per_period(result, since: float = 0.0) -> list[dict]:
     observation when there is one), peak normal and friction groups ((L/d) kappa f_c and (L/d) kappa h
     are the forces in units of E1 I d / L^3; here f_c and h themselves), and the work of the
     contact damping and of friction, and the energy dissipated in all."""
+    _result(result, "per_period")
+    since = _since("per_period", result, since)
     stride = _stride(result)
     flow = energy_flow(result)
     first = int(math.ceil(since / drive_period(result) - 1e-9)) * stride
@@ -345,7 +456,7 @@ def _whole_periods(result, since):
     start = int(math.ceil(since / drive_period(result) - 1e-9)) * stride
     periods = (result.tau.size - 1 - start) // stride
     if periods < 1:
-        raise ValueError("no whole drive period after `since`")
+        raise InputError("no whole drive period after `since`")
     return slice(start, start + periods * stride), periods
 
 
@@ -353,6 +464,8 @@ def lockin(result, since: float = 0.0) -> dict:
     """Amplitude and phase (radians) of V_T at the drive frequency over whole periods after
     `since`: V_T ~ mean + amplitude sin(Omega tau + phase); the mean of the core's per-period
     Fourier coefficients when it observes the run."""
+    _result(result, "lockin")
+    since = _since("lockin", result, since)
     sl, periods = _whole_periods(result, since)
     obs = observation(result)
     if obs is not None:
@@ -374,6 +487,9 @@ def lockin(result, since: float = 0.0) -> dict:
 def harmonics(result, since: float = 0.0, k_max: int = 20) -> np.ndarray:
     """Amplitudes of V_T at k Omega, k = 0..k_max, over whole periods after `since` (the core's
     per-period Fourier coefficients, averaged; |FFT| of the samples as the fallback)."""
+    _result(result, "harmonics")
+    since = _since("harmonics", result, since)
+    k_max = _count("harmonics", "k_max", k_max)
     sl, periods = _whole_periods(result, since)
     obs = observation(result, max(k_max, _CORE_HARMONICS))
     if obs is not None:
@@ -391,6 +507,9 @@ def harmonics(result, since: float = 0.0, k_max: int = 20) -> np.ndarray:
 
 def summary(result, since: float | None = None, tol: float | None = None) -> dict:
     """The measures the paper discusses, for a run whose sample_dtau divides the period."""
+    _result(result, "summary")
+    since = None if since is None else _since("summary", result, since)
+    tol = _real("summary", "tol", tol, optional=True, positive=True)
     period = drive_period(result)
     if since is None:
         since = result.tau[-1] / 2

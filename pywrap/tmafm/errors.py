@@ -5,7 +5,7 @@ The Fortran core reports failures as an integer code and a one-line message
 """
 
 __all__ = ["TmafmError", "InputError", "InputTypeError", "InputFileError", "BlowUpError",
-           "SolverError", "raise_for"]
+           "SolverError", "MissingExtraError", "raise_for"]
 
 
 class TmafmError(Exception):
@@ -23,6 +23,12 @@ class InputTypeError(InputError, TypeError):
 
 class InputFileError(TmafmError, FileNotFoundError):
     """An input or output file is missing or cannot be read or written."""
+
+
+class MissingExtraError(TmafmError, ImportError):
+    """An optional dependency is not installed (e.g. xarray for tmafm.sweep): the message names
+    the extra to install, ``pip install 'tmafm[sweep]'``.  Also the ImportError Python code
+    expects."""
 
 
 class SolverError(TmafmError, RuntimeError):

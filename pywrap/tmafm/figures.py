@@ -245,6 +245,10 @@ def basin_scan(inputs: Path, out: Path, periods: int, points: int, progress=prin
 
 def main(argv=None) -> None:
     """Command line: regenerate the figures and summary.json."""
+    if argv is not None and (isinstance(argv, (str, bytes)) or not isinstance(argv, (list, tuple))
+                             or not all(isinstance(a, str) for a in argv)):
+        from .errors import InputTypeError
+        raise InputTypeError(f"argv must be a list of strings or None, not {type(argv).__name__}")
     parser = argparse.ArgumentParser(description="Regenerate the paper's Figs. 2-7")
     parser.add_argument("--out", type=Path, default=Path("docs/figures"))
     parser.add_argument("--inputs", type=Path, default=None,

@@ -12,6 +12,7 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
+from ._namelist import shown
 from .errors import InputFileError
 
 __all__ = ["folder", "names", "path"]
@@ -29,8 +30,15 @@ def names() -> list[str]:
 
 def path(name: str) -> Path:
     """The packaged input `name` (with or without .nml); InputFileError if there is none."""
-    stem = str(name)[:-4] if str(name).endswith(".nml") else str(name)
+    if not isinstance(name, str):
+        raise InputFileError(f"no packaged input named {shown(name)}: a name is a str (known: "
+                             f"{', '.join(names())})")
+    stem = name[:-4] if name.endswith(".nml") else name
     candidate = folder() / f"{stem}.nml"
-    if "/" in stem or not candidate.is_file():
+    try:
+        found = "/" not in stem and "\0" not in stem and candidate.is_file()
+    except (OSError, ValueError):  # a name too long
+        found = False
+    if not found:
         raise InputFileError(f"no packaged input named {name!r} (known: {', '.join(names())})")
     return candidate

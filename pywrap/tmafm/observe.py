@@ -158,7 +158,7 @@ def _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_
         checked[name] = int(value)
     if isinstance(steady_tol, bool) or not isinstance(steady_tol, (int, float, np.floating)):
         raise InputTypeError(f"observe steady_tol = {shown(steady_tol)}: must be a number")
-    if not 0 < float(steady_tol) < 1:
+    if not 0 < steady_tol < 1:
         raise InputError(f"observe steady_tol = {steady_tol}: must be > 0 and < 1")
     if not isinstance(stop_at_steady, (bool, np.bool_)):
         raise InputTypeError(f"observe stop_at_steady = {shown(stop_at_steady)}: must be True or False")
@@ -200,8 +200,10 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
     from . import _core
     opts = _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_steady)
     groups = observable_groups(observables)
-    if isinstance(configs, (str, os.PathLike, Mapping, Config)):
-        raise InputTypeError("observe_batch takes a list of inputs; use tmafm.observe for one")
+    if isinstance(configs, (str, bytes, os.PathLike, Mapping, Config)) \
+            or not hasattr(configs, "__iter__"):
+        raise InputTypeError(f"observe_batch takes a list of inputs, not {shown(configs)}; use "
+                             f"tmafm.observe for one")
     configs = [c if isinstance(c, Config) else Config(c) for c in configs]
     threads = _threads(threads, "observe_batch", len(configs))
     if not configs:
@@ -311,8 +313,10 @@ def observe_states(config, states, *, threads: int | None = None, max_periods: i
     if states.ndim != 2 or states.shape[1] != 2 * n:
         raise InputError(f"observe_states states: shape {states.shape}, must be (points, {2 * n})")
     confirm = opts["steady_repeats"] if confirm is None else confirm
-    if isinstance(confirm, bool) or not isinstance(confirm, (int, np.integer)) or confirm < 1:
-        raise InputTypeError(f"observe_states confirm = {shown(confirm)}: must be a positive integer")
+    if isinstance(confirm, bool) or not isinstance(confirm, (int, np.integer)) \
+            or not 1 <= confirm <= 10_000_000:
+        raise InputTypeError(f"observe_states confirm = {shown(confirm)}: must be an integer from 1 "
+                             f"to 10000000")
     capture = opts["steady_tol"] if capture is None else capture
     if isinstance(capture, bool) or not isinstance(capture, (int, float, np.floating)) \
             or not 0 < capture < 1:
@@ -361,7 +365,24 @@ def steady_period(points, p_max: int = 8, tol: float = 1e-6, repeats: int = 3) -
     """The core's steady-state classifier on a sequence of points (rows): the smallest period
     p <= p_max whose last ``repeats`` points repeat within tol (relative to the orbit's size)."""
     from . import _core
-    points = np.asarray(points, dtype=float)
+    for name, value in (("p_max", p_max), ("repeats", repeats)):
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) \
+                or not 1 <= value <= 10_000_000:
+            raise InputTypeError(f"steady_period {name} = {shown(value)}: must be an integer from "
+                                 f"1 to 10000000")
+    if isinstance(tol, (bool, np.bool_)) or not isinstance(tol, (int, float, np.floating)) \
+            or not 0 < tol < 1:
+        raise InputError(f"steady_period tol = {shown(tol)}: must be a number > 0 and < 1")
+    try:
+        if isinstance(points, (str, bytes)):
+            raise TypeError("not numbers")
+        points = np.asarray(points, dtype=float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InputError(f"steady_period points must be real numbers: {shown(str(exc))[1:-1]}") \
+            from None
     if points.ndim == 1:
         points = points[:, None]
+    if points.ndim != 2 or not np.all(np.isfinite(points)):
+        raise InputError(f"steady_period points must be a finite (points,) or (points, values) "
+                         f"array, got shape {points.shape}")
     return int(_core.steady_period_of(np.asfortranarray(points), p_max, tol, repeats))

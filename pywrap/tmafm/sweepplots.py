@@ -10,12 +10,13 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["plot", "plot_approach", "plot_frequency", "plot_bifurcation", "plot_basin",
+__all__ = ["plot", "render", "plot_approach", "plot_frequency", "plot_bifurcation", "plot_basin",
            "plot_grid"]
 
 
 def _pyplot():
-    import matplotlib
+    from ._extras import require
+    matplotlib = require("matplotlib", "tmafm.sweepplots")
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt
@@ -26,13 +27,46 @@ def _label(ds, name: str) -> str:
     return f"{name} [{unit}]" if unit and unit != "1" else name
 
 
+class _Memory:
+    """A plot's destination in memory (render): the format, and the bytes once drawn."""
+
+    def __init__(self, format: str):
+        self.format = format
+        self.data = b""
+
+
 def _save(fig, path) -> Path:
-    """Save by the executable's output rules (tmafm._safefile: a temporary and a rename)."""
+    """Save by the executable's output rules (tmafm._safefile: a temporary and a rename), or
+    into memory for render()."""
+    import io
     from ._safefile import save_figure
     try:
+        if isinstance(path, _Memory):
+            buffer = io.BytesIO()
+            fig.savefig(buffer, format=path.format, dpi=110)
+            path.data = buffer.getvalue()
+            return path
         return save_figure(fig, path, dpi=110)
     finally:
         _pyplot().close(fig)
+
+
+def _check(ds, what: str):
+    """`ds` if it is a sweep Dataset (xarray.Dataset with tmafm_kind); InputTypeError or
+    InputError otherwise."""
+    from ._namelist import shown
+    from .errors import InputError, InputTypeError
+    try:
+        import xarray as xr
+    except ImportError:
+        xr = None
+    if xr is None or not isinstance(ds, xr.Dataset):
+        raise InputTypeError(f"{what}: ds must be an xarray.Dataset of a sweep, not "
+                             f"{type(ds).__name__}")
+    kind = ds.attrs.get("tmafm_kind")
+    if kind not in _BY_KIND or "period" not in ds:
+        raise InputError(f"{what}: not a tmafm sweep dataset (tmafm_kind = {shown(kind)})")
+    return ds
 
 
 def _continuation_panels(ds, path, names):
@@ -73,6 +107,7 @@ def _continuation_panels(ds, path, names):
 def plot_approach(ds, path):
     """Amplitude, phase, peak force and indentation (-min_gap when < 0) against delta_hat, both
     branches, jumps marked by squares (the panels of the observables the sweep computed)."""
+    _check(ds, "plot_approach")
     ds = ds.copy()
     if "min_gap" in ds:
         ds["indentation"] = (-ds["min_gap"]).clip(min=0)
@@ -83,11 +118,17 @@ def plot_approach(ds, path):
 
 def plot_frequency(ds, path):
     """Amplitude and phase against omega, up and down sweeps, jumps marked."""
+    _check(ds, "plot_frequency")
     return _continuation_panels(ds, path, ["amplitude", "phase"])
 
 
 def plot_bifurcation(ds, path, variable="vt"):
     """Poincaré points (`variable`, default V_T at the section) against the swept key."""
+    from ._namelist import shown
+    from .errors import InputError
+    _check(ds, "plot_bifurcation")
+    if not isinstance(variable, str) or variable not in ds or "swept_key" not in ds.attrs:
+        raise InputError(f"plot_bifurcation: variable {shown(variable)} is not in the dataset")
     plt = _pyplot()
     key = ds.attrs["swept_key"]
     fig, axes = plt.subplots(2, 1, figsize=(6.4, 5.2), sharex=True)
@@ -105,6 +146,7 @@ def plot_bifurcation(ds, path, variable="vt"):
 
 def plot_basin(ds, path):
     """The basin map: attractor labels over (a1(0), a1'(0)), and the period."""
+    _check(ds, "plot_basin")
     plt = _pyplot()
     from matplotlib.colors import ListedColormap
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.2))
@@ -134,6 +176,12 @@ def plot_basin(ds, path):
 def plot_grid(ds, path, names=("amplitude", "phase", "peak_force", "min_gap")):
     """A grid sweep: lines against its one key, or maps over its two keys (the `names` the
     sweep computed; its steady period when it computed none of them)."""
+    from ._namelist import shown
+    from .errors import InputTypeError
+    _check(ds, "plot_grid")
+    if isinstance(names, str) or not isinstance(names, (list, tuple)) \
+            or not all(isinstance(name, str) for name in names):
+        raise InputTypeError(f"plot_grid names = {shown(names)}: must be a list of variable names")
     plt = _pyplot()
     names = [name for name in names if name in ds] or ["period"]
     dims = ds["period"].dims
@@ -160,8 +208,19 @@ _BY_KIND = {"approach": plot_approach, "frequency_sweep": plot_frequency,
 
 def plot(ds, path):
     """Draw the plot of a sweep Dataset's kind (its 'tmafm_kind' attribute) to `path`."""
-    kind = ds.attrs.get("tmafm_kind")
-    if kind not in _BY_KIND:
-        from .errors import InputError
-        raise InputError(f"dataset kind {kind!r}: no plot (known: {', '.join(_BY_KIND)})")
-    return _BY_KIND[kind](ds, path)
+    from ._safefile import as_path
+    _check(ds, "plot")
+    return _BY_KIND[ds.attrs["tmafm_kind"]](ds, as_path(path, "plot file"))
+
+
+def render(ds, suffix: str = ".png") -> bytes:
+    """The plot of plot(ds, ...) as the bytes of a file of that suffix (PNG when matplotlib
+    knows no such format), drawn in memory: nothing is written."""
+    _check(ds, "render")
+    _pyplot()
+    from matplotlib.figure import Figure
+    fig_formats = Figure().canvas.get_supported_filetypes()
+    name = str(suffix).lower().lstrip(".")
+    target = _Memory(name if name in fig_formats else "png")
+    _BY_KIND[ds.attrs["tmafm_kind"]](ds, target)
+    return target.data

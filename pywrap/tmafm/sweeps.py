@@ -55,17 +55,21 @@ OBSERVE_KEYWORDS = ("max_periods", "p_max", "steady_tol", "steady_repeats", "har
 def _split_key(key) -> tuple[str, str]:
     """('scene', 'delta_hat') of 'scene.delta_hat'; InputError for a key the core does not know."""
     if not isinstance(key, str) or key.count(".") != 1:
-        raise InputError(f"sweep key {key!r}: must be 'group.key', e.g. 'scene.delta_hat'")
+        raise InputError(f"sweep key {shown(key)}: must be 'group.key', e.g. 'scene.delta_hat'")
     group, name = key.split(".")
     if group not in GROUPS:
-        raise InputError(f"sweep key {key!r}: unknown group '{group}' (known: {', '.join(GROUPS)})")
+        raise InputError(f"sweep key {shown(key)}: unknown group '{group}' (known: {', '.join(GROUPS)})")
     if name not in KEY_TYPES[group]:
-        raise InputError(f"sweep key {key!r}: &{group} {name}: unknown key (known: "
+        raise InputError(f"sweep key {shown(key)}: &{group} {name}: unknown key (known: "
                          f"{', '.join(KEY_TYPES[group])})")
     if group == "output":
-        raise InputError(f"sweep key {key!r}: the &output group cannot be swept (a sweep writes "
+        raise InputError(f"sweep key {shown(key)}: the &output group cannot be swept (a sweep writes "
                          f"no run output)")
     return group, name
+
+
+#: The most modes the core takes (fortran/src/physics/tmafm_modes.f90 max_modes).
+MAX_MODES = 30
 
 
 class _Axis(np.ndarray):
@@ -75,23 +79,49 @@ class _Axis(np.ndarray):
     raw: list
 
 
-def _axis_values(key: str, values) -> np.ndarray:
-    """The values of one axis as a 1-D array; InputError when empty or not 1-D."""
-    if isinstance(values, (str, bytes)) or np.ndim(values) == 0:
-        raise InputError(f"sweep axis {key!r}: values must be a 1-D sequence, not {values!r}")
+def _axis_values(key: str, values, real: bool = False) -> np.ndarray:
+    """The values of one axis as a 1-D array; InputError when empty or not 1-D (``real``: not
+    finite real numbers either, for axes that are not input keys, e.g. a basin's a1)."""
+    try:
+        if isinstance(values, (str, bytes, Mapping)) or not hasattr(values, "__iter__"):
+            raise TypeError
+        size = len(values)
+    except TypeError:  # a number, a 0-d array, a generator
+        raise InputTypeError(f"sweep axis {shown(key)}: values must be a 1-D sequence, not "
+                             f"{shown(values)}") from None
+    _check_points(size, f"sweep axis {shown(key)} ({size} values)")
     raw = [_value(v) for v in values]
     try:
         array = np.asarray(raw)
     except Exception as exc:  # ragged lists and the like
-        raise InputError(f"sweep axis {key!r}: values must be a 1-D sequence ({exc})") from exc
+        raise InputError(f"sweep axis {shown(key)}: values must be a 1-D sequence "
+                         f"({shown(str(exc))[1:-1]})") from None
     if array.ndim != 1:
-        raise InputError(f"sweep axis {key!r}: values must be a 1-D sequence, got shape "
+        raise InputError(f"sweep axis {shown(key)}: values must be a 1-D sequence, got shape "
                          f"{array.shape}")
     if array.size == 0:
-        raise InputError(f"sweep axis {key!r}: no values (an empty axis)")
+        raise InputError(f"sweep axis {shown(key)}: no values (an empty axis)")
+    if real:
+        for value in raw:
+            if not _is_real(value):
+                raise InputError(f"sweep axis {shown(key)}: values must be finite real numbers, got "
+                                 f"{shown(value)}")
+        array = np.asarray(raw, dtype=float)
     axis = array.view(_Axis)
     axis.raw = raw
     return axis
+
+
+def _is_real(value) -> bool:
+    """Whether `value` is a finite real number (a bool is not; an int too large for a float is
+    not)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer,
+                                                                     np.floating)):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
 
 
 def _raw(axis) -> list:
@@ -145,8 +175,9 @@ def _resized_initial(groups: dict, point: Mapping) -> dict:
     """When n_modes is swept, the base's &initial vectors cut or padded with zeros to N."""
     n = point.get("model.n_modes")
     initial = groups.get("initial")
-    if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or not initial:
-        return groups
+    if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or not initial \
+            or not 0 <= n <= MAX_MODES:
+        return groups  # the core refuses an N out of range, by name
     for name in ("a0", "adot0"):
         if name in initial and f"initial.{name}" not in point:
             values = np.atleast_1d(np.asarray(initial[name], dtype=float))
@@ -168,21 +199,119 @@ def _config(base: dict, point: Mapping) -> Config:
 
 def _short(value) -> str:
     value = _value(value)
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return "[" + ", ".join(f"{float(v):.6g}" for v in value) + "]"
-    return f"{value:.6g}" if isinstance(value, float) else repr(value)
+    try:
+        if isinstance(value, (list, tuple, np.ndarray)) and len(value) <= 30:
+            return "[" + ", ".join(f"{float(v):.6g}" for v in value) + "]"
+        return f"{value:.6g}" if isinstance(value, float) else shown(value)
+    except (TypeError, ValueError, OverflowError):  # not numbers: as messages show any value
+        return shown(value)
 
 
 def _observe_keywords(keywords: Mapping) -> dict:
+    """The keywords passed on to tmafm.observe, every value checked now (before any run)."""
     unknown = set(keywords) - set(OBSERVE_KEYWORDS)
     if unknown:
-        raise InputTypeError(f"unknown keyword(s) {', '.join(sorted(unknown))} (a sweep passes "
-                             f"on: {', '.join(OBSERVE_KEYWORDS)})")
+        raise InputTypeError(f"unknown keyword(s) {', '.join(sorted(map(str, unknown)))} (a "
+                             f"sweep passes on: {', '.join(OBSERVE_KEYWORDS)})")
     out = dict(keywords)
+    observe = _observe_api()
+    defaults = dict(max_periods=100, p_max=8, steady_tol=1e-6, steady_repeats=3, harmonics=3,
+                    stop_at_steady=True)
+    observe._options(**{k: out.get(k, v) for k, v in defaults.items()})
     if out.get("observables") is not None:
-        # Checked now (before any run), and kept as the tuple of groups it selects.
-        out["observables"] = _observe_api().observable_groups(out["observables"])
+        # Kept as the tuple of groups it selects.
+        out["observables"] = observe.observable_groups(out["observables"])
     return out
+
+
+# --- Arguments checked before anything is built or run --------------------------------------
+
+#: Bytes a sweep holds per grid point while it runs, at most: the point, its validated Config,
+#: its summary and its share of the Dataset.  Measured: 8.3 kB per point (the peak resident
+#: memory of a 1500-point grid of fig2_n4, N = 4: ``pytest -s tests/test_sweep_limits.py -k
+#: memory`` prints it and checks it is below this); this is about twice that, for a margin.
+BYTES_PER_POINT = 16384
+
+
+def _available_memory() -> int:
+    """Bytes of memory available now: MemAvailable of /proc/meminfo, else the physical memory."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as handle:
+            for line in handle:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return 2**62
+
+
+def _bytes(count: int) -> str:
+    for unit, size in (("PB", 1e15), ("TB", 1e12), ("GB", 1e9), ("MB", 1e6)):
+        if count >= size:
+            return f"{count / size:.3g} {unit}"
+    return f"{count / 1e3:.3g} kB"
+
+
+def _check_points(points: int, what: str, floats_per_point: int = 0) -> None:
+    """InputError naming `what` (the axes and their sizes, as given) when a sweep of `points`
+    points would hold more memory than is available (BYTES_PER_POINT each, plus
+    `floats_per_point` kept values of 8 bytes)."""
+    need = points * (BYTES_PER_POINT + 8 * floats_per_point)
+    available = _available_memory()
+    if need > available:
+        raise InputError(f"{what}: {points} points would hold about {_bytes(need)} in memory, "
+                         f"more than the {_bytes(available)} available")
+
+
+def _sizes(axes: Mapping) -> str:
+    return " x ".join(f"{key} ({len(values)} values)" for key, values in axes.items())
+
+
+def _is_client(client) -> bool:
+    """Whether `client` looks like a dask.distributed.Client (what a sweep calls on it)."""
+    return all(callable(getattr(client, name, None)) for name in ("submit", "cancel",
+                                                                   "scheduler_info"))
+
+
+def _check_run(workers=None, client=None, progress=False, chunk=None, backend="batch",
+               user="tmafm.sweep") -> None:
+    """Check the arguments that say where and how the runs go, before anything is built:
+    InputTypeError (a TypeError too) for a wrong type, InputError for a bad value; and the
+    extras a sweep needs (xarray; tqdm for a progress bar): MissingExtraError."""
+    from ._extras import require
+    _workers(workers)
+    if client is not None and not _is_client(client):
+        raise InputTypeError(f"client = {shown(client)}: must be a dask.distributed.Client (with "
+                             f"submit, cancel and scheduler_info) or None")
+    if not isinstance(progress, (bool, np.bool_)):
+        raise InputTypeError(f"progress = {shown(progress)}: must be True or False")
+    if chunk is not None and (isinstance(chunk, (bool, np.bool_))
+                              or not isinstance(chunk, (int, np.integer)) or chunk < 1):
+        raise InputTypeError(f"chunk = {shown(chunk)}: must be a positive integer or None")
+    if not isinstance(backend, str) or backend not in ("batch", "processes"):
+        raise InputTypeError(f"backend = {shown(backend)}: must be 'batch' or 'processes'")
+    require("xarray", user)
+    if progress:
+        require("tqdm", f"{user}(progress=True)")
+    if client is not None:
+        require("distributed", f"{user}(client=...)")
+
+
+def _check_flag(name: str, value) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise InputTypeError(f"{name} = {shown(value)}: must be True or False")
+    return bool(value)
+
+
+def _check_positive(name: str, value, upper: float = math.inf) -> float:
+    """A finite real number > 0 (and < upper); InputError otherwise."""
+    if not _is_real(value) or not 0 < float(value) < upper:
+        bound = "" if upper == math.inf else f" and < {upper:g}"
+        raise InputError(f"{name} = {shown(value)}: must be a finite number > 0{bound}")
+    return float(value)
 
 
 # --- Running points ------------------------------------------------------------------------
@@ -363,15 +492,19 @@ def _chunks(n: int, chunk: int | None, workers: int) -> list[range]:
     if chunk is None:
         chunk = max(1, min(256, math.ceil(n / (4 * max(1, workers)))))
     if not isinstance(chunk, (int, np.integer)) or isinstance(chunk, bool) or chunk < 1:
-        raise InputTypeError(f"chunk = {chunk!r}: must be a positive integer")
+        raise InputTypeError(f"chunk = {shown(chunk)}: must be a positive integer")
     return [range(i, min(n, i + int(chunk))) for i in range(0, n, int(chunk))]
 
 
 def _workers(workers) -> int:
+    """Local threads or processes: None (all cores) or 1 to tmafm.observe.MAX_THREADS."""
     if workers is None:
         return os.cpu_count() or 1
-    if not isinstance(workers, (int, np.integer)) or isinstance(workers, bool) or workers < 1:
-        raise InputTypeError(f"workers = {workers!r}: must be a positive integer")
+    limit = _observe_api().MAX_THREADS
+    if not isinstance(workers, (int, np.integer)) or isinstance(workers, (bool, np.bool_)) \
+            or not 1 <= workers <= limit:
+        raise InputTypeError(f"workers = {shown(workers)}: must be an integer from 1 to {limit}, "
+                             f"or None")
     return int(workers)
 
 
@@ -422,7 +555,7 @@ def _run_points(base: dict, points: list[dict], *, workers=None, client=None, pr
                 if bar is not None:
                     bar.update(len(piece))
         else:
-            raise InputTypeError(f"backend = {backend!r}: must be 'batch' or 'processes'")
+            raise InputTypeError(f"backend = {shown(backend)}: must be 'batch' or 'processes'")
     finally:
         if bar is not None:
             bar.close()
@@ -535,8 +668,10 @@ def sweep(base, axes, *, workers=None, client=None, progress=False, chunk=None,
     ``workers`` threads of the core's batch (default: all cores), or ``backend='processes'``
     for a process pool; ``client`` a dask.distributed Client (one task per chunk).
     """
+    _check_run(workers, client, progress, chunk, backend, "tmafm.sweep")
     axes = _check_axes(axes)
     keywords = _observe_keywords(observe_keywords)
+    _check_points(math.prod(len(v) for v in axes.values()), f"sweep axes {_sizes(axes)}")
     base_config = _base_config(base)
     base_groups = _base_dict(base_config)
     keys = list(axes)
@@ -602,7 +737,20 @@ def mark_jumps(values, threshold: float = 0.2, ratio: float = 2.0) -> np.ndarray
     d_i = |y[i] - y[i-1]| exceeds `threshold` times the curve's range of y AND `ratio` times
     both neighbouring steps d_(i-1) and d_(i+1).  So a branch that changes steeply but
     smoothly is not a jump, and a switch between branches is (marked on its arrival point)."""
-    y = np.asarray(values, dtype=float)
+    threshold = _check_positive("mark_jumps threshold", threshold)
+    ratio = _check_positive("mark_jumps ratio", ratio)
+    try:
+        if isinstance(values, (str, bytes)):
+            raise TypeError("not numbers")
+        y = np.asarray(values, dtype=float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InputError(f"mark_jumps values must be real numbers: {shown(str(exc))[1:-1]}") \
+            from None
+    if y.ndim == 0:
+        raise InputError(f"mark_jumps values must be an array of at least one dimension, got "
+                         f"{shown(values)}")
+    if y.size == 0:
+        return np.zeros(y.shape, dtype=bool)
     flat = y.reshape(-1, y.shape[-1])
     flags = np.zeros(flat.shape, dtype=bool)
     for row, out in zip(flat, flags):
@@ -624,17 +772,23 @@ JUMP_NAMES = ("amplitude", "phase")
 
 def _continuation(base, key: str, values, *, directions: tuple[str, str], reverse: bool,
                   curves, workers, client, progress, jump_threshold, kind, keywords):
+    _check_run(workers, client, progress, user=f"tmafm.{kind}")
     import xarray as xr
+    reverse = _check_flag("retract" if kind == "approach" else "reverse", reverse)
     keywords = _observe_keywords(keywords)
     if keywords.get("observables") is not None and "lockin" not in keywords["observables"]:
         # The jumps are found on amplitude and phase: the lock-in group is always computed.
         keywords["observables"] = _observe_api().observable_groups(
             ("lockin",) + tuple(keywords["observables"]))
+    jump_threshold = _check_positive("jump_threshold", jump_threshold)
     _split_key(key)
     values = _axis_values(key, values)
-    curves = _check_axes(curves) if curves else {}
+    empty = curves is None or (isinstance(curves, Mapping) and not curves)
+    curves = {} if empty else _check_axes(curves)
     if key in curves:
-        raise InputError(f"{kind}: {key!r} is both the swept key and a curve key")
+        raise InputError(f"{kind}: {shown(key)} is both the swept key and a curve key")
+    _check_points(math.prod(len(v) for v in curves.values()) * len(values) * (2 if reverse else 1),
+                  f"{kind} axes {_sizes(dict(curves, **{key: values}))}")
     base_config = _base_config(base)
     base_groups = _base_dict(base_config)
     n_modes = base_config.n_modes
@@ -642,8 +796,6 @@ def _continuation(base, key: str, values, *, directions: tuple[str, str], revers
     curve_points = [dict(zip(curve_keys, combo))
                     for combo in itertools.product(*map(_raw, curves.values()))]
     _validate(base_groups, [dict(c, **{key: v}) for c in curve_points for v in _raw(values)])
-    if not isinstance(jump_threshold, (int, float)) or not jump_threshold > 0:
-        raise InputTypeError(f"jump_threshold = {jump_threshold!r}: must be a positive number")
 
     bar = _progress(len(curve_points), progress, kind)
     done = None if bar is None else lambda k: bar.update(1)
@@ -747,16 +899,21 @@ def bifurcation(base, key, values, *, periods_kept=32, workers=None, client=None
     max_periods periods (200) and do not stop at steady state unless asked, so the last points
     sample the attractor.
     """
+    _check_run(workers, client, progress, chunk, backend, "tmafm.bifurcation")
     import xarray as xr
     _split_key(key)
     values = _axis_values(key, values)
-    if not isinstance(periods_kept, (int, np.integer)) or periods_kept < 1:
-        raise InputTypeError(f"periods_kept = {periods_kept!r}: must be a positive integer")
+    if isinstance(periods_kept, (bool, np.bool_)) or not isinstance(periods_kept, (int, np.integer)) \
+            or periods_kept < 1:
+        raise InputTypeError(f"periods_kept = {shown(periods_kept)}: must be a positive integer")
     keywords = _observe_keywords(dict(observe_keywords, max_periods=max_periods,
                                       stop_at_steady=stop_at_steady, observables=observables))
     if periods_kept > max_periods:
         raise InputError(f"periods_kept = {periods_kept} is more than max_periods = {max_periods}")
+    where = f"bifurcation axis {shown(key)} ({len(values)} values), periods_kept = {periods_kept}"
+    _check_points(len(values), where, 8 * int(periods_kept))  # N = 1 until the base is read
     base_config = _base_config(base)
+    _check_points(len(values), where, int(periods_kept) * (4 * base_config.n_modes + 4))
     base_groups = _base_dict(base_config)
     points = [{key: v} for v in _raw(values)]
     configs = _validate(base_groups, points)
@@ -765,15 +922,19 @@ def bifurcation(base, key, values, *, periods_kept=32, workers=None, client=None
                             keep=periods_kept, keywords=keywords, label="bifurcation")
     ds = _grid_dataset(base, base_config, {key: np.asarray(values)}, summaries, keywords,
                        "bifurcation")
-    n = base_config.n_modes
-    kept = np.full((len(values), periods_kept, 2 * n), np.nan)
+    # Each point's own N (a swept model.n_modes changes it): states of 2 N_i values each.
+    sizes = [2 * config.n_modes for config in configs]
+    kept = np.full((len(values), periods_kept, max(sizes)), np.nan)
     for i, s in enumerate(summaries):
         rows = s["poincare"]
-        kept[i, periods_kept - len(rows):] = rows
+        kept[i, periods_kept - len(rows):, :rows.shape[1]] = rows
     dims = (key, "kept")
     ds["a1"] = xr.Variable(dims, kept[..., 0], attrs={"long_name": "a1 at the Poincaré section"})
-    ds["adot1"] = xr.Variable(dims, kept[..., n], attrs={"long_name": "a1' at the section"})
-    tip = np.stack([_tip_displacement(configs[i], kept[i]) for i in range(len(points))])
+    ds["adot1"] = xr.Variable(dims, np.stack([kept[i, :, size // 2] for i, size in
+                                              enumerate(sizes)]),
+                              attrs={"long_name": "a1' at the section"})
+    tip = np.stack([_tip_displacement(configs[i], kept[i, :, :sizes[i]])
+                    for i in range(len(points))])
     ds["tip"] = xr.Variable(dims, tip, attrs={"long_name": "p^T a at the section"})
     offsets = np.array([c.scene["delta_hat"] for c in configs])
     ds["vt"] = xr.Variable(dims, tip + offsets[:, None],
@@ -859,7 +1020,7 @@ def _coarse_stride(shape: tuple, coarse) -> int:
             return 1
         return max(2, int(round(math.sqrt(shape[0] * shape[1] / 256))))
     if isinstance(coarse, bool) or not isinstance(coarse, (int, np.integer)) or coarse < 1:
-        raise InputTypeError(f"coarse = {coarse!r}: must be a positive integer or None")
+        raise InputTypeError(f"coarse = {shown(coarse)}: must be a positive integer or None")
     return int(coarse)
 
 
@@ -927,13 +1088,27 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
     as its Poincaré points repeat an attractor already found (docs/sweeps.md, "Stopping at a
     known attractor").  The input is read and its model built once per chunk, and each run
     starts from its state in memory (tmafm.observe.observe_states)."""
+    _check_run(workers, client, progress, chunk, backend, "tmafm.basin")
     import xarray as xr
     keywords = _observe_keywords(dict(observe_keywords, observables=observables))
-    a1 = _axis_values("a1", a1)
-    adot1 = _axis_values("adot1", adot1)
+    a1 = _axis_values("a1", a1, real=True)
+    adot1 = _axis_values("adot1", adot1, real=True)
+    tol = _check_positive("tol", tol, 1.0)
+    known_attractors = _check_flag("known_attractors", known_attractors)
+    _coarse_stride((len(a1), len(adot1)), coarse)
+    p_max = keywords.get("p_max", 8)
+    if confirm is not None and (isinstance(confirm, (bool, np.bool_)) or not isinstance(
+            confirm, (int, np.integer)) or not 1 <= confirm <= 10_000_000):
+        raise InputTypeError(f"confirm = {shown(confirm)}: must be an integer from 1 to "
+                             f"10000000, or None")
+    if capture is not None:
+        capture = _check_positive("capture", capture, 1.0)
+    where = f"basin axes a1 ({len(a1)} values) x adot1 ({len(adot1)} values)"
+    _check_points(len(a1) * len(adot1), where, 2 * (2 * p_max + 2))  # N = 1 until the base is read
     base_config = _base_config(base)
     base_groups = _base_dict(base_config)
     n = base_config.n_modes
+    _check_points(len(a1) * len(adot1), where, 2 * n * (2 * p_max + 2))
     initial = base_groups.get("initial", {})
     a0 = np.zeros(n)
     adot0 = np.zeros(n)
@@ -952,8 +1127,6 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
         i, j = np.unravel_index(int(bad[0]), shape)
         raise InputError(f"basin point a1 = {_short(a1[i])}, adot1 = {_short(adot1[j])}: "
                          f"&initial values must be finite with |value| <= 1 (gap units)")
-    if not isinstance(known_attractors, (bool, np.bool_)):
-        raise InputTypeError(f"known_attractors = {known_attractors!r}: must be True or False")
     stride = _coarse_stride(shape, coarse)
     # One resolved text for every run: the base with its N fixed (an automatic N is chosen once).
     run_groups = dict(base_groups, model=dict(base_groups.get("model", {}), n_modes=n))
@@ -965,9 +1138,7 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
     else:
         first, rest = order.ravel(), np.zeros(0, dtype=int)
     n_workers = _workers(workers)
-    size = chunk if chunk is not None else 2048
-    if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1:
-        raise InputTypeError(f"chunk = {chunk!r}: must be a positive integer")
+    size = int(chunk) if chunk is not None else 2048
     if capture is None:
         capture = tol  # the labels' own resolution (docs/sweeps.md)
     observe_kw = dict(keywords, confirm=confirm, capture=capture)
@@ -1000,7 +1171,7 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
                 if bar is not None:
                     bar.update(len(p))
         else:
-            raise InputTypeError(f"backend = {backend!r}: must be 'batch' or 'processes'")
+            raise InputTypeError(f"backend = {shown(backend)}: must be 'batch' or 'processes'")
         if bar is not None and not incremental:
             bar.update(len(indices))
         for p, out in zip(pieces, outs):
@@ -1142,8 +1313,12 @@ def _sweep_groups(path: Path) -> dict:
 
 def read_sweep_file(path) -> dict:
     """The &sweep group of a sweep file, checked: a dict of its keys (docs/sweeps.md)."""
-    path = Path(path)
-    if not path.is_file():
+    path = _input_name(path, "sweep file")
+    try:
+        is_file = path.is_file()
+    except (OSError, ValueError):  # a name too long, a NUL byte
+        is_file = False
+    if not is_file:
         raise InputFileError(f"sweep file '{path}' not found")
     groups = _sweep_groups(path)
     if "sweep" not in groups:
@@ -1185,10 +1360,11 @@ def read_sweep_file(path) -> dict:
     return spec
 
 
-def _axis_of(spec: dict, suffix: str = "") -> np.ndarray:
+def _axis_size(spec: dict, suffix: str = "") -> tuple[int, str]:
+    """(number of values, 'key = value' as the file gives them) of one axis of a sweep file."""
     where = spec["_file"]
     if suffix == "" and "values" in spec:
-        return np.asarray(spec["values"], dtype=float)
+        return len(spec["values"]), f"values ({len(spec['values'])} entries)"
     missing = [k + suffix for k in ("start", "stop", "count") if k + suffix not in spec]
     if missing:
         raise InputError(f"{where}: &sweep {', '.join(missing)}: missing (give start{suffix}, "
@@ -1196,12 +1372,43 @@ def _axis_of(spec: dict, suffix: str = "") -> np.ndarray:
     count = spec["count" + suffix]
     if count < 1:
         raise InputError(f"{where}: &sweep count{suffix} = {count}: must be at least 1")
-    return np.linspace(spec["start" + suffix], spec["stop" + suffix], count)
+    for key in ("start" + suffix, "stop" + suffix):
+        if not math.isfinite(spec[key]):
+            raise InputError(f"{where}: &sweep {key} = {spec[key]}: must be finite")
+    return count, f"count{suffix} = {count}"
+
+
+def _axis_of(spec: dict, suffix: str = "") -> np.ndarray:
+    _axis_size(spec, suffix)
+    if suffix == "" and "values" in spec:
+        return np.asarray(spec["values"], dtype=float)
+    return np.linspace(spec["start" + suffix], spec["stop" + suffix], spec["count" + suffix])
+
+
+def _check_file_size(spec: dict) -> None:
+    """Before any array is built: the sweep's points fit in the memory available
+    (_check_points), the message naming the file's keys and values."""
+    kind = spec["kind"]
+    axes = [_axis_size(spec)]
+    if kind == "basin" or (kind == "grid" and "key2" in spec):
+        axes.append(_axis_size(spec, "2"))
+    points = math.prod(count for count, _ in axes)
+    floats = 0
+    if kind in ("approach", "frequency"):
+        points *= max(1, len(spec.get("curve_values", []))) * (2 if spec.get("reverse", True)
+                                                               else 1)
+    elif kind == "bifurcation":
+        floats = 8 * spec.get("periods_kept", 32)
+    elif kind == "basin":
+        floats = 2 * (2 * spec.get("p_max", 8) + 2)
+    _check_points(points, f"{spec['_file']}: &sweep {', '.join(text for _, text in axes)}",
+                  floats)
 
 
 def run_sweep_file(path, *, workers=None, client=None, progress=False):
     """Run the sweep a file describes; return its Dataset."""
     spec = read_sweep_file(path)
+    _check_file_size(spec)
     kind, base = spec["kind"], spec["base"]
     solver = {k: spec[k] for k in ("method", "rtol", "atol") if k in spec}
     if solver:
@@ -1235,7 +1442,11 @@ def run_sweep_file(path, *, workers=None, client=None, progress=False):
 def summarize(ds) -> dict:
     """The facts docs/sweeps.md quotes, from a sweep Dataset: jump positions per curve and
     direction, attractor counts, period counts, where the bifurcation points split."""
+    _check_dataset(ds, "summarize")
     kind = ds.attrs.get("tmafm_kind")
+    if kind not in ("sweep", "approach", "frequency_sweep", "bifurcation", "basin") \
+            or "period" not in ds:
+        raise InputError(f"summarize: not a tmafm sweep dataset (tmafm_kind = {shown(kind)})")
     out = {"kind": kind, "failures": int(ds.attrs.get("failures", 0)),
            "periods_found": {str(int(k)): int((ds["period"].values == k).sum())
                              for k in np.unique(ds["period"].values)}}
@@ -1267,7 +1478,14 @@ def summarize(ds) -> dict:
 
 
 def main(argv=None) -> int:
-    """``python -m tmafm.sweeps FILE [-o OUT.nc] [--workers N] [--plot PNG] [--progress]``."""
+    """``python -m tmafm.sweeps FILE [-o OUT.nc] [--workers N] [--plot PNG] [--progress]``.
+
+    Exit status: 0 success; 2 any error (one line on stderr, nothing written: the extras the
+    sweep needs and the size of its grid are checked before it runs); 130 on Ctrl-C (one line,
+    nothing written).  argparse's own usage errors exit 2 too."""
+    if argv is not None and (isinstance(argv, (str, bytes)) or not isinstance(argv, Sequence)
+                             or not all(isinstance(a, str) for a in argv)):
+        raise InputTypeError(f"argv = {shown(argv)}: must be a list of strings or None")
     parser = argparse.ArgumentParser(prog="python -m tmafm.sweeps",
                                      description="Run the sweep described by a &sweep file.")
     parser.add_argument("file", help="the sweep file (a &sweep namelist, docs/sweeps.md)")
@@ -1289,17 +1507,61 @@ def main(argv=None) -> int:
         out = Path(args.output or spec.get("output") or Path(args.file).with_suffix(".nc"))
         png = None if args.no_plot else Path(args.plot) if args.plot else out.with_suffix(".png")
         _check_targets(out, png, [Path(args.file), Path(spec["base"])])
+        _check_extras(png is not None, args.progress)
+        _check_file_size(spec)
         ds = run_sweep_file(args.file, workers=args.workers, progress=args.progress)
-        write_dataset(ds, out)
-        print(f"wrote {out}")
+        # Both files are made in memory first, so a plot that fails writes no NetCDF file.
+        from ._extras import netcdf_engine
+        from ._safefile import write_bytes
+        data = _netcdf_bytes(ds, netcdf_engine("python -m tmafm.sweeps"))
+        picture = None
         if png is not None:
-            from .sweepplots import plot
-            plot(ds, png)
+            from .sweepplots import render
+            picture = render(ds, png.suffix)
+        existed = os.path.lexists(out)
+        write_bytes(out, data, "NetCDF file")
+        print(f"wrote {out}")
+        if picture is not None:
+            try:
+                write_bytes(png, picture, "plot file")
+            except BaseException:
+                if not existed and out.is_file():  # the NetCDF file this command created
+                    out.unlink()
+                raise
             print(f"wrote {png}")
     except TmafmError as exc:
         print(f"tmafm.sweeps: error: {exc}", file=sys.stderr)
         return 2
+    except MemoryError:
+        print("tmafm.sweeps: error: not enough memory for this sweep: give fewer points",
+              file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("tmafm.sweeps: interrupted", file=sys.stderr)
+        return 130
     return 0
+
+
+def _check_extras(plot: bool, progress: bool) -> None:
+    """Before the sweep runs: the modules it needs (xarray, a NetCDF writer, matplotlib for
+    the plot, tqdm for --progress); MissingExtraError naming the extra otherwise."""
+    from ._extras import netcdf_engine, require
+    user = "python -m tmafm.sweeps"
+    require("xarray", user)
+    netcdf_engine(user)
+    if plot:
+        require("matplotlib", f"{user} (the plot; --no-plot writes none)")
+    if progress:
+        require("tqdm", f"{user} --progress")
+
+
+def _netcdf_bytes(ds, engine: str) -> bytes:
+    """The NetCDF file of a Dataset, as bytes (written in a private folder, then read)."""
+    import tempfile
+    with tempfile.TemporaryDirectory() as folder:
+        scratch = Path(folder) / "sweep.nc"
+        ds.to_netcdf(scratch, engine=engine)
+        return scratch.read_bytes()
 
 
 def _same_file(a: Path, b: Path) -> bool:
@@ -1326,11 +1588,38 @@ def _check_targets(out: Path, png, inputs) -> None:
                              f"another name (-o, --plot)")
 
 
+def _input_name(path, what: str) -> Path:
+    """A file name (str or os.PathLike) as a Path; InputTypeError for anything else."""
+    try:
+        name = os.fspath(path)
+        if not isinstance(name, str):
+            raise TypeError
+    except TypeError:
+        raise InputTypeError(f"{what} name must be a str or an os.PathLike, not "
+                             f"{type(path).__name__}") from None
+    return Path(name)
+
+
+def _check_dataset(ds, what: str):
+    """`ds` if it is an xarray.Dataset; InputTypeError otherwise."""
+    import xarray as xr
+    if not isinstance(ds, xr.Dataset):
+        raise InputTypeError(f"{what}: ds must be an xarray.Dataset (a sweep's result), not "
+                             f"{type(ds).__name__}")
+    return ds
+
+
 def read_dataset(path):
     """A sweep NetCDF file, loaded into memory; InputFileError if it is missing, InputError if
     it is not a sweep dataset (what ``--summarize`` reads)."""
-    import xarray as xr
-    if not Path(path).is_file():
+    from ._extras import require
+    xr = require("xarray", "tmafm.sweeps.read_dataset")
+    path = _input_name(path, "sweep dataset")
+    try:
+        is_file = path.is_file()
+    except (OSError, ValueError):
+        is_file = False
+    if not is_file:
         raise InputFileError(f"sweep dataset {shown(str(path))} not found")
     try:
         with xr.open_dataset(path) as ds:
@@ -1349,8 +1638,12 @@ def write_dataset(ds, path) -> Path:
     """Write a sweep Dataset to NetCDF as the executable writes its output: a new temporary
     file, synced and renamed (a device or FIFO is written directly); InputFileError if it
     cannot be written.  Nothing is left behind on a failure or a KeyboardInterrupt."""
-    from ._safefile import write_with
-    return write_with(path, ds.to_netcdf, what="NetCDF file")
+    from ._extras import netcdf_engine
+    from ._safefile import as_path, write_with
+    _check_dataset(ds, "write_dataset")
+    path = as_path(path, "NetCDF file")
+    engine = netcdf_engine("tmafm.sweeps.write_dataset")
+    return write_with(path, lambda name: ds.to_netcdf(name, engine=engine), what="NetCDF file")
 
 
 if __name__ == "__main__":

@@ -10,7 +10,9 @@ Each claim is a piece of the docs' text with slots for its numbers, the numbers 
 their source as the text prints them (digits, minus sign, thousands separator).  The text is
 found with the slots matching any number, and the numbers it holds are compared with the
 source's: "OK" or "DRIFT", one row per claim.  Sources:
-- the committed JSON each command writes (docs/figures/summary.json, benchmarks/*.json), and
+- the committed JSON each command writes (docs/figures/summary.json for reproduction.md,
+  benchmarks/*.json for README, performance.md, errata.md, observables.md, output-format.md
+  and sweeps.md), and
   for the runs the docs call earlier, the JSON as committed then (`git show REV:FILE`);
 - with --recompute, the deterministic numbers (classifications, periods, counts, V_T errors,
   row counts) computed again on this build: every flight_exact case of summary.json and the
@@ -400,6 +402,17 @@ def check_readme(ck, group="readme"):
         cpu.append(a["us_per_period"] / b["us_per_period"])
     ck.text(group, doc, "at rtol 1e-10 it needs {}× fewer in all and runs {}× faster",
             [span(rhs, lambda x: f"{x:.1f}"), span(cpu, lambda x: f"{x:.1f}")], "Methods")
+    errors = [rows[(scene, "flight_exact", 1e-7)]["vt_error"] for scene in pc["scenes"]]
+    ck.text(group, doc, "over a run the V_T error is larger, {} to {} at the defaults with `flight_exact`",
+            [sci(min(errors), 2, "-"), sci(max(errors), 2, "-")], "Input: the namelist groups")
+    warp = load(BENCH / "entry_warp/contact_steps.json")["rows"]
+    fewer = [(r["main"]["steps_per_period"] - r["edges"]["steps_per_period"]) / (r["main"]["phase_switches_per_period"] / 2)
+             for r in warp]
+    ck.text(group, doc, "is not: {} steps fewer per contact", [span(fewer, lambda x: f"{x:.0f}")], "Methods")
+    ow = load(BENCH / "output_write.json")["cases"]
+    least = min(c["cpu_ratio_text_over_npy"] for c in ow)
+    ck.text(group, doc, "archive for `numpy.load`, more than {} times cheaper to write",
+            [f"{least // 10 * 10:.0f}" if least >= 10 else f"{least:.1f}"], "Running")
     cs = load(BENCH / "contact_steps.json")
     ratio = [r["steps"]["vt_error_over_tolerance"] for r in cs["rows"] if r["method"] == "flight_exact"]
     ck.text(group, doc, "with `flight_exact` a run's V_T error is {}× it",
@@ -724,6 +737,41 @@ def check_other_docs(ck, group="docs"):
                 None)
 
 
+def check_errata(ck, group="errata"):
+    """docs/errata.md's measured effects, from benchmarks/errata_effects.json."""
+    doc = "docs/errata.md"
+    fx = load(BENCH / "errata_effects.json")["effects"]
+
+    def dv(e):
+        return sci(fx[e]["max_abs_vt_change_last_period"], 3 if fx[e]["max_abs_vt_change_last_period"] > 1e-5 else 2)
+
+    def rel(e, decimals):
+        return f"{100 * fx[e]['relative_change']:.{decimals}f}"
+
+    none = fx["none"]
+    ck.text(group, doc, "The printed run has contact fraction {}, V_T ∈ [{}, {}], and {} dissipated per period.",
+            [f"{none['contact_fraction']:.3f}", sci(none["vt_min"], 4), sci(none["vt_max"], 4),
+             sci(none["dissipated_per_period"], 4)], None)
+    ck.text(group, doc, "ΔV_T = {} ({} %). The contact fraction rises to {}, the dissipation falls to {}, and the "
+            "motion stays {}.", [dv("E1"), rel("E1", 1), f"{fx['E1']['contact_fraction']:.3f}",
+                                 sci(fx["E1"]["dissipated_per_period"], 4), fx["E1"]["classification"]], "E1:")
+    ck.text(group, doc, "(ΔV_T = {}). It matters only", [sci(fx["E2"]["max_abs_vt_change_last_period"], 1)
+                                                        if fx["E2"]["max_abs_vt_change_last_period"] else "0"], "E2:")
+    ck.text(group, doc, "ΔV_T = {} ({} %). The dissipation is {}.",
+            [sci(fx["E3"]["max_abs_vt_change_last_period"], 2), rel("E3", 2), sci(fx["E3"]["dissipated_per_period"], 4)],
+            "E3:")
+    ck.text(group, doc, "ΔV_T = {} ({} %). Contact gets deeper (V_T_min = {}) and longer (contact fraction {}).",
+            [dv("E4"), rel("E4", 1), sci(fx["E4"]["vt_min"], 4), f"{fx['E4']['contact_fraction']:.3f}"], "E4:")
+    ck.text(group, doc, "none at ξ0 = 1 (ΔV_T = {}).", [sci(fx["E6"]["max_abs_vt_change_last_period"], 1)
+                                                        if fx["E6"]["max_abs_vt_change_last_period"] else "0"], "E6:")
+    ck.text(group, doc, "ΔV_T = {} ({} relative).",
+            [sci(fx["E7"]["max_abs_vt_change_last_period"], 2, "-"), sci(fx["E7"]["relative_change"], 1, "-")], "E7:")
+    a = fx["all"]
+    ck.text(group, doc, "`consistent` gives ΔV_T = {} ({} %), contact fraction {}, V_T ∈ [{}, {}], and {} dissipated "
+            "per period.", [dv("all"), rel("all", 0), f"{a['contact_fraction']:.3f}", sci(a["vt_min"], 4),
+                            sci(a["vt_max"], 4), sci(a["dissipated_per_period"], 4)], "All together")
+
+
 # ----------------------------------------------------------------------------- recomputed
 REL = 1e-6   # reals recomputed on this build against the committed JSON (runs: 1e-9; docs: 4 digits)
 #: rk4_paper cases whose classification the docs quote as a verdict (reproduction.md)
@@ -871,6 +919,7 @@ GROUPS = {
     "readme": check_readme,
     "performance": check_performance,
     "docs": check_other_docs,
+    "errata": check_errata,
 }
 
 

@@ -343,8 +343,8 @@ def check_figures(ck, summary, group="figures"):
       [sci(d["vt_min"], 4), sci(h["vt_min"], 4), f"{d['contact_fraction']:.3f}", f"{h['contact_fraction']:.3f}"], s7)
     t("Over 100 periods, Hertz is {} with `flight_exact`. DMT is {} from τ = {}.",
       [h["classification"], d["classification"], f"{d['steady_state']['tau']:.1f}"], s7)
-    t('`rk4_paper` over 100 periods gives "{}" for Hertz and "{}" for DMT',
-      [case("fig7_hertz", "rk4_paper")["classification"], case("fig7_dmt", "rk4_paper")["classification"]], s7)
+    t('`rk4_paper` over 100 periods gives "{}" for Hertz', [case("fig7_hertz", "rk4_paper")["classification"]], s7)
+    t('the verdict is round-off) and "{}" for DMT', [case("fig7_dmt", "rk4_paper")["classification"]], s7)
 
 
 def check_period_search(ck, search=None, group="period_search"):
@@ -782,9 +782,14 @@ def check_errata(ck, group="errata"):
 
 # ----------------------------------------------------------------------------- recomputed
 REL = 1e-6   # reals recomputed on this build against the committed JSON (runs: 1e-9; docs: 4 digits)
-#: rk4_paper cases whose classification the docs quote as a verdict (reproduction.md)
-RK4_QUOTED = ["fig2_n4/rk4_paper/paper", "fig2_n2/rk4_paper/consistent", "fig6/rk4_paper/consistent",
-              "fig7_hertz/rk4_paper/paper", "fig7_dmt/rk4_paper/paper"]
+#: rk4_paper cases whose classification reproduction.md quotes.  The stable ones keep their
+#: verdict when a1(0) moves by +-1e-16 or +-1e-15 (measured); the verdicts of the others flip
+#: with it (fig2_n2 consistent: period-2 or period-1; fig7_hertz: period-8 or period-6), so they
+#: are round-off: the docs name both, and only --recompute checks them, on this machine.
+RK4_STABLE = ["fig2_n4/rk4_paper/paper", "fig6/rk4_paper/consistent", "fig7_dmt/rk4_paper/paper"]
+RK4_FRAGILE = {"fig2_n2/rk4_paper/consistent": ("Fig. 2:", 'N = 2 comes out as "{}" (or "{}" with a1(0) moved by 1e-16'),
+               "fig7_hertz/rk4_paper/paper": ("Fig. 7:", 'gives "{}" for Hertz (or "{}" with a1(0) moved by 1e-16')}
+NUDGE = 1e-16
 DETERMINISTIC = ("classification", "period", "contacts_per_period")
 REALS = ("vt_min", "vt_max", "contact_fraction", "dissipated_per_period")
 
@@ -792,10 +797,13 @@ REALS = ("vt_min", "vt_max", "contact_fraction", "dissipated_per_period")
 RERUN = ("committed", "rerun")
 
 
-def compare_case(ck, group, key, old, new):
-    """A summary case recomputed against the committed one."""
+def compare_case(ck, group, key, old, new, labels_only=False):
+    """A summary case recomputed against the committed one (rk4_paper: its labels only, its
+    reals follow its round-off jitter)."""
     for field in DETERMINISTIC:
         ck.value(group, f"summary.json {key}", field, old[field], new[field], labels=RERUN)
+    if labels_only:
+        return
     for field in ("reached", "period"):
         ck.value(group, f"summary.json {key}", f"steady_state.{field}",
                  old["steady_state"][field], new["steady_state"][field], labels=RERUN)
@@ -805,17 +813,31 @@ def compare_case(ck, group, key, old, new):
                  ok=abs(a - b) <= REL * max(abs(a), abs(b)), labels=RERUN)
 
 
-def recompute(ck, group="recompute", rk4_cases=RK4_QUOTED):
-    """The deterministic numbers behind the docs, computed again on this build."""
+def recompute(ck, group="recompute", fragile=True):
+    """The deterministic numbers behind the docs, computed again on this build; `fragile`: also
+    the round-off verdicts of RK4_FRAGILE (on this machine only)."""
     import tmafm
     from tmafm import analysis, figures
 
     summary = load(SUMMARY)
-    keys = [k for k in summary["cases"] if k.split("/")[1] == "flight_exact"] + list(rk4_cases)
+    keys = [k for k in summary["cases"] if k.split("/")[1] == "flight_exact"] + RK4_STABLE
     for key in keys:
         name, method, convention = key.split("/")
         result = figures.simulate(None, name, method, convention, summary["periods"])
-        compare_case(ck, group, key, summary["cases"][key], analysis.summary(result))
+        compare_case(ck, group, key, summary["cases"][key], analysis.summary(result),
+                     labels_only=method == "rk4_paper")
+    for key, (section, template) in RK4_FRAGILE.items() if fragile else ():
+        name, method, convention = key.split("/")
+        n = tmafm.Config(tmafm.inputs.path(name)).to_dict()["model"]["n_modes"]
+        labels = []
+        for nudge in (0.0, NUDGE, -NUDGE):
+            extra = {"initial": {"a0": [nudge] + [0.0] * (n - 1)}} if nudge else {}
+            result = figures.simulate(None, name, method, convention, summary["periods"], **extra)
+            labels.append(analysis.classify_period(result, max_period=8, window=8)["kind"])
+        ck.value(group, f"summary.json {key}", "classification", summary["cases"][key]["classification"],
+                 labels[0], labels=RERUN)
+        others = sorted(set(labels[1:]) - {labels[0]})
+        ck.text(group, "docs/reproduction.md", template, [labels[0], ", ".join(others) or "none"], section)
     # Fig. 6: "exactly one switch in τ ≤ 10: the landing"
     r = tmafm.run("fig6", solver={"method": "flight_exact", "rtol": 1e-9, "atol": 1e-15, "tau_end": 10})
     landing = "one" if len(r.switches) == 1 and r.contact[-1] == 1 else f"{len(r.switches)} switches"

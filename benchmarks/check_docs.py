@@ -225,7 +225,7 @@ def committed(rev, path):
 def bench_module(name):
     """A benchmarks/ script as a module (they import each other by bare name)."""
     if str(BENCH) not in sys.path:
-        sys.path.insert(0, str(BENCH))
+        sys.path.append(str(BENCH))   # last: the benchmarks' names never shadow another module
     import importlib
     return importlib.import_module(name)
 

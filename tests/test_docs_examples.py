@@ -1,0 +1,314 @@
+"""Every fenced ```python block of README.md and docs/*.md runs here, and what the text says
+it gives is checked on the run.
+
+BLOCKS lists each block, keyed by (file, the block's first line):
+- `setup`: the names the block takes as given (`c1`, `tau`, an `out.npz` to read), run first
+  in the block's namespace;
+- `subs`: literal (old, new) substitutions that shrink a long study (sizes only: the block's
+  own code runs), each of which must occur in the block; no block needs one today;
+- `check`: what the docs say the block gives, asserted on the run (the values each name took,
+  in order: `seen["ds"][0]` is the first dataset a block made);
+- `skip`: why the block is not meant to run (a sketch with `...` for its arguments).
+A block missing from BLOCKS, or an entry whose block is gone, fails
+test_every_block_is_listed; a code line in an indented (unfenced) block fails
+test_no_unfenced_python.  Each block runs in its own temporary folder, with `inputs/` linked to
+the repository's, as the docs' commands run from the checkout.
+"""
+
+from __future__ import annotations
+
+import ast
+import contextlib
+import io
+import os
+import re
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import pytest
+
+import tmafm
+from tmafm.observe import UNITS
+
+REPO = Path(__file__).resolve().parent.parent
+DOCS = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
+FENCE = re.compile(r"^```(\S*)[^\n]*\n(.*?)^```[ \t]*$", re.M | re.S)
+
+
+def fenced_blocks(path: Path):
+    """(language, first line number, text) of each fenced block of a markdown file."""
+    text = path.read_text()
+    for m in FENCE.finditer(text):
+        yield m.group(1), text.count("\n", 0, m.start(2)) + 1, m.group(2)
+
+
+def python_blocks():
+    """(file relative to the repository, line, text) of every ```python block."""
+    return [(str(path.relative_to(REPO)), line, body) for path in DOCS
+            for lang, line, body in fenced_blocks(path) if lang == "python"]
+
+
+@dataclass(frozen=True)
+class Block:
+    setup: str = ""
+    subs: tuple = ()
+    check: Callable | None = None
+    skip: str = ""
+
+
+# ----------------------------------------------------------------------------- the checks
+def _check_readme_run(ns, seen, out):
+    r, c, m = ns["r"], ns["c"], ns["m"]
+    first, path_run, dict_run, consistent = seen["r"]
+    n = 4
+    # "numpy arrays; a and adot are samples x N"
+    for name in ("tau", "vt", "vtdot", "contact"):
+        assert isinstance(getattr(r, name), np.ndarray) and getattr(r, name).shape == r.tau.shape
+    assert r.a.shape == r.adot.shape == (r.tau.size, n)
+    # a packaged name and the path of the same file give the same run
+    np.testing.assert_array_equal(first.vt, path_run.vt)
+    # "... or a dict of groups": N = 3, tau_end = 50 (the last sample k * sample_dtau <= 50)
+    assert dict_run.a.shape[1] == 3 and abs(dict_run.tau[-1] - 50) < 1e-9
+    # "+ overrides"; "the fully resolved input"
+    assert consistent.resolved["model"]["convention"] == "consistent"
+    assert first.resolved["model"]["convention"] == "paper"
+    assert not np.array_equal(first.vt, consistent.vt)
+    assert set(r.counters) == {"steps", "contact_steps", "rejected_steps", "rhs_evaluations",
+                               "phase_switches"}
+    assert r.counters["phase_switches"] == len(r.switches) > 0
+    # "the executable's .npz layout": the saved run reads back to the last bit
+    r2 = ns["r2"]
+    for name in ("tau", "vt", "vtdot", "contact", "a", "adot", "switches"):
+        np.testing.assert_array_equal(getattr(r2, name), getattr(r, name))
+    # a Config held in memory, written and read back
+    assert tmafm.Config("resolved.nml").to_dict() == c.to_dict()
+    assert c.to_dict()["solver"]["tau_end"] == 10
+    # the model: "(M, C, K, F) of Eq. (15)", dy/dtau of length 2N
+    mass, damping, stiffness, force = m.matrices(ns["tau"], ns["a"], ns["in_contact"])
+    assert mass.shape == damping.shape == stiffness.shape == (n, n) and force.shape == (n,)
+    assert m.derivative(ns["tau"], ns["y"], ns["in_contact"]).shape == (2 * n,)
+    assert np.isclose(m.contact(ns["tau"], ns["a"]).vt,
+                      m.tip @ ns["a"] + r.scene["alpha2"] * np.sin(r.scene["omega"] * ns["tau"])
+                      + r.scene["delta_hat"])
+
+
+def _check_readme_observe(ns, seen, out):
+    o, obs = ns["o"], ns["obs"]
+    n = 4
+    # "stops at steady state": fig3 (Fig. 2's scene, N = 4, the paper's rk4_paper) has a
+    # period-1 steady state (docs/reproduction.md, Fig. 3), so the run finds it and stops.
+    assert o.period >= 1, "tmafm.observe('fig3', max_periods=100) found no period"
+    assert o.periods < 100
+    assert o.per_period["amplitude"].shape == (o.periods,)
+    assert o.poincare.shape == (o.periods + 1, 2 * n)
+    np.testing.assert_array_equal(o.final_state, o.poincare[-1])
+    assert "contact_time" in o.steady_values()
+    # the batch: one Observation per input, each as observe gives it
+    assert len(obs) == 3
+    for config, ob in zip((ns["c1"], ns["c2"], ns["c3"]), obs):
+        alone = tmafm.observe(config)
+        assert ob.period == alone.period == 1
+        np.testing.assert_array_equal(ob.poincare, alone.poincare)
+
+
+def _check_observe_example(ns, seen, out):
+    o = ns["o"]
+    # "1 and 24: period 1 found after 24 periods"
+    assert (o.period, o.periods) == (1, 24)
+    # "contact fraction: 0.2312"
+    fraction = ns["o"].steady_values()["contact_time"] / (2 * np.pi / 2.0)
+    assert f"{fraction:.4f}" == "0.2312"
+
+
+def _check_npz_read(ns, seen, out):
+    n = 4
+    assert ns["a"].shape == (ns["tau"].size, n) and ns["vt"].shape == ns["tau"].shape
+    text = out.getvalue()
+    assert text.lstrip().startswith("&model") and "tau_end" in text
+    # "the input that made it": it reads back as that input
+    Path("again.nml").write_text(text)
+    made = tmafm.Config("run.nml", output={"file": "out.npz"})   # -o out.npz, as resolved
+    assert tmafm.Config("again.nml").to_dict() == made.to_dict()
+
+
+STEADY = ("amplitude", "phase", "mean_deflection", "min_gap", "peak_force", "contact_time",
+          "contacts_per_period", "dissipated_energy", "drive_work", "virial",
+          "contact_normal_work", "harmonic_amplitude", "harmonic_phase")
+
+
+def _check_grid(ns, seen, out):
+    ds = ns["ds"]
+    # "one dimension per key, named as the key, with the values as its coordinate", first key
+    # slowest
+    assert ds["amplitude"].dims == ("scene.delta_hat", "scene.alpha2")
+    np.testing.assert_array_equal(ds["scene.delta_hat"].values, np.linspace(0, 2e-3, 21))
+    for name in STEADY:
+        assert name in ds and ds[name].attrs["units"] == UNITS[name]
+    assert ds["harmonic_amplitude"].dims[-1] == "harmonic"
+    for name in ("period", "steady", "periods", "failed"):
+        assert name in ds
+    assert int(ds.attrs["failures"]) == 0
+    back = tmafm.sweeps.read_dataset("grid.nc")
+    np.testing.assert_array_equal(back["amplitude"].values, ds["amplitude"].values)
+
+
+def _check_approach_and_frequency(ns, seen, out):
+    summarize = tmafm.sweeps.summarize
+    approach, frequency = seen["ds"]
+    assert approach["jump"].dims == ("direction", "scene.alpha2", "scene.delta_hat")
+    # docs/sweeps.md, the table of `--summarize approach.nc` (its sweep file is this grid)
+    table = {(4e-4, "approach"): ("1.4e-3", None), (4e-4, "retract"): ("3.4e-3", "4.13e-3"),
+             (5e-4, "approach"): ("1.8e-3", None), (5e-4, "retract"): ("4.2e-3", "5.12e-3")}
+    jumps = summarize(approach)["jumps"]
+    assert len(jumps) == 4
+    for j in jumps:
+        at, amplitude = table[(j["scene.alpha2"], j["direction"])]
+        assert [f"{x:.1e}".replace("e-03", "e-3") for x in j["at"]] == [at]
+        if amplitude:
+            assert f"{j['amplitude_max']:.2e}".replace("e-03", "e-3") == amplitude
+    # "the free oscillation: amplitude 2.0e-3, phase −166°, no contact"; "the phase
+    # (−166° → −44° at α2 = 5e-4)"; "tapping ... amplitude up to 5.1e-3"
+    curve = approach.sel({"scene.alpha2": 5e-4, "direction": "approach"})
+    free = curve.sel({"scene.delta_hat": 8e-3}, method="nearest")
+    assert f"{float(free.amplitude):.1e}" == "2.0e-03" and round(float(free.phase)) == -166
+    assert float(free.contacts_per_period) == 0
+    hop = int(np.flatnonzero(curve["jump"].values)[0])
+    assert [round(float(curve.phase[k])) for k in (hop - 1, hop)] == [-166, -44]
+    retract = approach.sel({"scene.alpha2": 5e-4, "direction": "retract"})
+    assert f"{float(retract.amplitude.max()):.1e}" == "5.1e-03"
+    # "Retracting, the tapping branch lasts to δ̂ = 4e-3 ... then falls back to 2.0e-3"
+    at = {x: retract.sel({"scene.delta_hat": x}, method="nearest") for x in (4e-3, 4.2e-3)}
+    assert float(at[4e-3].contacts_per_period) > 0
+    assert f"{float(at[4.2e-3].amplitude):.1e}" == "2.0e-03"
+    # the frequency sweep: up, climbs to 4.70e-3 and drops at 4.05; down, jumps at 3.55
+    by_direction = {j["direction"]: j for j in summarize(frequency)["jumps"]}
+    assert [round(x, 2) for x in by_direction["up"]["at"]] == [4.05]
+    assert f"{by_direction['up']['amplitude_max']:.2e}" == "4.70e-03"
+    assert [round(x, 2) for x in by_direction["down"]["at"]] == [3.55]
+
+
+def _check_bifurcation(ns, seen, out):
+    ds = ns["ds"]
+    summary = tmafm.sweeps.summarize(ds)
+    alpha2 = ds["scene.alpha2"].values
+    period = ds["period"].values
+    # "period-1 up to α2 = 1.1e-3 ... from 1.125e-3 to 1.325e-3 no period ... from 1.35e-3
+    # period 2"; "From 1.175e-3 the section values of V_T split by more than 1e-6"
+    assert np.all(period[alpha2 < 1.1125e-3] == 1)
+    assert np.all(period[(alpha2 > 1.1125e-3) & (alpha2 < 1.3375e-3)] == 0)
+    assert np.all(period[alpha2 > 1.3375e-3] == 2)
+    assert round(min(summary["split_1e-6_at"]), 6) == 1.175e-3
+    assert ds["vt"].dims[-1] == "kept" and ds.sizes["kept"] == 64
+    assert {"a1", "adot1", "tip", "vt"} <= set(ds.data_vars)
+
+
+def _check_basin(ns, seen, out):
+    ds = ns["ds"]
+    summary = tmafm.sweeps.summarize(ds)
+    # "one attractor over the whole 41 × 41 map: 1680 points reach it"; "all 1680 points
+    # period-1, attractor_period 1"; "One point fails: a1(0) = 0, a1'(0) = −5e-4, switch chatter"
+    assert summary["attractors"] == 1
+    assert summary["points_per_label"] == {"-1": 1, "0": 1680}
+    labels = ds["attractor"].values
+    assert np.all(ds["period"].values[labels == 0] == 1)
+    assert np.all(ds["attractor_period"].values[labels == 0] == 1)
+    failed = np.argwhere(ds["failed"].values.astype(bool))
+    assert len(failed) == 1
+    i, j = failed[0]
+    assert ds["a1"].values[i] == 0 and np.isclose(ds["adot1"].values[j], -5e-4)
+    assert "switch chatter" in ds.attrs["first_failure"]
+
+
+BLOCKS = {
+    ("README.md", "import tmafm"): Block(
+        setup="import numpy as np\n"
+              "tau, in_contact = 1.0, False\n"
+              "a = np.array([2e-4, 1e-5, -1e-6, 1e-7]); adot = np.array([1e-4, 0, 0, 0])\n"
+              "y = np.concatenate([a, adot])",
+        check=_check_readme_run),
+    ("README.md", 'ds = tmafm.sweep(base, {"scene.delta_hat": np.linspace(0, 2e-3, 21)}, '
+                  'workers=2)  # xarray'): Block(
+        skip="a sketch of the sweep API: `...` stands for the arrays; docs/sweeps.md runs "
+             "each call in full"),
+    ("README.md", 'o = tmafm.observe("fig3", max_periods=100)        # no trajectory kept; '
+                  'stops at steady state'): Block(
+        setup='c1, c2, c3 = (tmafm.Config(name, solver={"method": "flight_exact"})\n'
+              '              for name in ("fig2_n1", "fig2_n2", "fig2_n3"))',
+        check=_check_readme_observe),
+    ("docs/observables.md", "import tmafm"): Block(check=_check_observe_example),
+    ("docs/output-format.md", "import numpy as np"): Block(
+        setup="c = tmafm.Config('fig2_n4', solver={'tau_end': 1.0}, output={'format': 'npy'})\n"
+              "c.write('run.nml')\n"
+              "subprocess.run([tmafm.executable(), '-q', 'run.nml', '-o', 'out.npz'], check=True)",
+        check=_check_npz_read),
+    ("docs/sweeps.md", "import numpy as np, tmafm"): Block(
+        setup="import matplotlib; matplotlib.use('Agg')", check=_check_grid),
+    ("docs/sweeps.md", 'ds = tmafm.approach("inputs/sweeps/bistable_n2.nml", '
+                       'delta_hat=np.linspace(8e-3, 0, 41),'): Block(
+        setup="import numpy as np, tmafm", check=_check_approach_and_frequency),
+    ("docs/sweeps.md", 'fig5 = tmafm.Config("fig5a", solver={"method": "flight_exact", '
+                       '"rtol": 1e-8})'): Block(
+        setup="import numpy as np, tmafm", check=_check_bifurcation),
+    ("docs/sweeps.md", 'fig4 = tmafm.Config("fig4a", solver={"method": "flight_exact", '
+                       '"rtol": 1e-8})'): Block(
+        setup="import numpy as np, tmafm", check=_check_basin),
+}
+
+
+def _key(path, body):
+    return path, body.splitlines()[0].strip()
+
+
+def test_every_block_is_listed():
+    """Every ```python block is run or explicitly skipped, and every entry has its block."""
+    found = {_key(path, body) for path, _, body in python_blocks()}
+    assert sorted(found - set(BLOCKS)) == [], "python blocks not in BLOCKS"
+    assert sorted(set(BLOCKS) - found) == [], "BLOCKS entries whose block is gone"
+    assert len(found) == len(python_blocks()), "two blocks share a first line"
+    for block in BLOCKS.values():
+        assert bool(block.skip) != bool(block.check), "a block either runs with a check or skips"
+
+
+def test_no_unfenced_python():
+    """Code in an indented (unfenced) block is never run: examples go in ```python fences."""
+    code = re.compile(r"^(?: {4}|\t)(?:import |from \S+ import |\w+ = tmafm\.|tmafm\.)", re.M)
+    for path in DOCS:
+        text = FENCE.sub("", path.read_text())
+        hits = [line for line in text.splitlines() if code.match(line)]
+        assert hits == [], f"{path.name}: indented code outside a fence: {hits}"
+
+
+def _run(source: str, ns: dict, filename: str, seen: dict) -> None:
+    """Run `source` statement by statement in `ns`, noting each new value a name takes."""
+    for statement in ast.parse(source).body:
+        before = {k: id(v) for k, v in ns.items()}
+        exec(compile(ast.Module([statement], []), filename, "exec"), ns)
+        for name, value in ns.items():
+            if not name.startswith("__") and before.get(name) != id(value):
+                seen.setdefault(name, []).append(value)
+
+
+@pytest.mark.parametrize("path,line,body", python_blocks(),
+                         ids=[f"{p}:{n}" for p, n, _ in python_blocks()])
+def test_block_runs_and_gives_what_the_docs_say(path, line, body, tmp_path, monkeypatch):
+    block = BLOCKS.get(_key(path, body))
+    if block is None:
+        pytest.fail(f"{path}:{line}: not in BLOCKS (test_every_block_is_listed)")
+    if block.skip:
+        pytest.skip(f"{path}:{line}: {block.skip}")
+    source = body
+    for old, new in block.subs:
+        assert old in source, f"{path}:{line}: substitution {old!r} no longer applies"
+        source = source.replace(old, new)
+    (tmp_path / "inputs").symlink_to(REPO / "inputs")
+    monkeypatch.chdir(tmp_path)
+    ns = {"__name__": "__docs__", "tmafm": tmafm, "subprocess": subprocess, "os": os}
+    seen: dict = {}
+    _run(block.setup, ns, f"{path}:{line} (setup)", {})
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        _run(source, ns, f"{path}:{line}", seen)
+    block.check(ns, seen, out)

@@ -52,7 +52,7 @@ BENCH = REPO / "benchmarks"
 STUDIES = REPO / "studies"
 
 
-def result(name):
+def result_path(name):
     """Path of a committed result by its name (e.g. 'run_time.json'): the timing benchmarks'
     results are in benchmarks/results/, the studies' in studies/results/ (studies/README.md)."""
     for folder in (BENCH / "results", STUDIES / "results"):
@@ -381,7 +381,7 @@ def check_figures(ck, summary, group="figures"):
 
 def check_period_search(ck, search=None, group="period_search"):
     """reproduction.md's longer studies, from benchmarks/period_search.json."""
-    search = search or load(result("period_search.json"))
+    search = search or load(result_path("period_search.json"))
     doc = "docs/reproduction.md"
     scan = search["scan"]
     ck.text(group, doc, "All {} runs are {}.",
@@ -401,7 +401,7 @@ def _period_cost_rows(report):
 
 def check_readme(ck, group="readme"):
     doc = "README.md"
-    pc = load(result("period_cost.json"))
+    pc = load(result_path("period_cost.json"))
     rows = _period_cost_rows(pc)
     t7, t10 = rows[("tilted_hertz_3", "flight_exact", 1e-7)], rows[("tilted_hertz_3", "flight_exact", 1e-10)]
     u7, u10 = (rows[("untilted_3_no_contact_damping", "flight_exact", r)] for r in (1e-7, 1e-10))
@@ -423,7 +423,7 @@ def check_readme(ck, group="readme"):
             [grouped(s["ratio"]), f"{s['scipy_DOP853_rtol_1e-10']['cpu_s']:.1f}",
              f"{1e3 * s['tmafm_at_equal_error']['cpu_s']:.0f}",
              *[grouped(x) for x in sorted(_earlier_scipy_ratios(3))]], sp)
-    rt = load(result("run_time.json"))
+    rt = load(result_path("run_time.json"))
     case = rt["cases"]["flight_exact_npy"]
     ck.text(group, doc, "| 100-period Fig. 2 run, `flight_exact` at its defaults, {} rows, `.npz` "
             "(`run_time.py --repeat 30 --baseline … --instructions`) | {} ms median, {} ms least, {} M "
@@ -432,7 +432,7 @@ def check_readme(ck, group="readme"):
              f"{case['instructions'] / 1e6:.1f}", f"{1e3 * case['baseline_median_s']:.1f}",
              f"{1e3 * case['baseline_min_s']:.1f}", f"{case['baseline_instructions'] / 1e6:.1f}"], sp)
     ck.value(group, doc, "the run_time row's baseline is the JSON's", "main at df69127", rt["baseline"])
-    bm = load(result("basin_map.json"))["basin"]
+    bm = load(result_path("basin_map.json"))["basin"]
     ck.text(group, doc, "| 200 × 200 basin map of Fig. 4 on 2 workers, wall (`basin_map.py`) | {} s "
             "(its committed run; {} µs of CPU per period) |",
             [f"{bm['wall_s']:.1f}", f"{bm['process_cpu_us_per_period']:.0f}"], sp)
@@ -447,16 +447,16 @@ def check_readme(ck, group="readme"):
     errors = [rows[(scene, "flight_exact", 1e-7)]["vt_error"] for scene in pc["scenes"]]
     ck.text(group, doc, "over a run the V_T error is larger, {} to {} at the defaults with `flight_exact`",
             [sci(min(errors), 2, "-"), sci(max(errors), 2, "-")], "Input: the namelist groups")
-    warp = load(result("entry_warp/contact_steps.json"))["rows"]
+    warp = load(result_path("entry_warp/contact_steps.json"))["rows"]
     fewer = [(r["main"]["steps_per_period"] - r["edges"]["steps_per_period"])
              / (r["main"]["phase_switches_per_period"] / 2)
              for r in warp]
     ck.text(group, doc, "is not: {} steps fewer per contact", [span(fewer, lambda x: f"{x:.0f}")], "Methods")
-    ow = load(result("output_write.json"))["cases"]
+    ow = load(result_path("output_write.json"))["cases"]
     least = min(c["cpu_ratio_text_over_npy"] for c in ow)
     ck.text(group, doc, "archive for `numpy.load`, more than {} times cheaper to write",
             [f"{least // 10 * 10:.0f}" if least >= 10 else f"{least:.1f}"], "Running")
-    cs = load(result("contact_steps.json"))
+    cs = load(result_path("contact_steps.json"))
     ratio = [r["steps"]["vt_error_over_tolerance"] for r in cs["rows"] if r["method"] == "flight_exact"]
     ck.text(group, doc, "with `flight_exact` a run's V_T error is {}× it",
             [span(ratio, lambda x: f"{x:.1f}")], "Methods")
@@ -482,7 +482,7 @@ def _earlier_scipy_ratios(n):
 # ----------------------------------------------------------------------------- performance.md
 def check_performance(ck, group="performance"):
     doc = "docs/performance.md"
-    pc = load(result("period_cost.json"))
+    pc = load(result_path("period_cost.json"))
     rows = _period_cost_rows(pc)
     names = {"tilted_hertz_3": "tilted_hertz_3 (the issue's profile scene)",
              "untilted_3_no_contact_damping": "untilted_3_no_contact_damping", "fig2": "fig2 (N = 4)",
@@ -504,7 +504,7 @@ def check_performance(ck, group="performance"):
              sci(s["scipy_DOP853_rtol_1e-10"]["vt_error"], 2), f"{1e3 * s['tmafm_at_equal_error']['cpu_s']:.0f}",
              grouped(s["ratio"]), *[grouped(x) for x in sorted(_earlier_scipy_ratios(3))]],
             "Where the speed targets stand")
-    rt = load(result("run_time.json"))
+    rt = load(result_path("run_time.json"))
     c = rt["cases"]["flight_exact_npy"]
     ck.text(group, doc, "`flight_exact` at its defaults and `.npz` output ({} rows) takes {} M instructions "
             "against main's {} M at df69127",
@@ -524,7 +524,7 @@ def check_performance(ck, group="performance"):
 
     # the basin map and the approach/retract curve
     sb = "A 200 × 200 basin map"
-    full = load(result("basin_map.json"))
+    full = load(result_path("basin_map.json"))
     bm, ar = full["basin"], full["approach_retract"]
     load_avg = bm["load_average_1min_before_after"]
     ck.text(group, doc, "(`benchmarks/results/basin_map.json`; load average {} before and {} after, on {} cores;",
@@ -562,15 +562,15 @@ def check_performance(ck, group="performance"):
     cs = bench_module("contact_steps")
     for path, section in (("contact_steps.json", "Step control at contact exits"),
                           ("entry_warp/contact_steps.json", "Warped steps after a contact entry")):
-        report = load(result(path))
+        report = load(result_path(path))
         for line in cs.table(report).splitlines()[2:]:
             ck.row(group, doc, line, 3, section)
-    report = load(result("entry_warp/pairs/contact_steps.json"))
+    report = load(result_path("entry_warp/pairs/contact_steps.json"))
     for line in cs.table(report).splitlines()[2:]:
         ck.row(group, doc, line, 3, "Warped steps after a contact entry")
 
     # the cost against N
-    sc = load(result("scaling.json"))["methods"]
+    sc = load(result_path("scaling.json"))["methods"]
     for method, entry in sc.items():
         by_n = {r["n_modes"]: r for r in entry["rows"]}
         cells = []
@@ -583,7 +583,7 @@ def check_performance(ck, group="performance"):
                 cells + [f"{slope:.2f}"], "Cost against the number of modes")
 
     # the right-hand side and whole processes (rhs_cost.json)
-    rc = load(result("rhs_cost.json"))
+    rc = load(result_path("rhs_cost.json"))
     b = rc["builds"]
     for n in ("1", "3", "4", "8", "30"):
         o, w = b["old"]["rhs"][n], b["new"]["rhs"][n]
@@ -616,7 +616,7 @@ def check_performance(ck, group="performance"):
             "The right-hand side, the flight scan")
 
     # the Python layer
-    po = load(result("python_overhead.json"))
+    po = load(result_path("python_overhead.json"))
     ms = po["short_call"]["cpu_ms_per_call"]
     sp = "The Python layer's own cost"
     for label, key, fmt in (("`tmafm.run(dict)`", "run_dict", "{:.3f}"),
@@ -639,7 +639,7 @@ def check_performance(ck, group="performance"):
             [f"{po['load_average'][0]:.1f}"], sp)
 
     # sweep throughput
-    st = load(result("sweep_throughput.json"))
+    st = load(result_path("sweep_throughput.json"))
     by = {(r["backend"], r["workers"]): r for r in st["rows"]}
     labels = {"batch (OpenMP threads)": "core batch (OpenMP threads)", "process pool": "process pool",
               "dask (threads)": "Dask LocalCluster, threads", "dask (processes)": "Dask LocalCluster, processes"}
@@ -659,7 +659,7 @@ def check_performance(ck, group="performance"):
 def _etd_table(ck, group, doc):
     """The exponential collocation probe's table: etd_probe.py's own interpolation on its JSON."""
     etd = bench_module("etd_probe")
-    results = load(result("etd_probe.json"))["results"]
+    results = load(result_path("etd_probe.json"))["results"]
     methods = ("dop853", "lawson", "etd_gauss6_stagenewton1", "etd_gauss6_stagenewton1_x3")
     labels = {"fig2": "Fig. 2", "tilted_hertz_3": "tilted"}
     for res in results:
@@ -734,13 +734,13 @@ def _inventory(ck, group, doc):
 
 # ----------------------------------------------------------------------------- other docs
 def check_other_docs(ck, group="docs"):
-    oo = load(result("observe_overhead.json"))
+    oo = load(result_path("observe_overhead.json"))
     for method, r in oo["rows"].items():
         ck.text(group, "docs/observables.md", f"| `{method}` | {{}}× | {{}}× | {{}}× | {{}}× | {{}}× | {{}}× |",
                 [f"{r['ratio_' + g]:.1f}" for g in ("all", "lockin", "extrema", "peak_force", "energy", "none")],
                 "Cost")
     ck.text(group, "docs/observables.md", "times fig3 over {} periods", [oo["periods"]], "Cost")
-    ow = load(result("output_write.json"))
+    ow = load(result_path("output_write.json"))
     a, b = ow["cases"]
     ck.text(group, "docs/output-format.md",
             "| Fig. 2, N = 4, τ = 100π (`rk4_paper`) | {} | {} µs/row ({} ms, {} MB) | {} µs/row ({} ms, {} MB) | {} |",
@@ -753,7 +753,7 @@ def check_other_docs(ck, group="docs"):
              f"{b['cpu_ratio_text_over_npy']:.1f}"], "Cost")
     ck.text(group, "docs/output-format.md", "{} s (text) and {} s (`.npz`) for the first run",
             [f"{a['text']['wall_s']:.2f}", f"{a['npy']['wall_s']:.3f}"], "Cost")
-    bl = load(result("basin_labels.json"))
+    bl = load(result_path("basin_labels.json"))
     bud = bl["budget"]
     doc = "docs/sweeps.md"
     waits = bud["periods_the_test_waits_after_that"]
@@ -784,7 +784,7 @@ def check_other_docs(ck, group="docs"):
 def check_errata(ck, group="errata"):
     """docs/errata.md's measured effects, from benchmarks/errata_effects.json."""
     doc = "docs/errata.md"
-    fx = load(result("errata_effects.json"))["effects"]
+    fx = load(result_path("errata_effects.json"))["effects"]
 
     def dv(e):
         return sci(fx[e]["max_abs_vt_change_last_period"], 3 if fx[e]["max_abs_vt_change_last_period"] > 1e-5 else 2)
@@ -882,7 +882,7 @@ def recompute(ck, group="recompute", fragile=True):
     ck.text(group, "docs/reproduction.md", "have exactly {} switch in τ ≤ 10: the landing.", [landing], "Fig. 6:")
     # Fig. 7 over 300 periods, as benchmarks/period_search.py runs it
     ps = bench_module("period_search")
-    search = load(result("period_search.json"))
+    search = load(result_path("period_search.json"))
     for key, old in search["fig7"].items():
         name, periods = key.split("/")
         new = ps.classify(name, int(periods))
@@ -892,7 +892,7 @@ def recompute(ck, group="recompute", fragile=True):
                  new["steady_tau"] and f"{new['steady_tau']:.6g}", labels=RERUN)
     # the V_T errors the docs quote from period_cost.json (flight_exact at the headline tolerances)
     pc = bench_module("period_cost")
-    rows = _period_cost_rows(load(result("period_cost.json")))
+    rows = _period_cost_rows(load(result_path("period_cost.json")))
     for scene in pc.SCENES:
         reference = tmafm.run(pc.groups(scene, {"method": "flight_exact", "rtol": 1e-13, "atol": 1e-18},
                                         pc.ERROR_PERIODS, 0.05, "unused.dat")).vt
@@ -901,7 +901,7 @@ def recompute(ck, group="recompute", fragile=True):
             ck.value(group, f"period_cost.json {scene}", f"flight_exact rtol {rtol:g}: V_T error (2 digits)",
                      sci(rows[(scene, "flight_exact", rtol)]["vt_error"], 2, "-"), sci(error, 2, "-"), labels=RERUN)
     # the 100-period Fig. 2 run of run_time.json: its rows and counters
-    rt = load(result("run_time.json"))
+    rt = load(result_path("run_time.json"))
     for name, case in rt["cases"].items():
         if case["method"] != "flight_exact":
             continue
@@ -971,7 +971,8 @@ def rerun_timings(ck, factor, group="timings-rerun"):
         for name, (command, values) in TIMINGS.items():
             subprocess.run([sys.executable, str(BENCH / command[0]), *[c.format(tmp=tmp) for c in command[1:]]],
                            check=True, stdout=subprocess.DEVNULL, cwd=REPO)
-            (old_timed, old_exact), (new_timed, new_exact) = values(load(result(name))), values(load(Path(tmp) / name))
+            old_timed, old_exact = values(load(result_path(name)))
+            new_timed, new_exact = values(load(Path(tmp) / name))
             for key, a in old_timed.items():
                 b = new_timed[key]
                 ck.value(group, name, f"{key} (within {factor}x)", f"{a:.4g}", f"{b:.4g}",

@@ -16,14 +16,14 @@ module tmafm_keys
    use tmafm_modes, only: max_modes
    use tmafm_scene, only: scene_names, physical_names, scene_values, physical_values
    use tmafm_settings, only: method_names, max_max_steps
-   use tmafm_config, only: config_t, path_len
+   use tmafm_config, only: config_t
    implicit none
    private
 
-   public :: key_t, keys, n_keys, key_groups, key_integer, key_real, key_string, key_list
+   public :: key_t, keys, n_keys, key_groups
    public :: key_row, group_index, key_in_range, key_range_text, key_choices_text, key_is_word
-   public :: group_keys_text, key_value_text, describe_key, in_range, range_text
-   public :: max_mode_horizon, output_formats
+   public :: group_keys_text, key_value_text, describe_key, range_text
+   public :: max_mode_horizon
 
    !> Value types: an integer, a real (an integer or real literal), a quoted string, a list of
    !> reals (r*value repeats allowed).

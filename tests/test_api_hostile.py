@@ -269,7 +269,7 @@ def test_observe_refuses_a_thread_count_that_crashed_the_interpreter():
 
 
 @pytest.mark.parametrize("options, error, name", [
-    ({"harmonics": 10**7, "max_periods": 10**7}, tmafm.SolverError, "harmonics"),  # MemoryError
+    ({"harmonics": 10**7, "max_periods": 10**7}, tmafm.InputError, "harmonics"),  # the core's 64
     ({"max_periods": _BrokenRepr()}, tmafm.InputTypeError, "max_periods"),         # RuntimeError
     ({"observables": [_MultilineRepr(1.0)]}, tmafm.InputTypeError, "observables"),
 ], ids=["too_much_memory", "broken_repr", "multiline_repr"])
@@ -277,6 +277,16 @@ def test_hostile_observe_options_raise_a_typed_one_line_error(options, error, na
     with pytest.raises(error) as info:
         tmafm.observe("fig2_n4", solver={"tau_end": 10.0}, **options)
     _check_message(info.value, name)
+
+
+def test_observe_batch_out_of_memory_is_a_typed_one_line_error():
+    """Within the core's limits (10**7 periods, 64 harmonics), 2**15 inputs ask for 153 TiB per
+    harmonic array, more than x86-64's 128 TiB of user addresses (and than any machine's memory
+    and swap): the MemoryError is a SolverError."""
+    config = tmafm.Config("fig2_n4", solver={"tau_end": 10.0})
+    with pytest.raises(tmafm.SolverError) as info:
+        tmafm.observe_batch([config] * 2**15, max_periods=10**7, harmonics=64)
+    _check_message(info.value, "max_periods")
 
 
 def test_observe_batch_reads_a_config_with_non_ascii_text():

@@ -13,7 +13,11 @@ module tmafm
    use tmafm_contact, only: law_hertz, law_dmt, contact_brackets_t, contact_brackets
    use tmafm_model, only: model_t, init_model, n_powers
    use tmafm_settings, only: run_settings_t, is_known_method, method_names, max_samples, &
-      max_trajectory_bytes, check_run_size, sample_count
+      max_trajectory_bytes, check_run_size, sample_count, max_max_steps
+   ! The key table (what Python's key types and README's input table come from), and the
+   ! limits Python checks against.
+   use tmafm_keys, only: n_keys, describe_key, max_mode_horizon
+   use tmafm_batch, only: max_harmonics, max_p_max, max_observed_periods
    use tmafm_trajectory, only: trajectory_t
    use tmafm_driver, only: run_trajectory
    ! A base input patched by overrides (tmafm_api), and the rename held apart (the executable).
@@ -42,6 +46,8 @@ module tmafm
    public :: nml_document_t, parse_namelist, entry_text
    public :: is_known_method, method_names, max_samples, max_trajectory_bytes, check_run_size
    public :: load_model
+   public :: n_keys, describe_key, max_mode_horizon, max_max_steps, max_harmonics, max_p_max, &
+             max_observed_periods
    public :: read_config_document, patch_document, commit_output
    public :: write_trajectory_file, output_sink_t, prepare_output, check_output_size, begin_output, &
              write_output, discard_output, sample_count, target_file, target_device, target_stdout

@@ -5,6 +5,10 @@ InputError that names the group and key for what Python can tell on its own: Non
 where a number is expected, nested lists, strings where numbers are expected, non-finite
 numbers, unknown groups, non-dict groups, non-string keys.  Keys the core knows are typed by
 KEY_TYPES; any other key is passed on (as a number, string or list) and the core refuses it.
+
+The groups, keys and types come from the core's key table (fortran/src/config/tmafm_keys.f90,
+read through tmafm_api key_entry at import): ``KEYS`` holds every row, and README's input
+table is written from it (docs/key_table.py; tests/test_tables.py checks both).
 """
 
 from __future__ import annotations
@@ -14,35 +18,58 @@ import numbers
 import re
 import reprlib
 from collections.abc import Mapping
+from typing import NamedTuple
 
 import numpy as np
 
+from ._fortran import api as _api
+from ._fortran import text as _text
 from .errors import InputError
 
-__all__ = ["GROUPS", "KEY_TYPES", "check_groups", "merge", "shown", "to_text"]
-
-#: The namelist groups, in the order the text is written.
-GROUPS = ("model", "scene", "physical", "initial", "solver", "output")
+__all__ = ["GROUPS", "KEYS", "KEY_TYPES", "Key", "check_groups", "merge", "shown", "to_text"]
 
 _REAL, _INT, _STR, _LIST = "real", "integer", "string", "list of reals"
-_PHYSICAL = ("length", "width", "thickness", "density", "youngs_modulus_tip", "poisson_ratio_tip",
-             "youngs_modulus_sample", "poisson_ratio_sample", "tip_radius", "adhesion_energy",
-             "tilt", "gap", "tip_length", "static_offset", "tip_position", "tip_mass",
-             "beam_damping", "contact_damping", "drive_amplitude", "drive_angular_frequency")
-_SCENE = ("alpha1", "alpha2", "alpha3", "alpha4", "alpha5", "alpha6", "beta", "omega", "theta",
-          "l_over_d", "g0_over_d", "delta_hat", "xi0")
 
-#: The type of every key the core knows: group -> key -> 'real' | 'integer' | 'string' | list.
-KEY_TYPES = {
-    "model": {"n_modes": _INT, "mode_tol": _REAL, "mode_horizon": _REAL, "contact_law": _STR,
-              "convention": _STR, "errata": _STR},
-    "scene": {key: _REAL for key in _SCENE},
-    "physical": {key: _REAL for key in _PHYSICAL},
-    "initial": {"a0": _LIST, "adot0": _LIST},
-    "solver": {"method": _STR, "dtau": _REAL, "contact_refine": _INT, "rtol": _REAL,
-               "atol": _REAL, "tau_end": _REAL, "blowup_limit": _REAL, "max_steps": _INT},
-    "output": {"file": _STR, "sample_dtau": _REAL, "format": _STR},
-}
+#: The widths of tmafm_api key_entry's texts: a text that fills its field may have been cut.
+_WIDTHS = (16, 32, 16, 256, 256, 16, 256)
+
+
+class Key(NamedTuple):
+    """One row of the core's key table."""
+
+    group: str
+    name: str
+    type: str
+    range: str
+    default: str
+    unit: str
+    meaning: str
+
+
+def _core_keys() -> tuple[Key, ...]:
+    rows = []
+    for k in range(1, int(_api.key_count()) + 1):
+        fields = [_text(f) for f in _api.key_entry(k)]
+        if any(len(f) >= width for f, width in zip(fields, _WIDTHS, strict=True)):
+            raise ImportError(f"tmafm: key {k} of the core's table has a text as long as its field in "
+                              f"tmafm_api key_entry: widen the field ({fields[:2]})")
+        key = Key(*fields)
+        if key.type not in (_REAL, _INT, _STR, _LIST):
+            raise ImportError(f"tmafm: key &{key.group} {key.name} has a type Python does not know: "
+                              f"{key.type!r}")
+        rows.append(key)
+    return tuple(rows)
+
+
+#: Every key of the core's table, group by group in the order of the resolved text.
+KEYS = _core_keys()
+
+#: The namelist groups, in the order the text is written.
+GROUPS = tuple(dict.fromkeys(key.group for key in KEYS))
+
+#: The type of every key the core knows: group -> key -> 'real' | 'integer' | 'string' |
+#: 'list of reals'.
+KEY_TYPES = {group: {key.name: key.type for key in KEYS if key.group == group} for group in GROUPS}
 
 _KEY = re.compile(r"[a-z][a-z0-9_]*\Z")
 

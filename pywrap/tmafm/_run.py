@@ -25,9 +25,8 @@ from .errors import InputError, InputFileError, InputTypeError, SolverError, rai
 
 __all__ = ["Config", "Result", "run", "resolve", "SCENE_KEYS", "COUNTER_KEYS"]
 
-#: The dimensionless groups of a scene, in the core's order.
-SCENE_KEYS = ("alpha1", "alpha2", "alpha3", "alpha4", "alpha5", "alpha6", "beta", "omega",
-              "theta", "l_over_d", "g0_over_d", "delta_hat", "xi0")
+#: The dimensionless groups of a scene, in the core's order (its key table's &scene keys).
+SCENE_KEYS = tuple(KEY_TYPES["scene"])
 #: The work counters of a run, in the core's order.
 COUNTER_KEYS = ("steps", "contact_steps", "rejected_steps", "rhs_evaluations", "phase_switches")
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._fortran import polls
+from ._fortran import LIMITS, polls
 from ._namelist import shown
 from ._run import Config, _for_core
 from .errors import InputError, InputTypeError, SolverError, raise_for
@@ -149,12 +149,14 @@ def computed_names(groups) -> tuple[str, ...]:
 
 def _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_steady):
     checked = {}
-    for name, value in (("max_periods", max_periods), ("p_max", p_max),
-                        ("steady_repeats", steady_repeats), ("harmonics", harmonics)):
+    for name, value, most in (("max_periods", max_periods, LIMITS["max_observed_periods"]),
+                              ("p_max", p_max, LIMITS["max_p_max"]),
+                              ("steady_repeats", steady_repeats, LIMITS["max_observed_periods"]),
+                              ("harmonics", harmonics, LIMITS["max_harmonics"])):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
             raise InputTypeError(f"observe {name} = {shown(value)}: must be an integer")
-        if not 1 <= value <= 10_000_000:
-            raise InputError(f"observe {name} = {value}: must be 1 to 10000000")
+        if not 1 <= value <= most:
+            raise InputError(f"observe {name} = {value}: must be 1 to {most}")
         checked[name] = int(value)
     if isinstance(steady_tol, bool) or not isinstance(steady_tol, (int, float, np.floating)):
         raise InputTypeError(f"observe steady_tol = {shown(steady_tol)}: must be a number")

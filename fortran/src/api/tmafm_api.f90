@@ -13,7 +13,8 @@
 module tmafm_api
    use tmafm, only: dp, i8, ok, err_input, errmsg_len, sample_count, n_powers, build_model, &
       simulate, choose_mode_count, read_config_text, config_text, nml_document_t, parse_namelist, &
-      entry_text, read_config_document, patch_document
+      entry_text, read_config_document, patch_document, n_keys, describe_key, max_modes, max_samples, &
+      max_trajectory_bytes, max_max_steps, max_mode_horizon, max_harmonics, max_p_max, max_observed_periods
    ! The types Python sees are named from the modules that define them, not the facade: f90wrap
    ! reads only the wrapped modules' sources and resolves a type through its defining module.
    use tmafm_config, only: config_t
@@ -26,10 +27,18 @@ module tmafm_api
 
    public :: api_errmsg_len, run_t, config_from_text, config_from_texts, config_sample_count, config_text_length, &
       config_text_codes, model_of_config, run_config, run_sizes, run_samples, run_switches, &
-      run_counters, trajectory_energy_flow
+      run_counters, trajectory_energy_flow, key_count, key_entry, limit_count, limit_entry
 
    !> Length of the error messages returned to Python.
    integer, parameter :: api_errmsg_len = errmsg_len
+
+   !> The core's limits that Python checks against before calling it (limit_entry).
+   character(len=*), parameter :: limit_names(*) = [character(len=24) :: 'max_modes', 'max_samples', &
+      'max_trajectory_bytes', 'max_max_steps', 'max_mode_horizon', 'max_harmonics', 'max_p_max', &
+      'max_observed_periods']
+   real(dp), parameter :: limit_values(*) = [real(max_modes, dp), real(max_samples, dp), max_trajectory_bytes, &
+      real(max_max_steps, dp), max_mode_horizon, real(max_harmonics, dp), real(max_p_max, dp), &
+      real(max_observed_periods, dp)]
 
    !> The trajectory of one run, held for Python to copy out (run_sizes, run_samples, ...).
    type :: run_t
@@ -264,5 +273,60 @@ contains
          end if
       end do
    end subroutine trajectory_energy_flow
+
+   !> Number of namelist keys (the core's key table, tmafm_keys).
+   function key_count() result(n)
+      integer :: n
+      n = n_keys
+   end function key_count
+
+   !> Key k (1 to key_count()) of the key table: its group, name, value type ('integer', 'real',
+   !> 'string' or 'list of reals'), range, default (as the resolved text writes it), unit and
+   !> meaning, blank-padded (Python checks that none fills its field); all blank for another k.
+   subroutine key_entry(k, group, name, kind, range, default, unit, meaning)
+      integer, intent(in) :: k
+      character(len=16), intent(out) :: group
+      character(len=32), intent(out) :: name
+      character(len=16), intent(out) :: kind
+      character(len=256), intent(out) :: range
+      character(len=256), intent(out) :: default
+      character(len=16), intent(out) :: unit
+      character(len=256), intent(out) :: meaning
+      character(len=:), allocatable :: g, n, t, r, d, u, m
+      group = ''
+      name = ''
+      kind = ''
+      range = ''
+      default = ''
+      unit = ''
+      meaning = ''
+      if (k < 1 .or. k > n_keys) return
+      call describe_key(k, g, n, t, r, d, u, m)
+      group = g
+      name = n
+      kind = t
+      range = r
+      default = d
+      unit = u
+      meaning = m
+   end subroutine key_entry
+
+   !> Number of the core's limits (limit_entry).
+   function limit_count() result(n)
+      integer :: n
+      n = size(limit_names)
+   end function limit_count
+
+   !> Limit k (1 to limit_count()): its name (blank-padded) and value; blank and 0 for another k.
+   subroutine limit_entry(k, name, value)
+      integer, intent(in) :: k
+      character(len=24), intent(out) :: name
+      real(dp), intent(out) :: value
+      name = ''
+      value = 0
+      if (k < 1 .or. k > size(limit_names)) return
+      name = limit_names(k)
+      value = limit_values(k)
+   end subroutine limit_entry
 
 end module tmafm_api

@@ -1,4 +1,5 @@
-!> The fully resolved input of a run: every namelist key, defaults included.
+!> The fully resolved input of a run: every namelist key, defaults included (a field's default
+!> initialisation is its key's default; tmafm_keys has the keys).
 module tmafm_config
    use tmafm_kinds, only: dp
    use tmafm_modes, only: max_modes
@@ -7,15 +8,7 @@ module tmafm_config
    implicit none
    private
 
-   public :: config_t, path_len, output_formats, max_mode_horizon
-
-   !> Largest &model mode_horizon: the automatic-N search may run 30 comparison runs of this
-   !> length, and a Python call cannot be interrupted (README, Running; docs/reliability.md).
-   real(dp), parameter :: max_mode_horizon = 100.0_dp
-
-   !> The values &output format accepts: 'text' (columns after '#' header lines) or 'npy'
-   !> (the binary format).
-   character(len=*), parameter :: output_formats(*) = [character(len=8) :: 'text', 'npy']
+   public :: config_t, path_len
 
    !> Longest file path tmafm accepts.
    integer, parameter :: path_len = 1024

@@ -2,10 +2,10 @@
 !> &initial, &solver and &output; write the resolved input back as namelist text.
 !>
 !> No Fortran `read(nml=)`: the whole input is read into memory (tmafm_input_file), parsed
-!> by tmafm_nml_syntax, and every entry is taken here with its type checked against its key
-!> (an integer key takes only an integer, a real key an integer or a real, a string key only a
-!> quoted string, a scalar key exactly one value).  Unknown, repeated or unused groups and keys
-!> are errors.  Each error is one line:
+!> by tmafm_nml_syntax, and every entry is taken here with its type and range checked against
+!> its key's row of the key table (tmafm_keys: an integer key takes only an integer, a real key
+!> an integer or a real, a string key only a quoted string, a scalar key exactly one value).
+!> Unknown, repeated or unused groups and keys are errors.  Each error is one line:
 !>    <source>: &group key = <value as written>: <what is wrong> (line N)
 !> After the keys, the derived quantities are checked before any run starts: the groups of
 !> Eq. (12) from &physical, the sample count and trajectory memory, and the worst-case step
@@ -16,15 +16,14 @@ module tmafm_namelist
    use tmafm_kinds, only: dp, i8
    use tmafm_errors, only: ok, err_input
    use tmafm_text, only: real_text, real_text_padded, int_text, lower, short_real_text
-   use tmafm_float_format, only: shortest_text_padded
    use tmafm_modes, only: max_modes
    use tmafm_scene, only: scene_t, physical_t, scene_from_physical, scene_names, scene_values, &
-      scene_lower, scene_upper, scene_lower_closed, scene_upper_open, physical_names, &
-      physical_values, scene_depends_on
-   use tmafm_settings, only: run_settings_t, is_known_method, method_choices, check_run_size, &
-      max_max_steps
+      physical_names, physical_values, scene_depends_on
+   use tmafm_settings, only: run_settings_t, check_run_size
    use tmafm_errata, only: errata_t, errata_for_convention, parse_errata, errata_label
-   use tmafm_config, only: config_t, output_formats, max_mode_horizon
+   use tmafm_config, only: config_t
+   use tmafm_keys, only: keys, key_groups, key_row, group_index, key_in_range, key_range_text, &
+      key_choices_text, key_is_word, group_keys_text, key_value_text, range_text
    use tmafm_nml_syntax, only: nml_document_t, nml_group_t, nml_entry_t, nml_value_t, &
       parse_namelist, value_integer, value_real, value_logical, value_string, value_word, &
       value_kind_name, value_other
@@ -34,17 +33,6 @@ module tmafm_namelist
 
    public :: read_config, read_config_text, read_config_document, write_config, config_text, &
              config_errata, real_text
-
-   !> The namelist groups tmafm knows.
-   character(len=*), parameter :: known_groups(6) = &
-      [character(len=8) :: 'model', 'scene', 'physical', 'initial', 'solver', 'output']
-   character(len=*), parameter :: model_keys = &
-      'n_modes, mode_tol, mode_horizon, contact_law, convention, errata'
-   character(len=*), parameter :: initial_keys = 'a0, adot0'
-   character(len=*), parameter :: solver_keys = &
-      'method, dtau, contact_refine, rtol, atol, tau_end, blowup_limit, max_steps'
-   character(len=*), parameter :: output_keys = 'file, sample_dtau, format'
-   real(dp), parameter :: half_pi = acos(-1.0_dp)/2
 
    !> What an error message needs to name the place: the source and the group.
    type :: place_t
@@ -94,59 +82,69 @@ contains
       type(config_t), intent(out) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
-      integer :: where(size(known_groups)), g, k
+      ! found(k): the position in doc of group key_groups(k), 0 if absent.
+      integer :: found(size(key_groups)), g, k
+      character(len=:), allocatable :: known
 
       ierr = err_input
-      where = 0
+      found = 0
       do g = 1, doc%n_groups
-         k = index_of(known_groups, doc%groups(g)%name)
+         k = index_of(key_groups, doc%groups(g)%name)
          if (k == 0) then
+            known = '&'//trim(key_groups(1))
+            do k = 2, size(key_groups)
+               known = known//', &'//trim(key_groups(k))
+            end do
             errmsg = source_label//': unknown namelist group &'//doc%groups(g)%name//' at '// &
-                     trim(line_text(doc%groups(g)%line))//' (known: &model, &scene, &physical, '// &
-                     '&initial, &solver, &output)'
+                     trim(line_text(doc%groups(g)%line))//' (known: '//known//')'
             return
          end if
-         if (where(k) /= 0) then
+         if (found(k) /= 0) then
             errmsg = source_label//': namelist group &'//doc%groups(g)%name//' appears twice '// &
-                     '('//trim(line_text(doc%groups(where(k))%line))//' and '// &
+                     '('//trim(line_text(doc%groups(found(k))%line))//' and '// &
                      trim(line_text(doc%groups(g)%line))//')'
             return
          end if
-         where(k) = g
+         found(k) = g
       end do
       if (doc%n_groups == 0) then
          errmsg = source_label//': no namelist group found (an empty input is refused; '// &
                   'write &model / to run every default)'
          return
       end if
-      if (where(2) /= 0 .and. where(3) /= 0) then
+      if (at('scene') /= 0 .and. at('physical') /= 0) then
          errmsg = source_label//': give either &scene or &physical, not both'
          return
       end if
       ierr = ok
       errmsg = ''
 
-      if (where(1) /= 0) call read_model(place(1), doc%groups(where(1)), config, ierr, errmsg)
+      if (at('model') /= 0) call read_model(place('model'), doc%groups(at('model')), config, ierr, errmsg)
       if (ierr /= ok) return
-      if (where(3) /= 0) then
-         call read_physical(place(3), doc%groups(where(3)), config, ierr, errmsg)
-      else if (where(2) /= 0) then
-         call read_scene(place(2), doc%groups(where(2)), config, ierr, errmsg)
+      if (at('physical') /= 0) then
+         call read_physical(place('physical'), doc%groups(at('physical')), config, ierr, errmsg)
+      else if (at('scene') /= 0) then
+         call read_scene(place('scene'), doc%groups(at('scene')), config, ierr, errmsg)
       end if
       if (ierr /= ok) return
-      if (where(4) /= 0) call read_initial(place(4), doc%groups(where(4)), config, ierr, errmsg)
+      if (at('initial') /= 0) call read_initial(place('initial'), doc%groups(at('initial')), config, ierr, errmsg)
       if (ierr /= ok) return
-      if (where(5) /= 0) call read_solver(place(5), doc%groups(where(5)), config, ierr, errmsg)
+      if (at('solver') /= 0) call read_solver(place('solver'), doc%groups(at('solver')), config, ierr, errmsg)
       if (ierr /= ok) return
-      if (where(6) /= 0) call read_output(place(6), doc%groups(where(6)), config, ierr, errmsg)
+      if (at('output') /= 0) call read_output(place('output'), doc%groups(at('output')), config, ierr, errmsg)
       if (ierr /= ok) return
-      call check_derived(source_label, doc, where, config, ierr, errmsg)
+      call check_derived(source_label, doc, at('physical'), config, ierr, errmsg)
    contains
-      function place(k) result(p)
-         integer, intent(in) :: k
+      !> The position in doc of group `group`, 0 if absent.
+      pure integer function at(group)
+         character(len=*), intent(in) :: group
+         at = found(index_of(key_groups, group))
+      end function at
+      function place(group) result(p)
+         character(len=*), intent(in) :: group
          type(place_t) :: p
          p%label = source_label
-         p%group = trim(known_groups(k))
+         p%group = group
       end function place
    end subroutine read_config_document
 
@@ -182,10 +180,10 @@ contains
       character(len=*), intent(out) :: errmsg
       integer(i8) :: n_modes
       real(dp) :: mode_tol, mode_horizon
-      character(len=:), allocatable :: contact_law, convention, errata
+      character(len=:), allocatable :: contact_law, convention, errata, range
       type(errata_t) :: parsed
       character(len=160) :: bad
-      integer :: k
+      integer :: k, row
 
       n_modes = config%n_modes
       mode_tol = config%mode_tol
@@ -197,46 +195,33 @@ contains
       do k = 1, g%n_entries
          if (ierr /= ok) return
          associate (e => g%entries(k))
+            row = key_row(p%group, e%key)
             select case (e%key)
             case ('n_modes')
-               call get_integer(p, e, n_modes, ierr, errmsg)
-               if (ierr == ok .and. (n_modes < 0 .or. n_modes > max_modes)) then
-                  call key_error(p, e, 'must be in 1..'//int_text(max_modes)// &
-                                 ' (or 0 to choose N by mode_tol)', ierr, errmsg)
-               end if
+               call take_integer(p, e, row, n_modes, ierr, errmsg)
             case ('mode_tol')
-               call get_real(p, e, mode_tol, ierr, errmsg)
-               call check_range(p, e, mode_tol, 0.0_dp, 1.0_dp, .false., .false., ierr, errmsg)
+               call take_real(p, e, row, mode_tol, ierr, errmsg)
             case ('mode_horizon')
-               call get_real(p, e, mode_horizon, ierr, errmsg)
-               call check_range(p, e, mode_horizon, 0.0_dp, max_mode_horizon, .false., .false., ierr, errmsg)
+               call take_real(p, e, row, mode_horizon, ierr, errmsg)
                ! Why the bound: the search's cost grows with the horizon (docs/reliability.md).
-               if (ierr /= ok .and. mode_horizon > max_mode_horizon .and. mode_horizon <= huge(1.0_dp)) then
-                  call key_error(p, e, 'must be > 0 and <= '//real_text(max_mode_horizon)// &
+               if (ierr /= ok .and. mode_horizon > keys(row)%upper .and. mode_horizon <= huge(1.0_dp)) then
+                  call key_error(p, e, 'must be > 0 and <= '//real_text(keys(row)%upper)// &
                                  ': with n_modes = 0 the search for N may run '//int_text(max_modes)// &
                                  ' comparison runs of this length at rtol 1e-10', ierr, errmsg)
                end if
             case ('contact_law')
-               call get_choice(p, e, len(config%contact_law), "'hertz' or 'dmt'", contact_law, ierr, errmsg)
-               if (ierr == ok .and. contact_law /= 'hertz' .and. contact_law /= 'dmt') then
-                  call key_error(p, e, "must be 'hertz' or 'dmt'", ierr, errmsg)
-               end if
+               call take_word(p, e, row, len(config%contact_law), contact_law, ierr, errmsg)
             case ('convention')
-               call get_choice(p, e, len(config%convention), "'paper' or 'consistent'", convention, &
-                               ierr, errmsg)
-               if (ierr == ok .and. convention /= 'paper' .and. convention /= 'consistent') then
-                  call key_error(p, e, "must be 'paper' or 'consistent'", ierr, errmsg)
-               end if
+               call take_word(p, e, row, len(config%convention), convention, ierr, errmsg)
             case ('errata')
                call get_string(p, e, len(config%errata), errata, ierr, errmsg)
                if (ierr == ok .and. lower(errata) /= 'convention') then
                   call parse_errata(errata, parsed, ierr, bad)
-                  if (ierr /= ok) call key_error(p, e, trim(bad)//": must be 'convention', 'all', "// &
-                                                 "'none' or a comma-separated list of distinct "// &
-                                                 "E1,E2,E3,E4,E6,E7", ierr, errmsg)
+                  call key_range_text(row, range)
+                  if (ierr /= ok) call key_error(p, e, trim(bad)//': must be '//range, ierr, errmsg)
                end if
             case default
-               call unknown_key(p, e, model_keys, ierr, errmsg)
+               call unknown_key(p, e, row, ierr, errmsg)
             end select
          end associate
       end do
@@ -263,20 +248,18 @@ contains
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       real(dp) :: values(size(scene_names))
-      integer :: k, j
+      integer :: k, row
 
       values = scene_values(config%scene)
       ierr = ok
       do k = 1, g%n_entries
          if (ierr /= ok) return
          associate (e => g%entries(k))
-            j = index_of(scene_names, e%key)
-            if (j == 0) then
-               call unknown_key(p, e, names_text(scene_names), ierr, errmsg)
+            row = key_row(p%group, e%key)
+            if (row == 0) then
+               call unknown_key(p, e, row, ierr, errmsg)
             else
-               call get_real(p, e, values(j), ierr, errmsg)
-               call check_range(p, e, values(j), scene_lower(j), scene_upper(j), &
-                                scene_lower_closed(j), scene_upper_open(j), ierr, errmsg)
+               call take_real(p, e, row, values(group_index(row)), ierr, errmsg)
             end if
          end associate
       end do
@@ -294,17 +277,7 @@ contains
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       real(dp) :: v(size(physical_names)), mismatch
-      ! Ranges of the SI inputs (their derived groups are checked in check_derived).
-      real(dp), parameter :: low(20) = [0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, -1.0_dp, 0.0_dp, &
-         -1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, -1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, &
-         0.0_dp, 0.0_dp]
-      real(dp), parameter :: high(20) = [1.0_dp, 1.0_dp, 1.0_dp, 1.0e5_dp, 1.0e13_dp, 0.5_dp, &
-         1.0e13_dp, 0.5_dp, 1.0e-2_dp, 1.0e3_dp, half_pi, 1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, &
-         1.0e6_dp, 1.0e6_dp, 1.0_dp, 1.0e12_dp]
-      logical, parameter :: low_closed(20) = [.false., .false., .false., .false., .false., .false., &
-         .false., .false., .false., .false., .true., .false., .true., .true., .false., .true., &
-         .true., .true., .true., .true.]
-      integer :: k, j
+      integer :: k, row
       type(nml_entry_t) :: fixed
 
       v = physical_values(config%physical)
@@ -312,12 +285,11 @@ contains
       do k = 1, g%n_entries
          if (ierr /= ok) return
          associate (e => g%entries(k))
-            j = index_of(physical_names, e%key)
-            if (j == 0) then
-               call unknown_key(p, e, names_text(physical_names), ierr, errmsg)
+            row = key_row(p%group, e%key)
+            if (row == 0) then
+               call unknown_key(p, e, row, ierr, errmsg)
             else
-               call get_real(p, e, v(j), ierr, errmsg)
-               call check_range(p, e, v(j), low(j), high(j), low_closed(j), j == 11, ierr, errmsg)
+               call take_real(p, e, row, v(group_index(row)), ierr, errmsg)
             end if
          end associate
       end do
@@ -350,21 +322,22 @@ contains
       type(config_t), intent(inout) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
-      integer :: k
+      integer :: k, row
 
       ierr = ok
       do k = 1, g%n_entries
          if (ierr /= ok) return
          associate (e => g%entries(k))
+            row = key_row(p%group, e%key)
             select case (e%key)
             case ('a0')
-               call take_modal_values(p, e, config%n_modes, config%a0, config%n_initial, ierr, &
+               call take_modal_values(p, e, row, config%n_modes, config%a0, config%n_initial, ierr, &
                                       errmsg)
             case ('adot0')
-               call take_modal_values(p, e, config%n_modes, config%adot0, config%n_initial, ierr, &
+               call take_modal_values(p, e, row, config%n_modes, config%adot0, config%n_initial, ierr, &
                                       errmsg)
             case default
-               call unknown_key(p, e, initial_keys, ierr, errmsg)
+               call unknown_key(p, e, row, ierr, errmsg)
             end select
          end associate
       end do
@@ -372,10 +345,11 @@ contains
    end subroutine read_initial
 
    !> Exactly n_modes values (or, with n_modes = 0, any number up to max_modes of leading
-   !> modes, the rest zero); each finite with |value| <= 1 (gap units).
-   subroutine take_modal_values(p, e, n_modes, values, n_initial, ierr, errmsg)
+   !> modes, the rest zero); each in the range of list row `row`.
+   subroutine take_modal_values(p, e, row, n_modes, values, n_initial, ierr, errmsg)
       type(place_t), intent(in) :: p
       type(nml_entry_t), intent(in) :: e
+      integer, intent(in) :: row
       integer, intent(in) :: n_modes
       real(dp), intent(inout) :: values(:)
       integer, intent(inout) :: n_initial
@@ -393,9 +367,10 @@ contains
          return
       end if
       do j = 1, n
-         if (.not. ieee_is_finite(given(j)) .or. abs(given(j)) > 1.0_dp) then
-            call key_error(p, e, 'value '//int_text(j)//' = '//real_text(given(j))// &
-                           ': must be finite with |value| <= 1 (gap units)', ierr, errmsg)
+         if (.not. key_in_range(row, given(j))) then
+            call key_error(p, e, 'value '//int_text(j)//' = '//real_text(given(j))//': must be '// &
+                           range_text(keys(row)%lower, keys(row)%upper, keys(row)%lower_closed, &
+                                      keys(row)%upper_open), ierr, errmsg)
             return
          end if
       end do
@@ -413,7 +388,7 @@ contains
       type(run_settings_t) :: s
       character(len=:), allocatable :: method
       integer(i8) :: refine
-      integer :: k
+      integer :: k, row
 
       s = config%solver
       refine = s%contact_refine
@@ -422,40 +397,26 @@ contains
       do k = 1, g%n_entries
          if (ierr /= ok) return
          associate (e => g%entries(k))
+            row = key_row(p%group, e%key)
             select case (e%key)
             case ('method')
-               call get_choice(p, e, len(s%method), method_choices(), method, ierr, errmsg)
-               if (ierr == ok .and. .not. is_known_method(method)) then
-                  call key_error(p, e, 'must be '//method_choices(), ierr, errmsg)
-               end if
+               call take_word(p, e, row, len(s%method), method, ierr, errmsg)
             case ('dtau')
-               call get_real(p, e, s%dtau, ierr, errmsg)
-               call check_range(p, e, s%dtau, 0.0_dp, 10.0_dp, .false., .false., ierr, errmsg)
+               call take_real(p, e, row, s%dtau, ierr, errmsg)
             case ('contact_refine')
-               call get_integer(p, e, refine, ierr, errmsg)
-               if (ierr == ok .and. (refine < 1 .or. refine > 100000)) then
-                  call key_error(p, e, 'must be in 1..100000', ierr, errmsg)
-               end if
+               call take_integer(p, e, row, refine, ierr, errmsg)
             case ('rtol')
-               call get_real(p, e, s%rtol, ierr, errmsg)
-               call check_range(p, e, s%rtol, 1.0e-15_dp, 1.0e-1_dp, .true., .false., ierr, errmsg)
+               call take_real(p, e, row, s%rtol, ierr, errmsg)
             case ('atol')
-               call get_real(p, e, s%atol, ierr, errmsg)
-               call check_range(p, e, s%atol, 0.0_dp, 1.0_dp, .true., .false., ierr, errmsg)
+               call take_real(p, e, row, s%atol, ierr, errmsg)
             case ('tau_end')
-               call get_real(p, e, s%tau_end, ierr, errmsg)
-               call check_range(p, e, s%tau_end, 0.0_dp, 1.0e7_dp, .false., .false., ierr, errmsg)
+               call take_real(p, e, row, s%tau_end, ierr, errmsg)
             case ('blowup_limit')
-               call get_real(p, e, s%blowup_limit, ierr, errmsg)
-               call check_range(p, e, s%blowup_limit, 0.0_dp, 1.0e10_dp, .false., .false., ierr, &
-                                errmsg)
+               call take_real(p, e, row, s%blowup_limit, ierr, errmsg)
             case ('max_steps')
-               call get_integer(p, e, s%max_steps, ierr, errmsg)
-               if (ierr == ok .and. (s%max_steps < 1 .or. s%max_steps > max_max_steps)) then
-                  call key_error(p, e, 'must be in 1..'//int_text(max_max_steps), ierr, errmsg)
-               end if
+               call take_integer(p, e, row, s%max_steps, ierr, errmsg)
             case default
-               call unknown_key(p, e, solver_keys, ierr, errmsg)
+               call unknown_key(p, e, row, ierr, errmsg)
             end select
          end associate
       end do
@@ -474,7 +435,7 @@ contains
       character(len=*), intent(out) :: errmsg
       character(len=:), allocatable :: file, format
       real(dp) :: sample_dtau
-      integer :: k
+      integer :: k, row
 
       file = trim(config%output_file)
       format = trim(config%output_format)
@@ -483,6 +444,7 @@ contains
       do k = 1, g%n_entries
          if (ierr /= ok) return
          associate (e => g%entries(k))
+            row = key_row(p%group, e%key)
             select case (e%key)
             case ('file')
                call get_string(p, e, len(config%output_file), file, ierr, errmsg)
@@ -500,16 +462,12 @@ contains
                                     "name a file; standard output is the executable's -o -", ierr, errmsg)
                end if
             case ('sample_dtau')
-               call get_real(p, e, sample_dtau, ierr, errmsg)
-               call check_range(p, e, sample_dtau, 0.0_dp, config%solver%tau_end, .false., .false., &
-                                ierr, errmsg)
+               ! Its upper bound is &solver tau_end (keys(row)%upper_key), read before &output.
+               call take_real(p, e, row, sample_dtau, ierr, errmsg, upper=config%solver%tau_end)
             case ('format')
-               call get_choice(p, e, len(config%output_format), "'text' or 'npy'", format, ierr, errmsg)
-               if (ierr == ok .and. .not. any(output_formats == format)) then
-                  call key_error(p, e, "must be 'text' or 'npy'", ierr, errmsg)
-               end if
+               call take_word(p, e, row, len(config%output_format), format, ierr, errmsg)
             case default
-               call unknown_key(p, e, output_keys, ierr, errmsg)
+               call unknown_key(p, e, row, ierr, errmsg)
             end select
          end associate
       end do
@@ -523,21 +481,23 @@ contains
    !> Checks across groups, before any run: sample_dtau within tau_end, the scene derived from
    !> &physical inside the &scene ranges, and the size of the run (and of the automatic-N
    !> comparison runs) inside the limits.
-   subroutine check_derived(label, doc, where, config, ierr, errmsg)
+   subroutine check_derived(label, doc, physical_group, config, ierr, errmsg)
       character(len=*), intent(in) :: label
       type(nml_document_t), intent(in) :: doc
-      integer, intent(in) :: where(:)
+      !> The position of &physical in doc (0 if absent).
+      integer, intent(in) :: physical_group
       type(config_t), intent(in) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       real(dp) :: derived(size(scene_names)), phys(size(physical_names)), defaults(size(physical_names))
       real(dp) :: distance, best
-      integer, allocatable :: keys(:)
-      integer :: k, j, culprit
+      ! The &physical inputs (indices into physical_names) a derived group depends on.
+      integer, allocatable :: inputs(:)
+      integer :: k, j, culprit, row
       type(run_settings_t) :: trial
       type(nml_entry_t) :: e
       type(physical_t) :: default_physical
-      character(len=:), allocatable :: as_written
+      character(len=:), allocatable :: as_written, range
 
       ierr = ok
       errmsg = ''
@@ -552,30 +512,30 @@ contains
          phys = physical_values(config%physical)
          defaults = physical_values(default_physical)
          do k = 1, size(scene_names)
-            if (in_range(derived(k), scene_lower(k), scene_upper(k), scene_lower_closed(k), &
-                         scene_upper_open(k))) cycle
+            row = key_row('scene', scene_names(k))
+            if (key_in_range(row, derived(k))) cycle
             ! Name the input furthest from its default among those the group depends on.
-            keys = scene_depends_on(k)
-            culprit = keys(1)
+            inputs = scene_depends_on(k)
+            culprit = inputs(1)
             best = -1
-            do j = 1, size(keys)
-               distance = abs(phys(keys(j)) - defaults(keys(j)))/max(abs(defaults(keys(j))), tiny(1.0_dp))
-               if (phys(keys(j)) > 0 .and. defaults(keys(j)) > 0) then
-                  distance = abs(log(phys(keys(j))/defaults(keys(j))))
+            do j = 1, size(inputs)
+               distance = abs(phys(inputs(j)) - defaults(inputs(j)))/max(abs(defaults(inputs(j))), tiny(1.0_dp))
+               if (phys(inputs(j)) > 0 .and. defaults(inputs(j)) > 0) then
+                  distance = abs(log(phys(inputs(j))/defaults(inputs(j))))
                end if
                if (distance > best) then
                   best = distance
-                  culprit = keys(j)
+                  culprit = inputs(j)
                end if
             end do
-            e = entry_or_default(doc%groups(where(3)), trim(physical_names(culprit)), phys(culprit))
+            e = entry_or_default(doc%groups(physical_group), trim(physical_names(culprit)), phys(culprit))
             as_written = e%written
+            call key_range_text(row, range)
             ierr = err_input
             errmsg = label//': &physical '//trim(physical_names(culprit))//' = '//as_written// &
                      ' gives '//trim(scene_names(k))//' = '//real_text(derived(k))//' by Eq. (12): '// &
-                     trim(scene_names(k))//' must be '//range_text(scene_lower(k), scene_upper(k), &
-                     scene_lower_closed(k), scene_upper_open(k))//' (it depends on '// &
-                     depends_text(keys)//')'
+                     trim(scene_names(k))//' must be '//range//' (it depends on '// &
+                     depends_text(inputs)//')'
             return
          end do
       end if
@@ -598,10 +558,10 @@ contains
          end if
       end if
    contains
-      pure function depends_text(keys) result(text)
-         integer, intent(in) :: keys(:)
-         character(len=names_length(physical_names(keys))) :: text
-         text = names_text(physical_names(keys))
+      pure function depends_text(inputs) result(text)
+         integer, intent(in) :: inputs(:)
+         character(len=names_length(physical_names(inputs))) :: text
+         text = names_text(physical_names(inputs))
       end function depends_text
    end subroutine check_derived
 
@@ -800,49 +760,58 @@ contains
       end do
    end subroutine get_real_list
 
-   !> Error unless value lies in the range (lower_closed: >= lower, else >; upper_open: <
-   !> upper, else <=).  Does nothing when ierr is already set.
-   subroutine check_range(p, e, value, lower_bound, upper_bound, lower_closed, upper_open, ierr, errmsg)
+   !> A real key: its one value, in the range of its row (`upper`, where given, is the value of
+   !> the key that bounds it: keys(row)%upper_key).
+   subroutine take_real(p, e, row, x, ierr, errmsg, upper)
       type(place_t), intent(in) :: p
       type(nml_entry_t), intent(in) :: e
-      real(dp), intent(in) :: value
-      real(dp), intent(in) :: lower_bound
-      real(dp), intent(in) :: upper_bound
-      logical, intent(in) :: lower_closed
-      logical, intent(in) :: upper_open
-      integer, intent(inout) :: ierr
-      character(len=*), intent(inout) :: errmsg
+      integer, intent(in) :: row
+      real(dp), intent(inout) :: x
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      real(dp), intent(in), optional :: upper
+      character(len=:), allocatable :: range
+
+      call get_real(p, e, x, ierr, errmsg)
       if (ierr /= ok) return
-      if (in_range(value, lower_bound, upper_bound, lower_closed, upper_open)) return
-      call key_error(p, e, 'must be '//range_text(lower_bound, upper_bound, lower_closed, upper_open), &
-                     ierr, errmsg)
-   end subroutine check_range
+      if (key_in_range(row, x, upper)) return
+      call key_range_text(row, range, upper)
+      call key_error(p, e, 'must be '//range, ierr, errmsg)
+   end subroutine take_real
 
-   pure logical function in_range(value, lower_bound, upper_bound, lower_closed, upper_open)
-      real(dp), intent(in) :: value, lower_bound, upper_bound
-      logical, intent(in) :: lower_closed, upper_open
-      in_range = ieee_is_finite(value)
-      if (.not. in_range) return
-      if (lower_closed) then
-         in_range = value >= lower_bound
-      else
-         in_range = value > lower_bound
-      end if
-      if (upper_open) then
-         in_range = in_range .and. value < upper_bound
-      else
-         in_range = in_range .and. value <= upper_bound
-      end if
-   end function in_range
+   !> An integer key: its one value, in the range of its row.
+   subroutine take_integer(p, e, row, i, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_entry_t), intent(in) :: e
+      integer, intent(in) :: row
+      integer(i8), intent(inout) :: i
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      character(len=:), allocatable :: range
 
-   pure function range_text(lower_bound, upper_bound, lower_closed, upper_open) result(text)
-      real(dp), intent(in) :: lower_bound, upper_bound
-      logical, intent(in) :: lower_closed, upper_open
-      character(len=len('finite, ') + merge(2, 1, lower_closed) + 1 + len(real_text(lower_bound)) + &
-                len(' and ') + merge(1, 2, upper_open) + 1 + len(real_text(upper_bound))) :: text
-      text = 'finite, '//trim(merge('>=', '> ', lower_closed))//' '//real_text(lower_bound)// &
-             ' and '//trim(merge('< ', '<=', upper_open))//' '//real_text(upper_bound)
-   end function range_text
+      call get_integer(p, e, i, ierr, errmsg)
+      if (ierr /= ok) return
+      if (key_in_range(row, real(i, dp))) return
+      call key_range_text(row, range)
+      call key_error(p, e, 'must be in '//range, ierr, errmsg)
+   end subroutine take_integer
+
+   !> A string key that takes one of its row's words: get_choice, then the word checked.
+   subroutine take_word(p, e, row, max_len, text, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_entry_t), intent(in) :: e
+      integer, intent(in) :: row
+      integer, intent(in) :: max_len
+      character(len=:), allocatable, intent(inout) :: text
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      character(len=:), allocatable :: choices
+
+      call key_choices_text(row, choices)
+      call get_choice(p, e, max_len, choices, text, ierr, errmsg)
+      if (ierr /= ok) return
+      if (.not. key_is_word(row, text)) call key_error(p, e, 'must be '//choices, ierr, errmsg)
+   end subroutine take_word
 
    !> Every key appears once in its group.
    subroutine check_repeats(p, g, ierr, errmsg)
@@ -866,12 +835,20 @@ contains
       end do
    end subroutine check_repeats
 
-   subroutine unknown_key(p, e, known, ierr, errmsg)
+   !> The error for a key the group does not know (row 0), listing the group's keys; or, for a
+   !> key of the table that the group's reader does not store (row > 0), a tmafm bug.
+   subroutine unknown_key(p, e, row, ierr, errmsg)
       type(place_t), intent(in) :: p
       type(nml_entry_t), intent(in) :: e
-      character(len=*), intent(in) :: known
+      integer, intent(in) :: row
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      character(len=:), allocatable :: known
+      if (row /= 0) then
+         call key_error(p, e, 'is in the key table but not read (a tmafm bug)', ierr, errmsg)
+         return
+      end if
+      call group_keys_text(p%group, known)
       call key_error(p, e, 'unknown key (&'//p%group//' keys: '//known//')', ierr, errmsg)
    end subroutine unknown_key
 
@@ -977,90 +954,60 @@ contains
       end do
    end subroutine write_config
 
-   !> The resolved input as namelist text (every key, defaults included), one line per key,
-   !> each line ended by new_line('a').  Reading it back gives the same configuration.
+   !> The resolved input as namelist text (every key, defaults included), one line per key in
+   !> the order of the key table, each line ended by new_line('a').  Reading it back gives the
+   !> same configuration.  When the scene came from &physical, &physical is written, and then
+   !> the scene it gives as comments.
    !> (A subroutine, not a function: gfortran 12 keeps the length of a deferred-length function
    !> result in a static variable of the caller, shared by threads; see tmafm_text.)
    subroutine config_text(config, text)
       type(config_t), intent(in) :: config
       character(len=:), allocatable, intent(out) :: text
-      character(len=:), allocatable :: c
+      character(len=:), allocatable :: c, value, group
       character, parameter :: nl = new_line('a')
-      integer :: n, k
+      integer :: g, row
 
       text = ''
       c = ''
-      n = config%n_modes
-      call line('&model')
-      if (config%auto_modes) then
-         ! Keep the request, so the file reruns the choice; record the choice as a comment.
-         call line('    n_modes = 0')
-         if (config%n_mode_differences > 0) then
-            c = '    ! chosen n_modes = '//int_text(n)
-            call search_note(c)
-            c = c//': max|V_T(N) - V_T(N+1)|/range(V_T): '
-            call differences_text(c)
-            call line('')
-            c = ''
+      do g = 1, size(key_groups)
+         group = trim(key_groups(g))
+         if (group == 'physical') cycle
+         if (group == 'scene' .and. config%from_physical) then
+            ! &physical, then the scene it gives as comments, so the text stays a valid input.
+            call put_group('physical')
+            c = '! derived by Eq. (12): '
          end if
-      else
-         call line('    n_modes = '//int_text(n))
-      end if
-      call put('mode_tol', config%mode_tol)
-      call put('mode_horizon', config%mode_horizon)
-      call line('    contact_law = '//quoted(config%contact_law))
-      call line('    convention = '//quoted(config%convention))
-      call line('    errata = '//quoted(config%errata))
-      call line('/')
-      if (config%from_physical) then
-         call line('&physical')
-         associate (v => physical_values(config%physical))
-            do k = 1, size(physical_names)
-               call put(trim(physical_names(k)), v(k))
-            end do
-         end associate
-         call line('/')
-         ! The derived groups, as comments, so the text stays a valid input.
-         c = '! derived by Eq. (12): '
-      end if
-      call line('&scene')
-      associate (v => scene_values(config%scene))
-         do k = 1, size(scene_names)
-            call put(trim(scene_names(k)), v(k))
-         end do
-      end associate
-      call line('/')
-      c = ''
-      call line('&initial')
-      if (config%auto_modes) n = max(1, config%n_initial)
-      call line('    a0 = '//list_text(config%a0(1:n)))
-      call line('    adot0 = '//list_text(config%adot0(1:n)))
-      call line('/')
-      call line('&solver')
-      call line('    method = '//quoted(config%solver%method))
-      call put('dtau', config%solver%dtau)
-      call line('    contact_refine = '//int_text(config%solver%contact_refine))
-      call put('rtol', config%solver%rtol)
-      call put('atol', config%solver%atol)
-      call put('tau_end', config%solver%tau_end)
-      call put('blowup_limit', config%solver%blowup_limit)
-      call line('    max_steps = '//int_text(config%solver%max_steps))
-      call line('/')
-      call line('&output')
-      call line('    file = '//quoted(config%output_file))
-      call put('sample_dtau', config%solver%sample_dtau)
-      call line('    format = '//quoted(config%output_format))
-      call line('/')
+         call put_group(group)
+         c = ''
+      end do
    contains
+      !> The lines of one group: its keys in the order of the key table.
+      subroutine put_group(name)
+         character(len=*), intent(in) :: name
+         call line('&'//name)
+         do row = 1, size(keys)
+            if (keys(row)%group /= name) cycle
+            call key_value_text(config, row, value)
+            call line('    '//trim(keys(row)%name)//' = '//value)
+            ! Keep the request of an automatic N, and record the choice as a comment.
+            if (keys(row)%name == 'n_modes' .and. config%auto_modes) call choice_note()
+         end do
+         call line('/')
+      end subroutine put_group
       subroutine line(body)
          character(len=*), intent(in) :: body
          text = text//c//body//nl
       end subroutine line
-      subroutine put(key, value)
-         character(len=*), intent(in) :: key
-         real(dp), intent(in) :: value
-         call line('    '//key//' = '//trim(shortest_text_padded(value)))
-      end subroutine put
+      !> The comment line that records the chosen N and the search's evidence.
+      subroutine choice_note()
+         character(len=:), allocatable :: note
+         if (config%n_mode_differences == 0) return
+         note = '    ! chosen n_modes = '//int_text(config%n_modes)
+         call search_note(note)
+         note = note//': max|V_T(N) - V_T(N+1)|/range(V_T): '
+         call differences_text(note)
+         call line(note)
+      end subroutine choice_note
       !> Append to `note` why the chosen N exceeds the N where the search stopped, if it does.
       subroutine search_note(note)
          character(len=:), allocatable, intent(inout) :: note
@@ -1081,58 +1028,5 @@ contains
          end do
       end subroutine differences_text
    end subroutine config_text
-
-   !> A string value in quotes, inner quotes doubled.
-   pure function quoted(value) result(text)
-      character(len=*), intent(in) :: value
-      character(len=len_trim(value) + count_quotes(value) + 2) :: text
-      integer :: k, n
-      text(1:1) = ''''
-      n = 1
-      do k = 1, len_trim(value)
-         if (value(k:k) == '''') then
-            text(n + 1:n + 2) = ''''''
-            n = n + 2
-         else
-            text(n + 1:n + 1) = value(k:k)
-            n = n + 1
-         end if
-      end do
-      text(n + 1:n + 1) = ''''
-   end function quoted
-
-   !> Number of quotes (') in `value`.
-   pure integer function count_quotes(value)
-      character(len=*), intent(in) :: value
-      integer :: k
-      count_quotes = 0
-      do k = 1, len(value)
-         if (value(k:k) == '''') count_quotes = count_quotes + 1
-      end do
-   end function count_quotes
-
-   pure function list_text(values) result(text)
-      real(dp), intent(in) :: values(:)
-      character(len=list_length(values)) :: text
-      character(len=40) :: one
-      integer :: j, n
-      text = shortest_text_padded(values(1))
-      n = len_trim(text)
-      do j = 2, size(values)
-         one = shortest_text_padded(values(j))
-         text(n + 1:) = ', '//one
-         n = n + 2 + len_trim(one)
-      end do
-   end function list_text
-
-   !> Length of list_text(values).
-   pure integer function list_length(values)
-      real(dp), intent(in) :: values(:)
-      integer :: j
-      list_length = 2*(size(values) - 1)
-      do j = 1, size(values)
-         list_length = list_length + len_trim(shortest_text_padded(values(j)))
-      end do
-   end function list_length
 
 end module tmafm_namelist

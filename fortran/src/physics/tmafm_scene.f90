@@ -11,8 +11,7 @@ module tmafm_scene
    private
 
    public :: scene_t, physical_t, scene_from_physical
-   public :: scene_names, scene_values, scene_lower, scene_upper, scene_lower_closed
-   public :: scene_upper_open, physical_names, physical_values, scene_depends_on
+   public :: scene_names, scene_values, physical_names, physical_values, scene_depends_on
 
    real(dp), parameter :: pi = acos(-1.0_dp)
 
@@ -90,22 +89,10 @@ module tmafm_scene
       real(dp) :: drive_angular_frequency = 143751.31743848347_dp
    end type physical_t
 
-   !> The &scene keys, in the order of scene_values and of the range tables below.
+   !> The &scene keys, in the order of scene_values (their ranges: config/tmafm_keys.f90).
    character(len=*), parameter :: scene_names(13) = [character(len=9) :: 'alpha1', 'alpha2', &
       'alpha3', 'alpha4', 'alpha5', 'alpha6', 'beta', 'omega', 'theta', 'l_over_d', 'g0_over_d', &
       'delta_hat', 'xi0']
-   !> Lower bounds of the &scene groups (given, or derived from &physical by Eq. (12)).
-   real(dp), parameter :: scene_lower(13) = [0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, &
-      0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, -1.0e3_dp, 0.0_dp]
-   !> Upper bounds of the &scene groups.
-   real(dp), parameter :: scene_upper(13) = [1.0e3_dp, 1.0_dp, 1.0e4_dp, 1.0e4_dp, 1.0e6_dp, &
-      1.0e6_dp, 1.0e6_dp, 1.0e6_dp, pi/2, 1.0e9_dp, 1.0e9_dp, 1.0e3_dp, 1.0_dp]
-   !> .true. where the lower bound is allowed (>=), .false. where it is not (>).
-   logical, parameter :: scene_lower_closed(13) = [.true., .true., .true., .true., .true., .true., &
-      .false., .true., .true., .false., .true., .true., .false.]
-   !> .true. where the upper bound is excluded (<), .false. where it is allowed (<=).
-   logical, parameter :: scene_upper_open(13) = [.false., .false., .false., .false., .false., &
-      .false., .false., .false., .true., .false., .false., .false., .false.]
    !> The &physical keys, in the order of physical_values.
    character(len=*), parameter :: physical_names(20) = [character(len=23) :: 'length', 'width', &
       'thickness', 'density', 'youngs_modulus_tip', 'poisson_ratio_tip', 'youngs_modulus_sample', &

@@ -24,7 +24,7 @@ module tmafm_batch
    private
 
    public :: observe_options_t, observe_config, observe_batch, observe_states, config_scales, &
-      max_observed_periods
+      max_observed_periods, max_harmonics, max_p_max
 
    !> Most periods one observed run may integrate.
    integer, parameter :: max_observed_periods = 10000000

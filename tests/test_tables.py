@@ -1,0 +1,277 @@
+"""The core's key table (fortran/src/config/tmafm_keys.f90) is the one list of namelist keys:
+the reader refuses with its ranges, the resolved text writes its defaults, Python types its
+keys from it and takes the core's limits, and README's input table and the docs agree with it.
+"""
+
+import math
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import tmafm
+from tmafm._fortran import LIMITS, api, config_t
+from tmafm._namelist import GROUPS, KEY_TYPES, KEYS, to_text
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO / "docs"))
+import key_table  # noqa: E402  (docs/key_table.py, the script that writes README's table)
+
+KEY_IDS = [f"{k.group}.{k.name}" for k in KEYS]
+
+
+def _core(text: str) -> tuple[int, str]:
+    """(ierr, message) of the core reading namelist `text` (no Python checks on the way)."""
+    ierr, msg = api.config_from_text(text.encode(), b"t.nml", config_t(), False)
+    return int(ierr), msg.decode().strip()
+
+
+def _config_text(text: str) -> str:
+    handle = config_t()
+    ierr, msg = api.config_from_text(text.encode(), b"t.nml", handle, False)
+    assert ierr == 0, msg.decode()
+    codes = np.zeros(int(api.config_text_length(handle)), dtype=np.int32)
+    api.config_text_codes(handle, codes)
+    return codes.astype(np.uint8).tobytes().decode()
+
+
+# --- README's input table -------------------------------------------------------------------
+
+def _readme_rows() -> dict:
+    """{(group, key): {default, unit, range, meaning}} of README's input table."""
+    text = (REPO / "README.md").read_text()
+    start = text.index("## Input: the namelist groups")
+    section = text[start:text.index("\n## ", start + 1)]
+    rows, group = {}, None
+    for line in section.splitlines():
+        if not line.startswith("|") or line.startswith(("| group", "|---")):
+            continue
+        cells = [c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", line)[1:-1]]
+        assert len(cells) == 6, f"README input table: a row of {len(cells)} cells: {line}"
+        group_cell, key_cell, default, unit, allowed, meaning = cells
+        if group_cell:
+            group = re.fullmatch(r"`&(\w+)`", group_cell)[1]
+        names = re.findall(r"`(\w+)`", key_cell)
+        assert len(names) == 1, f"README input table: one key per row, not {key_cell!r}"
+        assert (group, names[0]) not in rows, f"README lists &{group} {names[0]} twice"
+        rows[(group, names[0])] = {"default": default.strip("`"), "unit": unit, "range": allowed,
+                                   "meaning": meaning}
+    return rows
+
+
+def test_readme_lists_every_key_of_the_core_with_its_default_unit_and_range():
+    rows = _readme_rows()
+    for key in KEYS:
+        row = rows.get((key.group, key.name))
+        assert row is not None, f"README's input table lacks &{key.group} {key.name}"
+        for field in ("default", "unit", "range", "meaning"):
+            assert row[field] == getattr(key, field), \
+                f"README &{key.group} {key.name} {field}: {row[field]!r}, the core: {getattr(key, field)!r}"
+
+
+def test_readme_names_no_key_the_core_does_not_know():
+    known = {(k.group, k.name) for k in KEYS}
+    unknown = sorted(set(_readme_rows()) - known)
+    assert not unknown, f"README's input table lists keys the core does not know: {unknown}"
+
+
+def test_readme_table_is_the_one_docs_key_table_writes():
+    text = (REPO / "README.md").read_text()
+    assert key_table.readme_block(text) == key_table.block(), \
+        "README's input table is stale: python docs/key_table.py --write"
+
+
+# --- the docs -------------------------------------------------------------------------------
+
+def test_reliability_md_types_the_keys_as_the_core_does():
+    text = (REPO / "docs" / "reliability.md").read_text()
+    for kind, label in (("integer", "integer"), ("string", "string"), ("list of reals", "list")):
+        row = re.search(rf"^\| {label} \(([^)]*)\)", text, re.M)
+        assert row, f"docs/reliability.md: no '{label} (...)' row in the type table"
+        listed = re.findall(r"`(\w+)`", row[1])
+        core = [k.name for k in KEYS if k.type == kind]
+        assert listed == core, f"docs/reliability.md lists {label} keys {listed}, the core {core}"
+    assert f"up to {LIMITS['max_modes']} numbers" in text
+
+
+def test_model_md_names_the_scene_keys_of_the_core():
+    text = (REPO / "docs" / "model.md").read_text()
+    section = text[text.index("## 2. The dimensionless groups"):text.index("## 3.")]
+    listed = [name for row in re.findall(r"^\|[^|]*\|[^|]*\| ([^|]*) \|", section, re.M)
+              for name in re.findall(r"`(\w+)`", row)]
+    assert listed == list(KEY_TYPES["scene"])
+
+
+# --- the reader and the writer use the table ------------------------------------------------
+
+#: The defaults the reader resolves: errata 'convention' is written as the list its convention
+#: gives ('paper': none).
+RESOLVED = {("model", "errata"): "'none'"}
+
+
+@pytest.mark.parametrize("key", KEYS, ids=KEY_IDS)
+def test_a_key_given_its_default_is_read_and_written_back_as_the_default(key):
+    # An empty default is a row that key_value_text does not write; a key the group's reader
+    # does not store is refused ("in the key table but not read").
+    assert key.default
+    text = _config_text(f"&{key.group} {key.name} = {key.default} /\n")
+    written = RESOLVED.get((key.group, key.name), key.default)
+    assert f"\n    {key.name} = {written}\n" in text
+
+
+def test_the_resolved_text_of_no_input_holds_every_default_in_the_table_order():
+    scene = _config_text("&model /\n").splitlines()
+    physical = _config_text("&physical /\n").splitlines()
+    for key in KEYS:
+        lines = physical if key.group == "physical" else scene
+        written = RESOLVED.get((key.group, key.name), key.default)
+        assert f"    {key.name} = {written}" in lines, key
+    keys = [line.split(" = ")[0].strip() for line in scene if " = " in line]
+    assert keys == [k.name for k in KEYS if k.group != "physical"]
+
+
+def _bounds(allowed: str):
+    """(lower, lower closed, upper, upper open, the bounds' text) of a real range text (a rule
+    across keys may follow the bounds), or None."""
+    m = re.fullmatch(r"(finite, (>=|>) (\S+) and (<=|<) ([^,\s]+))(, .*)?", allowed)
+    if not m or m[5].startswith("&"):
+        return None
+    return float(m[3]), m[2] == ">=", float(m[5]), m[4] == "<", m[1]
+
+
+REAL_KEYS = [k for k in KEYS if k.type == "real" and _bounds(k.range)]
+
+
+@pytest.mark.parametrize("key", REAL_KEYS, ids=[f"{k.group}.{k.name}" for k in REAL_KEYS])
+def test_a_real_out_of_its_range_is_refused_with_the_range_of_the_table(key):
+    lower, lower_closed, upper, upper_open, bounds = _bounds(key.range)
+    beyond = [upper + max(abs(upper), 1.0), lower - max(abs(lower), 1.0), math.nan, math.inf]
+    if not lower_closed:
+        beyond.append(lower)
+    if upper_open:
+        beyond.append(upper)
+    for value in beyond:
+        written = repr(value)
+        ierr, msg = _core(f"&{key.group} {key.name} = {written} /\n")
+        said = f"&{key.group} {key.name} = {written}: must be {bounds}"
+        if key.name == "mode_horizon" and upper < value < math.inf:
+            # Above its bound mode_horizon says why (tests/test_auto_modes_bound.py).
+            said = f"&model mode_horizon = {written}: must be > 0 and <= {bounds.split()[-1]}: with"
+        assert ierr == 2 and said in msg, msg
+    for value in [upper] * (not upper_open) + [lower] * lower_closed:
+        # The bound itself passes this key's range check (a check across keys may refuse it).
+        ierr, msg = _core(f"&{key.group} {key.name} = {value!r} /\n")
+        assert f"{key.name} = {value!r}: must be {bounds}" not in msg, msg
+
+
+INT_KEYS = [k for k in KEYS if k.type == "integer"]
+
+
+@pytest.mark.parametrize("key", INT_KEYS, ids=[f"{k.group}.{k.name}" for k in INT_KEYS])
+def test_an_integer_out_of_its_range_is_refused_with_the_range_of_the_table(key):
+    lower, upper = map(int, re.match(r"(-?\d+)\.\.(\d+)", key.range).groups())
+    also = [0] if "(or 0" in key.range else []
+    for value in (upper + 1, lower - 1 if lower - 1 not in also else lower - 2):
+        ierr, msg = _core(f"&{key.group} {key.name} = {value} /\n")
+        assert ierr == 2 and msg.endswith(f"= {value}: must be in {key.range} (line 1)"), msg
+    for value in (lower, *also):
+        ierr, msg = _core(f"&{key.group} {key.name} = {value} /\n")
+        assert f"= {value}: must be" not in msg, msg
+
+
+def test_an_unknown_key_is_refused_naming_the_keys_of_its_group_from_the_table():
+    for group in GROUPS:
+        ierr, msg = _core(f"&{group} no_such_key = 1 /\n")
+        names = ", ".join(KEY_TYPES[group])
+        assert ierr == 2 and f"unknown key (&{group} keys: {names})" in msg, msg
+    ierr, msg = _core("&nope /\n")
+    assert f"(known: {', '.join('&' + g for g in GROUPS)})" in msg, msg
+
+
+def test_a_word_key_takes_exactly_the_words_of_the_table():
+    for key in (k for k in KEYS if k.type == "string" and k.range.startswith("'")):
+        words = re.findall(r"'(\w+)'", key.range)
+        for word in words:
+            assert _core(f"&{key.group} {key.name} = '{word.upper()}' /\n")[0] == 0
+        ierr, msg = _core(f"&{key.group} {key.name} = '{words[0]}x' /\n")
+        assert ierr == 2 and msg.endswith(f": must be {key.range} (line 1)"), msg
+
+
+# --- Python agrees with the core ------------------------------------------------------------
+
+def _as_text(value) -> str:
+    """A Python value as a namelist would spell it."""
+    if isinstance(value, bool):
+        return ".true." if value else ".false."
+    if isinstance(value, str):
+        return "'" + value + "'"
+    if isinstance(value, list):
+        return ", ".join(map(_as_text, value))
+    return repr(value) if isinstance(value, float) else str(value)
+
+
+#: What the core says when it refuses a value for its type (not its range).
+CORE_TYPE_ERRORS = ("must be a number", "must be an integer", "must be a quoted string",
+                    "a string must be quoted", "takes one value")
+VALUES = [1, -1, 2.0, 0.5, math.nan, math.inf, -math.inf, "x", "dmt", [0.1, 0.2], True, 10**30]
+
+
+@pytest.mark.parametrize("key", KEYS, ids=KEY_IDS)
+def test_python_refuses_a_value_only_where_the_core_does(key):
+    for value in VALUES:
+        try:
+            to_text({key.group: {key.name: value}})
+            python_refuses = None
+        except tmafm.InputError as exc:
+            python_refuses = str(exc)
+        ierr, msg = _core(f"&{key.group} {key.name} = {_as_text(value)} /\n")
+        if python_refuses:
+            assert ierr != 0, f"Python refuses {value!r} ({python_refuses}); the core takes it"
+        else:
+            assert not any(e in msg for e in CORE_TYPE_ERRORS), \
+                f"Python passes {value!r} on, the core refuses its type: {msg}"
+
+
+def test_python_takes_the_types_and_scene_keys_from_the_core():
+    assert {k.type for k in KEYS} == {"integer", "real", "string", "list of reals"}
+    assert tmafm.SCENE_KEYS == tuple(k.name for k in KEYS if k.group == "scene")
+    # No copy of a group's key list is left in the package's sources.
+    for path in (REPO / "pywrap" / "tmafm").glob("*.py"):
+        source = path.read_text()
+        for group in GROUPS:
+            names = KEY_TYPES[group]
+            quoted = [n for n in names if f'"{n}"' in source or f"'{n}'" in source]
+            assert len(quoted) < max(3, len(names)), f"{path.name} spells out the &{group} keys {quoted}"
+
+
+class _CoreReached(Exception):
+    pass
+
+
+def _no_core(*args, **kwargs):
+    raise _CoreReached
+
+
+@pytest.mark.parametrize("option, limit", [("harmonics", "max_harmonics"), ("p_max", "max_p_max"),
+                                           ("max_periods", "max_observed_periods"),
+                                           ("steady_repeats", "max_observed_periods")])
+def test_observe_refuses_by_itself_with_the_core_limits(option, limit, monkeypatch):
+    # Python refused only above 10**7 (harmonics = 10**6 had f2py allocate max_periods x 10**6
+    # doubles per output before the core refused it): now it refuses above the core's limit
+    # without reaching the core, and passes the limit itself on.
+    from tmafm import _core
+    most = LIMITS[limit]
+    config = tmafm.Config("fig2_n1", solver={"tau_end": 1.0})
+    with monkeypatch.context() as patch:
+        patch.setattr(_core, "observe_texts", _no_core)
+        with pytest.raises(tmafm.InputError, match=rf"^observe {option} = {most + 1}: must be 1 to {most}$"):
+            tmafm.observe(config, **{option: most + 1})
+        with pytest.raises(_CoreReached):
+            tmafm.observe(config, **{option: most})
+    if option in ("harmonics", "p_max"):
+        # The core's own check, Python's bypassed, refuses the same value by the same bound.
+        monkeypatch.setitem(LIMITS, limit, most + 10)  # the dict observe checks against
+        with pytest.raises(tmafm.InputError, match=rf"observe {option} = {most + 1}: must be 1 to {most}$"):
+            tmafm.observe(config, max_periods=1, **{option: most + 1})

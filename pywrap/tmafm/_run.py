@@ -9,6 +9,7 @@ with f90nml only when ``.resolved`` is asked for.
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Union
@@ -213,6 +214,16 @@ class Config:
         return int(_api.config_sample_count(self._f))
 
     @property
+    def mode_search(self) -> dict | None:
+        """How N was chosen when ``&model n_modes = 0`` (None for a fixed N), as the header of
+        the executable's output states it: ``n_modes`` (the N chosen), ``quantity`` (what was
+        compared), ``differences`` ({N: that quantity for N against N+1}, each N compared, the
+        core's values), ``mode_tol`` and ``mode_horizon``."""
+        count = int(self._f.n_mode_differences)
+        differences = {j + 1: float(self._f.mode_differences[j]) for j in range(count)}
+        return _mode_search(self.text, differences)
+
+    @property
     def scene(self) -> dict:
         """The dimensionless groups (also when the input gave &physical)."""
         if self._scene is None:
@@ -355,6 +366,14 @@ class Result:
     def scene(self, value) -> None:
         self._scene = value
 
+    @property
+    def mode_search(self) -> dict | None:
+        """How N was chosen when ``&model n_modes = 0`` (None for a fixed N): Config.mode_search;
+        for a Result read from a file, the differences as its header prints them (6 digits)."""
+        if self.config is not None:
+            return self.config.mode_search
+        return _mode_search(self.resolved_text)
+
     def save(self, path):
         """Save as .npz in the executable's binary layout (atomically); tmafm.load reads it."""
         from ._resultio import save
@@ -363,6 +382,26 @@ class Result:
     def __repr__(self) -> str:
         return (f"tmafm.Result({self.tau.size} samples, N = {self.n_modes}, "
                 f"tau in [0, {self.tau[-1] if self.tau.size else 0:g}])")
+
+
+#: The header line of an automatic N (tmafm_namelist config_text): the N chosen, the search's
+#: note if a nonzero initial value raised it, the quantity, each N's value, mode_tol.
+_SEARCH_LINE = re.compile(r"^\s*! chosen n_modes = (\d+)(?: \([^)]*\))?: (.*?): (N=1: .*) "
+                          r"\(mode_tol = ([^)\s]+)\)\s*$", re.MULTILINE)
+_HORIZON_LINE = re.compile(r"^\s*mode_horizon = (\S+)\s*$", re.MULTILINE)
+
+
+def _mode_search(text: str, differences: dict | None = None) -> dict | None:
+    """The automatic-N search a resolved text records (None if it records none); `differences`,
+    if given, replace the printed ones (the core's values)."""
+    line = _SEARCH_LINE.search(text)
+    if line is None:
+        return None
+    if differences is None:
+        differences = {int(n): float(v) for n, v in re.findall(r"N=(\d+): ([^,\s]+)", line[3])}
+    horizon = _HORIZON_LINE.search(text)
+    return {"n_modes": int(line[1]), "quantity": line[2], "differences": differences,
+            "mode_tol": float(line[4]), "mode_horizon": float(horizon[1]) if horizon else None}
 
 
 def _scene_of_text(text: str) -> dict:

@@ -81,7 +81,7 @@ module tmafm_keys
       !> SI units in &physical, '-' for a name.
       character(len=8) :: unit = ''
       !> One line: what it means.
-      character(len=120) :: meaning = ''
+      character(len=200) :: meaning = ''
    end type key_t
 
    type(key_t), parameter :: model_rows(*) = [ &
@@ -90,7 +90,7 @@ module tmafm_keys
             meaning='Galerkin modes N; 0 lets tmafm choose N by mode_tol'), &
       key_t('model', 'mode_tol', key_real, 0, 1, .false., unit='1', &
             meaning="with n_modes = 0: the smallest N whose V_T agrees with N+1's within this fraction of the "// &
-            "V_T range"), &
+            "V_T range, on the search's own grid (never sample_dtau)"), &
       key_t('model', 'mode_horizon', key_real, 0, max_mode_horizon, .false., unit='tau', &
             meaning='with n_modes = 0: length of the runs that compare N and N+1'), &
       key_t('model', 'contact_law', key_string, first_word=law_words, last_word=law_words + 1, unit='-', &

@@ -19,7 +19,8 @@ module tmafm_namelist
    use tmafm_modes, only: max_modes
    use tmafm_scene, only: scene_t, physical_t, scene_from_physical, scene_names, scene_values, &
       physical_names, physical_values, scene_depends_on
-   use tmafm_settings, only: run_settings_t, check_run_size
+   use tmafm_settings, only: run_settings_t, check_run_size, comparison_intervals, comparison_points, &
+      mode_digits, comparison_rtol
    use tmafm_errata, only: errata_t, errata_for_convention, parse_errata, errata_label
    use tmafm_config, only: config_t
    use tmafm_keys, only: keys, key_groups, key_row, group_index, key_in_range, key_range_text, &
@@ -545,11 +546,13 @@ contains
          return
       end if
       if (config%auto_modes) then
-         ! The comparison runs of the automatic N, at the most modes the search may reach.
+         ! The comparison runs of the automatic N, at the most modes the search may reach, on
+         ! their finest grid (tmafm_settings comparison_intervals; not the output's samples).
          trial = config%solver
          trial%method = 'dopri5'
          trial%tau_end = config%mode_horizon
-         trial%sample_dtau = min(config%solver%sample_dtau, config%mode_horizon/100)
+         trial%sample_dtau = config%mode_horizon/comparison_intervals(config%mode_horizon, max_modes, &
+                                                                      config%scene%omega)
          call check_run_size(trial, max_modes, ierr, errmsg)
          if (ierr /= ok) then
             errmsg = label//': the automatic-N comparison runs (&model mode_horizon = '// &
@@ -1004,8 +1007,12 @@ contains
          if (config%n_mode_differences == 0) return
          note = '    ! chosen n_modes = '//int_text(config%n_modes)
          call search_note(note)
-         note = note//': max|V_T(N) - V_T(N+1)|/range(V_T): '
+         ! The comparison made (choose_mode_count): the quantity, each N's value, mode_tol.
+         note = note//': max over tau in [0, mode_horizon] of |V_T(N) - V_T(N+1)|/range(V_T(N+1)), '// &
+                'located on a grid of >= '//int_text(comparison_points)//' points per period of '// &
+                'mode N+1 (dopri5, rtol '//real_text(comparison_rtol)//'): '
          call differences_text(note)
+         note = note//' (mode_tol = '//real_text(config%mode_tol)//')'
          call line(note)
       end subroutine choice_note
       !> Append to `note` why the chosen N exceeds the N where the search stopped, if it does.
@@ -1024,7 +1031,7 @@ contains
          integer :: j
          do j = 1, config%n_mode_differences
             if (j > 1) list = list//', '
-            list = list//'N='//int_text(j)//': '//short_real_text(config%mode_differences(j), 3)
+            list = list//'N='//int_text(j)//': '//short_real_text(config%mode_differences(j), mode_digits)
          end do
       end subroutine differences_text
    end subroutine config_text

@@ -1,10 +1,12 @@
 !> How a run is integrated and sampled: the &solver and &output settings, the method names,
-!> and the counts (samples, worst-case fixed steps) that validation bounds before a run.
+!> the counts (samples, worst-case fixed steps) that validation bounds before a run, and the
+!> grid the automatic-N comparison runs are sampled on.
 module tmafm_settings
    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
    use tmafm_kinds, only: dp, i8
    use tmafm_errors, only: ok, err_input
    use tmafm_text, only: real_text, int_text, short_real_text
+   use tmafm_modes, only: beam_roots
    implicit none
    private
 
@@ -14,6 +16,7 @@ module tmafm_settings
    public :: known_methods
    public :: method_names, default_max_steps, max_max_steps
    public :: max_samples, max_trajectory_bytes, trajectory_bytes, check_run_size
+   public :: comparison_intervals, comparison_points, mode_digits, comparison_rtol, comparison_atol
 
    !> The paper's scheme: RK4, dtau out of contact, dtau/contact_refine in contact, no location.
    character(len=*), parameter :: method_rk4_paper = 'rk4_paper'
@@ -49,6 +52,18 @@ module tmafm_settings
    integer, parameter :: max_samples = 50000000
    !> The most memory the sampled trajectory of one run may take: 2 GiB.
    real(dp), parameter :: max_trajectory_bytes = 2.0_dp**31
+
+   !> Tolerances (dopri5) of the automatic-N search's runs, which compare N and N+1.
+   real(dp), parameter :: comparison_rtol = 1.0e-10_dp, comparison_atol = 1.0e-16_dp
+   !> The grid on which the automatic-N search compares N and N+1 (comparison_intervals): at
+   !> least this many points per period of the fastest free mode of the model with more modes.
+   integer, parameter :: comparison_points = 16
+   !> Fewest and most intervals of that grid over mode_horizon (powers of two): at most
+   !> 2^20 + 1 samples, 537 MB for 30 modes, under the limits above for any mode_horizon.
+   integer, parameter :: min_comparison_intervals = 2**7, max_comparison_intervals = 2**20
+   !> Significant digits of the search's differences as reported (stderr and the header): the
+   !> located values are exact to about 1e-6 (docs/model-notes.md, item 14).
+   integer, parameter :: mode_digits = 6
 
    !> How to integrate and sample a run.
    type :: run_settings_t
@@ -183,5 +198,23 @@ contains
          end if
       end if
    end subroutine check_run_size
+
+   !> Intervals of the comparison grid over `horizon` for a model of n_modes modes: the
+   !> smallest power of two giving at least comparison_points points per period of its
+   !> fastest free mode (beta_N^2, an upper bound: the tip mass only lowers it) or of the
+   !> drive (omega), if faster; at least min_comparison_intervals, at most
+   !> max_comparison_intervals.  Rises with n_modes, so the grids of successive N nest.
+   pure integer function comparison_intervals(horizon, n_modes, omega) result(intervals)
+      real(dp), intent(in) :: horizon
+      integer, intent(in) :: n_modes
+      real(dp), intent(in) :: omega
+      real(dp) :: beta(n_modes), needed
+      beta = beam_roots(n_modes)
+      needed = horizon*comparison_points*max(beta(n_modes)**2, omega)/(2*acos(-1.0_dp))
+      intervals = min_comparison_intervals
+      do while (intervals < needed .and. intervals < max_comparison_intervals)
+         intervals = 2*intervals
+      end do
+   end function comparison_intervals
 
 end module tmafm_settings

@@ -9,16 +9,14 @@ module tmafm_simulation
    use tmafm_driver, only: run_trajectory
    use tmafm_trajectory, only: trajectory_t, stop_poll
    use tmafm_config, only: config_t
-   use tmafm_settings, only: method_dopri5, check_run_size
+   use tmafm_settings, only: method_dopri5, check_run_size, comparison_intervals, mode_digits, &
+      comparison_rtol, comparison_atol
    use tmafm_namelist, only: config_errata, read_config
    use tmafm_text, only: int_text, real_text, short_real_text
    implicit none
    private
 
    public :: build_model, prepare_model, simulate, choose_mode_count, load_model
-
-   !> Tolerances of the runs that compare N and N+1.
-   real(dp), parameter :: comparison_rtol = 1.0e-10_dp, comparison_atol = 1.0e-16_dp
 
 contains
 
@@ -59,10 +57,13 @@ contains
    end subroutine load_model
 
    !> For &model n_modes = 0: the smallest N, counting from N = 1, whose V_T over mode_horizon
-   !> agrees with N+1's within mode_tol (relative to the range of V_T); never fewer than the
-   !> last mode with a nonzero &initial value, so no given initial value is dropped (the
-   !> comparison runs at smaller N start from the first N values: the initial state projected
-   !> on those modes).  Sets config%n_modes and the evidence (one difference per N compared).
+   !> agrees with N+1's within mode_tol: max over tau in [0, mode_horizon] of
+   !> |V_T(N) - V_T(N+1)|, over the range max - min of V_T(N+1), both located between the points
+   !> of a comparison grid of the core's own (comparison_intervals, never the output's
+   !> sample_dtau; docs/model-notes.md, item 14).  Never fewer than the last mode with a
+   !> nonzero &initial value, so no given initial value is dropped (the comparison runs at
+   !> smaller N start from the first N values: the initial state projected on those modes).
+   !> Sets config%n_modes and the evidence (one difference per N compared).
    !> The comparison runs use dopri5 at tight tolerances, whatever the run's own method, so
    !> that integration error (or a fixed step past RK4's stability limit) cannot decide N.
    recursive subroutine choose_mode_count(config, ierr, errmsg, progress_unit, poll)
@@ -74,9 +75,10 @@ contains
       !> If present, every comparison run polls it (run_trajectory) and stops when asked.
       procedure(stop_poll), optional :: poll
       type(config_t) :: trial
-      type(trajectory_t) :: lower, upper
+      type(trajectory_t) :: upper
+      real(dp), allocatable :: lower_vt(:), lower_rate(:)
       real(dp) :: difference
-      integer :: n
+      integer :: n, intervals
 
       ierr = ok
       errmsg = ''
@@ -84,36 +86,131 @@ contains
       trial = config
       trial%auto_modes = .false.
       trial%solver%tau_end = config%mode_horizon
-      trial%solver%sample_dtau = min(config%solver%sample_dtau, config%mode_horizon/100)
       trial%solver%method = method_dopri5
       trial%solver%rtol = comparison_rtol
       trial%solver%atol = comparison_atol
       config%n_mode_differences = 0
+      ! Each run is sampled on the grid of the next comparison it takes part in: run N on
+      ! N+1's grid (where it is the lower run); the grids nest (powers of two), so the upper
+      ! run's finer grid holds every point of the lower's.
       n = 1
-      trial%n_modes = n
-      call simulate(trial, lower, ierr, errmsg, poll=poll)
+      call sampled_run(n, comparison_intervals(config%mode_horizon, n + 1, config%scene%omega))
       if (ierr /= ok) return
       do while (n < max_modes)
-         trial%n_modes = n + 1
-         call simulate(trial, upper, ierr, errmsg, poll=poll)
+         call move_alloc(upper%vt, lower_vt)
+         call move_alloc(upper%vtdot, lower_rate)
+         intervals = size(lower_vt) - 1
+         call sampled_run(n + 1, comparison_intervals(config%mode_horizon, min(n + 2, max_modes), &
+                                                      config%scene%omega))
          if (ierr /= ok) return
-         difference = maxval(abs(upper%vt - lower%vt))/max(tiny(1.0_dp), &
-                                                           maxval(upper%vt) - minval(upper%vt))
+         difference = located_difference(lower_vt, lower_rate, upper%vt, upper%vtdot, &
+                                         config%mode_horizon/intervals)
          config%n_mode_differences = config%n_mode_differences + 1
          config%mode_differences(config%n_mode_differences) = difference
          if (present(progress_unit)) then
             write (progress_unit, '(a)') 'tmafm: choosing N: N = '//int_text(n)//' against '// &
                int_text(n + 1)//' over mode_horizon = '//real_text(config%mode_horizon)// &
-               ': max|dV_T|/range = '//short_real_text(difference, 3)//' (mode_tol = '// &
+               ': max|dV_T|/range = '//short_real_text(difference, mode_digits)//' (mode_tol = '// &
                real_text(config%mode_tol)//')'
             flush (progress_unit)
          end if
          if (difference <= config%mode_tol) exit
-         call move_alloc(upper%vt, lower%vt)
          n = n + 1
       end do
       config%n_modes = max(n, last_nonzero(config%a0), last_nonzero(config%adot0))
+
+   contains
+
+      !> Run the trial at `modes` modes sampled on `count` intervals of mode_horizon (upper).
+      subroutine sampled_run(modes, count)
+         integer, intent(in) :: modes
+         integer, intent(in) :: count
+         trial%n_modes = modes
+         ! A power of two divides mode_horizon exactly: the grids of two runs share points.
+         trial%solver%sample_dtau = config%mode_horizon/count
+         call simulate(trial, upper, ierr, errmsg, poll=poll)
+      end subroutine sampled_run
    end subroutine choose_mode_count
+
+   !> max|V_T(upper) - V_T(lower)| over the range of V_T(upper), from samples of V_T and its
+   !> rate: lower on a grid of spacing h, upper on the same grid or one 2^k times finer.  On
+   !> each interval of the lower grid the difference (and V_T(upper)) is the cubic Hermite
+   !> interpolant of its ends' values and rates, whose extrema are located exactly (the roots
+   !> of its derivative): the value is the signal's, to the interpolant's error, not the grid's.
+   pure function located_difference(lower_vt, lower_rate, upper_vt, upper_rate, h) result(ratio)
+      real(dp), intent(in) :: lower_vt(:)
+      real(dp), intent(in) :: lower_rate(:)
+      real(dp), intent(in) :: upper_vt(:)
+      real(dp), intent(in) :: upper_rate(:)
+      real(dp), intent(in) :: h
+      real(dp) :: ratio
+      real(dp) :: largest, top, bottom, low, high
+      integer :: k, i, j, stride
+      stride = (size(upper_vt) - 1)/(size(lower_vt) - 1)
+      largest = 0
+      top = -huge(1.0_dp)
+      bottom = huge(1.0_dp)
+      do k = 1, size(lower_vt) - 1
+         i = (k - 1)*stride + 1
+         j = k*stride + 1
+         call cubic_extrema(upper_vt(i) - lower_vt(k), upper_vt(j) - lower_vt(k + 1), &
+                            upper_rate(i) - lower_rate(k), upper_rate(j) - lower_rate(k + 1), h, low, high)
+         largest = max(largest, high, -low)
+         call cubic_extrema(upper_vt(i), upper_vt(j), upper_rate(i), upper_rate(j), h, low, high)
+         top = max(top, high)
+         bottom = min(bottom, low)
+      end do
+      ratio = largest/max(tiny(1.0_dp), top - bottom)
+   end function located_difference
+
+   !> Least and greatest value over [0, h] of the cubic with values p0, p1 and derivatives
+   !> d0, d1 at its ends: at the ends or where its derivative (a quadratic) vanishes inside.
+   pure subroutine cubic_extrema(p0, p1, d0, d1, h, low, high)
+      real(dp), intent(in) :: p0
+      real(dp), intent(in) :: p1
+      real(dp), intent(in) :: d0
+      real(dp), intent(in) :: d1
+      real(dp), intent(in) :: h
+      real(dp), intent(out) :: low
+      real(dp), intent(out) :: high
+      real(dp) :: m0, m1, c2, c3, a, b, c, disc, q, roots(2), value
+      integer :: k, n_roots
+      ! p(s) = p0 + m0 s + c2 s^2 + c3 s^3 on s in [0, 1], s = (tau - tau_0)/h.
+      m0 = h*d0
+      m1 = h*d1
+      c2 = 3*(p1 - p0) - 2*m0 - m1
+      c3 = 2*(p0 - p1) + m0 + m1
+      low = min(p0, p1)
+      high = max(p0, p1)
+      ! p'(s) = a s^2 + b s + c; its roots by the cancellation-free form.
+      a = 3*c3
+      b = 2*c2
+      c = m0
+      n_roots = 0
+      if (a == 0) then
+         if (b /= 0) then
+            n_roots = 1
+            roots(1) = -c/b
+         end if
+      else
+         disc = b*b - 4*a*c
+         if (disc >= 0) then
+            q = -(b + sign(sqrt(disc), b))/2
+            n_roots = 1
+            roots(1) = q/a
+            if (q /= 0) then
+               n_roots = 2
+               roots(2) = c/q
+            end if
+         end if
+      end if
+      do k = 1, n_roots
+         if (.not. (roots(k) > 0 .and. roots(k) < 1)) cycle
+         value = p0 + roots(k)*(m0 + roots(k)*(c2 + roots(k)*c3))
+         low = min(low, value)
+         high = max(high, value)
+      end do
+   end subroutine cubic_extrema
 
    !> Index of the last nonzero entry (0 if none).
    pure integer function last_nonzero(values)

@@ -369,8 +369,9 @@ class Result:
     @property
     def mode_search(self) -> dict | None:
         """How N was chosen when ``&model n_modes = 0`` (None for a fixed N): Config.mode_search;
-        for a Result read from a file, the differences as its header prints them (6 digits)."""
-        if self.config is not None:
+        for a Result read from a file, the differences as its header prints them (6 digits): its
+        config then has N fixed to the recorded choice (tmafm.load runs no search) and no search."""
+        if self.config is not None and self.config.mode_search is not None:
             return self.config.mode_search
         return _mode_search(self.resolved_text)
 

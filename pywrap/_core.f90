@@ -512,12 +512,13 @@ end subroutine observe_states_text
 !> The classifier of tmafm_steady_state on a sequence of points (n_points x n_dim), the one
 !> steady-state rule (tmafm.observe.steady_test, tmafm.analysis, the sweeps' attractor labels):
 !> the period (0: none), the reason when none (unsteady_*), the closest repeat (relative to the
-!> orbit's size, or to `scale` when scale > 0) and its lag.  floor(j): the absolute jitter
-!> level of point j (all 0: none).
+!> orbit's size, or to `scale` when scale > 0) and its lag, and every lag's largest step
+!> (tmafm_steady_state repeat_steps).  floor(j): the absolute jitter level of point j (all 0:
+!> none).
 subroutine steady_test_of(points, n_points, n_dim, p_max, tol, repeats, floor, scale, period, reason, &
-                          closest, closest_lag)
+                          closest, closest_lag, steps)
    use tmafm_kinds, only: dp
-   use tmafm_steady_state, only: steady_test
+   use tmafm_steady_state, only: steady_test, repeat_steps
    implicit none
    integer, intent(in) :: n_points
    integer, intent(in) :: n_dim
@@ -531,11 +532,14 @@ subroutine steady_test_of(points, n_points, n_dim, p_max, tol, repeats, floor, s
    integer, intent(out) :: reason
    real(dp), intent(out) :: closest
    integer, intent(out) :: closest_lag
+   real(dp), intent(out) :: steps(p_max)
    if (scale > 0) then
       call steady_test(transpose(points), p_max, tol, repeats, period, reason, closest, closest_lag, floor, &
                        scale)
+      steps = repeat_steps(transpose(points), p_max, repeats, scale)
    else
       call steady_test(transpose(points), p_max, tol, repeats, period, reason, closest, closest_lag, floor)
+      steps = repeat_steps(transpose(points), p_max, repeats)
    end if
 end subroutine steady_test_of
 

@@ -472,18 +472,20 @@ def steady_test(points, p_max: int = 8, tol: float = 1e-6, repeats: int = 3, flo
     max(tol * size, floor) (size: the orbit's, or ``scale``; ``floor``: an absolute jitter
     level per point) and whose p points are distinct.  {'period' (0: none), 'reason'
     ('steady', 'short', 'no_repeat', 'not_distinct', 'settling'), 'closest' (the closest
-    repeat relative to the size), 'closest_lag'}."""
+    repeat relative to the size), 'closest_lag', 'steps' ({lag: largest step relative to the
+    size} over the last ``repeats`` points, the evidence)}."""
     from . import _core
     points = np.asarray(points, dtype=float)
     if points.ndim == 1:
         points = points[:, None]
     floor = np.zeros(len(points)) if floor is None else np.broadcast_to(
         np.asarray(floor, dtype=float), (len(points),)).copy()
-    period, reason, closest, lag = _core.steady_test_of(
+    period, reason, closest, lag, steps = _core.steady_test_of(
         np.asfortranarray(points), int(p_max), float(tol), int(repeats), floor,
         -1.0 if scale is None else float(scale))
     return {"period": int(period), "reason": _REASONS.get(int(reason), "steady"),
-            "closest": float(closest), "closest_lag": int(lag)}
+            "closest": float(closest), "closest_lag": int(lag),
+            "steps": {p + 1: float(x) for p, x in enumerate(steps) if x >= 0}}
 
 
 def steady_period(points, p_max: int = 8, tol: float = 1e-6, repeats: int = 3) -> int:

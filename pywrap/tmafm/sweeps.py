@@ -515,7 +515,8 @@ def _failure_attrs(summaries: list[dict]) -> dict:
 
 
 def _base_config(base) -> Config:
-    return base if isinstance(base, Config) else Config(base)
+    # An input that names no &solver method runs the observed runs' default (flight_exact).
+    return base if isinstance(base, Config) else _observe_api().observed_config(base)
 
 
 def _validate(base: dict, points: list[dict]) -> list[Config]:
@@ -789,34 +790,39 @@ def same_orbit(x: np.ndarray, y: np.ndarray, tol: float) -> bool:
     return any(np.max(np.abs(np.roll(x, k, axis=0) - y)) <= tol for k in range(x.shape[0]))
 
 
-def minimal_orbit(orbit: np.ndarray, tol: float) -> np.ndarray:
-    """The orbit cut to its smallest period q (q divides p) whose points repeat within `tol`:
-    a steady-state test can call a period-1 point period-2 while the transient still
-    alternates around it (a negative Floquet multiplier)."""
+def minimal_period(orbit: np.ndarray, tol: float) -> int:
+    """The smallest period q (q divides p) of a periodic Poincaré orbit (p x 2N, points in
+    order) by the core's steady-state rule (tmafm.observe.steady_test): its points, taken
+    cyclically, repeat q periods on within `tol` (absolute), and its q points are distinct.
+    A steady-state test can call a period-1 point period-2 while the transient still
+    alternates around it (a negative Floquet multiplier); p when no q fits."""
+    from .observe import steady_test
+    orbit = np.asarray(orbit, dtype=float)
     p = orbit.shape[0]
-    for q in range(1, p):
-        if p % q == 0 and np.max(np.abs(orbit - np.roll(orbit, q, axis=0))) <= tol:
-            return orbit[:q]
-    return orbit
+    if p == 1:
+        return 1
+    size = float(np.max(np.abs(orbit))) or 1.0
+    q = steady_test(np.concatenate([orbit, orbit]), p, min(tol / size, 0.5), p, scale=size)["period"]
+    return q if q and p % q == 0 else p
+
+
+def minimal_orbit(orbit: np.ndarray, tol: float) -> np.ndarray:
+    """The orbit cut to its minimal period (``minimal_period``)."""
+    return np.asarray(orbit)[:minimal_period(orbit, tol)]
 
 
 def label_attractors(orbits: Sequence[np.ndarray], periods: Sequence[int],
                      tol: float) -> tuple[np.ndarray, list[np.ndarray]]:
-    """(labels, representative orbits): points whose orbits (cut to their minimal period) agree
-    within `tol` up to a cyclic shift share a label 0, 1, ... (in the order of first
-    appearance); no period found gives -1."""
+    """(labels, representative orbits): points whose orbits (cut to their minimal period, by
+    the core's rule) agree within `tol` up to a cyclic shift share a label 0, 1, ... (in the
+    order of first appearance); no period found gives -1."""
     labels = np.full(len(orbits), -1, dtype=np.int32)
     periods = np.asarray(periods, dtype=int)
     cut: dict[int, list] = {}          # minimal period -> [(points, orbits), ...]
     for p in np.unique(periods[periods > 0]):
         index = np.flatnonzero(periods == p)
         stack = np.stack([np.asarray(orbits[i])[-p:] for i in index])
-        # minimal_orbit for every point at once: the smallest q | p whose shift repeats within tol.
-        minimal = np.full(len(index), p)
-        for q in range(p - 1, 0, -1):
-            if p % q == 0:
-                repeats = np.max(np.abs(stack - np.roll(stack, q, axis=1)), axis=(1, 2)) <= tol
-                minimal[repeats] = q
+        minimal = np.array([minimal_period(orbit, tol) for orbit in stack], dtype=int)
         for q in np.unique(minimal):
             take = minimal == q
             cut.setdefault(int(q), []).append((index[take], stack[take, :q]))

@@ -11,7 +11,7 @@ module tmafm_steady_state
 
    public :: steady_period, steady_test, steady_harmonic, jitter_t, jitter_init, jitter_level
    public :: steady_found, unsteady_short, unsteady_no_repeat, unsteady_not_distinct, unsteady_settling
-   public :: jitter_factor, adaptive_factor
+   public :: jitter_factor, adaptive_factor, repeat_steps
 
    !> Why a sequence is not steady (steady_test's reason): steady; fewer points than any
    !> period needs; no period repeats within the tolerance; a period repeats, but its points are
@@ -206,6 +206,33 @@ contains
          reason = unsteady_not_distinct
       end do
    end subroutine steady_test
+
+   !> The evidence of steady_test for every lag p = 1..p_max: max_j |P_j - P_(j-p)| over the
+   !> last `repeats` points, relative to the orbit's size (or to `scale` when given); -1 for a
+   !> lag the points are too few for.
+   pure function repeat_steps(points, p_max, repeats, scale) result(steps)
+      real(dp), intent(in) :: points(:, :)
+      integer, intent(in) :: p_max
+      integer, intent(in) :: repeats
+      real(dp), intent(in), optional :: scale
+      real(dp) :: steps(p_max)
+      real(dp) :: size_orbit
+      integer :: m, p, k, first
+      steps = -1
+      m = size(points, 2)
+      k = max(repeats, 1)
+      do p = 1, p_max
+         if (m < p + k) exit
+         first = m - k + 1
+         if (present(scale)) then
+            size_orbit = scale
+         else
+            size_orbit = maxval(abs(points(:, first - p:m)))
+         end if
+         if (.not. (size_orbit > 0)) size_orbit = tiny(1.0_dp)
+         steps(p) = largest_step(points, first, m, p)/size_orbit
+      end do
+   end function repeat_steps
 
    !> The steady first harmonic of a p-period orbit: the harmonic of V_T over the whole orbit
    !> (p T), i.e. the mean of the per-period Fourier coefficients S_k = A_k cos(phi_k),

@@ -378,7 +378,9 @@ end subroutine observe_texts
 !> run with it (attractor(k) = j, 0: none) and stop it.  Per run k: the steady
 !> values (steady(k, column): the mean over the last max(period, 1) periods, NaN for a group
 !> not computed; the same for the harmonics), the last p_max Poincare points (orbit(k, p_max, :)
-!> is the final state; NaN before the first), periods run, the steady period, the attractor.
+!> is the final state; NaN before the first), periods run, the steady period, the attractor,
+!> why no period was found (reason, tmafm_steady_state unsteady_*) and the jitter level of the
+!> last point (absolute; 0 for a located method).
 !> ierr: err_input for a bad input, options or state (nothing runs), with errmsg; run k's own
 !> failure is run_ierr(k), and errmsg is then the first such message.  `poll` as observe_texts'.
 subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_periods, harmonics, &
@@ -386,7 +388,7 @@ subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_per
                                n_attractor_points, attractor_first, n_first, confirm, capture, threads, &
                                poll, n_columns, steady, steady_harmonic_amplitude, steady_harmonic_phase, &
                                orbit, n_periods, period, attractor, factors, has_scales, run_ierr, &
-                               reason, ierr, errmsg)
+                               reason, jitter, ierr, errmsg)
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok, err_runtime
    use tmafm_config, only: config_t
@@ -431,6 +433,7 @@ subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_per
    integer, intent(out) :: has_scales
    integer, intent(out) :: run_ierr(n_points)
    integer, intent(out) :: reason(n_points)
+   real(dp), intent(out) :: jitter(n_points)
    integer, intent(out) :: ierr
    character(len=512), intent(out) :: errmsg
    type(config_t) :: config
@@ -442,7 +445,7 @@ subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_per
 
    steady = 0; steady_harmonic_amplitude = 0; steady_harmonic_phase = 0
    orbit = ieee_value(1.0_dp, ieee_quiet_nan)
-   n_periods = 0; period = 0; attractor = 0; factors = 0; has_scales = 0; run_ierr = 0; reason = 0
+   n_periods = 0; period = 0; attractor = 0; factors = 0; has_scales = 0; run_ierr = 0; reason = 0; jitter = 0
    ierr = 0; errmsg = ''
    if (n_columns /= n_observables) then
       ierr = err_runtime
@@ -500,6 +503,7 @@ subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_per
             end if
          end if
          reason(k) = o%reason
+         jitter(k) = o%jitter_floor(m)
          kept = min(p_max, m + 1)
          orbit(k, p_max - kept + 1:p_max, :) = transpose(o%poincare(:, m - kept + 1:m))
       end associate

@@ -178,3 +178,17 @@ def test_minimal_period_is_the_cores():
     assert sweeps.minimal_period(same, 1e-6) == 1
     distinct = np.stack([point, point + 0.1])
     assert sweeps.minimal_period(distinct, 1e-6) == 2
+
+
+def test_rk4_paper_basin_labels_one_attractor_at_its_jitter():
+    """A basin map of the Fig. 3 scene with rk4_paper: every run reaches the one period-1
+    attractor, labelled once; the labels' tolerance is the method's jitter level (rk4_paper's
+    orbits differ by up to 1.3e-3 of their size between runs, above the default tol 1e-3)."""
+    config = tmafm.Config("fig3", solver={"method": "rk4_paper"})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", tmafm.UnsteadyWarning)
+        ds = sweeps.basin(config, a1=np.linspace(-5e-4, 5e-4, 6), adot1=np.linspace(-1e-3, 1e-3, 6),
+                          workers=1, max_periods=100)
+    assert np.all(ds["period"].values == 1) and np.all(ds["attractor"].values == 0)
+    scale = float(np.abs(ds["attractor_orbit_0"].values).max())
+    assert ds["attractor"].attrs["tolerance"] > 1e-2 * scale

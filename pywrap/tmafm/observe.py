@@ -380,7 +380,8 @@ class StatesObservation:
     ``attractor`` (the known attractor matched, 0-based; -1: none), ``failed`` (bool) and the
     first failure's message; ``reason`` (n,): why no period was found (0: found; codes of
     tmafm_steady_state unsteady_*: 1 too few periods, 2 no repeat within tol, 3 points not
-    distinct, 4 still approaching within the method's jitter)."""
+    distinct, 4 still approaching within the method's jitter); ``jitter`` (n,): the method's
+    jitter level at the last point (absolute; 0 for a located method)."""
 
     steady: dict
     orbit: np.ndarray
@@ -391,6 +392,7 @@ class StatesObservation:
     first_failure: str = ""
     physical: dict | None = None
     reason: np.ndarray | None = None
+    jitter: np.ndarray | None = None
 
 
 def observe_states(config, states, *, threads: int | None = None, max_periods: int = 100,
@@ -439,7 +441,7 @@ def observe_states(config, states, *, threads: int | None = None, max_periods: i
     threads = _threads(threads, "observe_states", len(states))
     try:
         (steady, harm_amp, harm_phase, orbit, n_periods, found, matched, factors, has_scales,
-         run_ierr, reason, ierr, errmsg) = _core.observe_states_text(
+         run_ierr, reason, jitter, ierr, errmsg) = _core.observe_states_text(
             _for_core(config.text), n, np.asfortranarray(states), opts["max_periods"],
             opts["harmonics"], opts["p_max"], opts["steady_tol"], opts["steady_repeats"],
             opts["stop_at_steady"], _group_bits(groups), points, first, int(confirm),
@@ -462,7 +464,7 @@ def observe_states(config, states, *, threads: int | None = None, max_periods: i
     return StatesObservation(steady=values, orbit=orbit, periods=n_periods, period=found,
                              attractor=matched.astype(np.int32) - 1, failed=failed,
                              first_failure=message.strip() if failed.any() else "",
-                             physical=physical, reason=reason)
+                             physical=physical, reason=reason, jitter=jitter)
 
 
 def steady_test(points, p_max: int = 8, tol: float = 1e-6, repeats: int = 3, floor=None,

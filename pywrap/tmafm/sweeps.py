@@ -880,7 +880,7 @@ def _basin_chunk(config, states, threads, keywords, attractors):
                                  **keywords)
     return {"steady": out.steady, "physical": out.physical, "orbit": out.orbit,
             "periods": out.periods, "period": out.period, "attractor": out.attractor,
-            "failed": out.failed, "first_failure": out.first_failure}
+            "failed": out.failed, "first_failure": out.first_failure, "jitter": out.jitter}
 
 
 def _basin_chunk_processes(args):
@@ -904,8 +904,10 @@ def _new_attractors(chunk: dict, known: list, tol: float, run_config, keywords: 
         if not np.all(np.isfinite(orbit)):
             continue
         size = float(np.max(np.abs(orbit))) or 1.0
-        if any(same_orbit(minimal_orbit(orbit, tol * size), minimal_orbit(o, tol * size),
-                          tol * size) for o in known + found):
+        # rk4_paper's orbits are known only to its jitter (docs/observables.md).
+        resolution = max(tol * size, float(chunk["jitter"][k]))
+        if any(same_orbit(minimal_orbit(orbit, resolution), minimal_orbit(o, resolution),
+                          resolution) for o in known + found):
             continue
         refine = dict(keywords, observables=(), stop_at_steady=False,
                       max_periods=max(REFINE_PERIODS, p), capture=None)
@@ -1028,7 +1030,7 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
     merged: dict = {}
     failures = []
     for p, out in sorted(results.values(), key=lambda item: item[0][0]):
-        for name in ("orbit", "periods", "period", "attractor", "failed"):
+        for name in ("orbit", "periods", "period", "attractor", "failed", "jitter"):
             merged.setdefault(name, np.empty((total, *out[name].shape[1:]),
                                              dtype=out[name].dtype))[p] = out[name]
         for group in ("steady", "physical"):
@@ -1044,8 +1046,12 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
     finite = [np.all(np.isfinite(o)) for o in orbits]
     scale = max((float(np.max(np.abs(o))) for o, ok in zip(orbits, finite) if ok), default=0.0) \
         or 1.0
+    # A fixed-step method's orbits are known only to its jitter level (rk4_paper): attractors
+    # closer than that are not told apart (docs/observables.md, "Steady state").
+    jitter = merged["jitter"][np.isfinite(merged["jitter"]) & (period > 0)]
+    resolution = max(tol * scale, float(jitter.max()) if jitter.size else 0.0)
     labels, reps = label_attractors(orbits, [int(q) if ok else 0 for q, ok in zip(period, finite)],
-                                    tol * scale)
+                                    resolution)
     units, physical_units = _units(base_config)
     columns = {name.split(":", 1)[1]: v for name, v in merged.items() if name.startswith("steady:")}
     physical = {name.split(":", 1)[1]: v for name, v in merged.items()
@@ -1053,7 +1059,7 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
     data = _steady_columns(columns, physical, period, period > 0, failed, merged["periods"],
                            shape, ("a1", "adot1"), units, physical_units)
     data["attractor"] = xr.Variable(("a1", "adot1"), labels.reshape(shape), attrs={
-        "long_name": "attractor label (-1: no period found)", "tolerance": tol * scale})
+        "long_name": "attractor label (-1: no period found)", "tolerance": resolution})
     data["attractor_period"] = xr.Variable(("a1", "adot1"), np.array(
         [len(reps[k]) if k >= 0 else 0 for k in labels], dtype=np.int32).reshape(shape),
         attrs={"long_name": "period of the attractor reached (0: none found)"})

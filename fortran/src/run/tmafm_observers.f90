@@ -250,8 +250,8 @@ contains
       self%poincare(:, 0) = y0
       if (allocated(self%jitter_floor)) deallocate (self%jitter_floor)
       allocate (self%jitter_floor(0:max_periods))
+      ! The initial state closes no period: no switch of it is misplaced.
       self%jitter_floor = 0
-      self%jitter_floor(0) = jitter_level(self%jitter, y0)
       call reset(self)
    end subroutine observer_init
 

@@ -8,6 +8,7 @@ Per input (its own rk4_paper settings):
   max_i |P_j(i) - P_(j-p)(i)| relative to the orbit's size max |P|, p the run's own steady
   period (the core's verdict after 200 periods; else the one tmafm.observe stops at; else
   the located run's);
+- measured_lags: the same at lags 1 and 2;
 - level: the core's jitter level of the last point, relative to the same size (the floor the
   steady test uses): 2 (dtau + dtau/contact_refine) times the bound of the acceleration's jump
   at a switch, with the tip speed bounded from the point's modal energy;
@@ -83,9 +84,12 @@ def measure(name: str) -> dict:
     lag = long.period or stop.period or located_period or 1
     measured = float((np.abs(points[-TAIL:] - points[-TAIL - lag:-lag]).max(axis=1)).max() / size)
     level = long.evidence["jitter"]
+    lags = [float((np.abs(points[-TAIL:] - points[-TAIL - q:-q]).max(axis=1)).max() / size)
+            for q in (1, 2)]
     row = {"method": settings["method"], "dtau": settings["dtau"],
            "contact_refine": settings["contact_refine"], "lag": lag,
-           "measured": measured, "level": level, "independent": independent / size,
+           "measured": measured, "measured_lags": lags, "level": level,
+           "independent": independent / size,
            "ratio_level": measured / level if level else None,
            "ratio_independent": measured * size / independent if independent else None,
            "stop_periods": stop.periods, "stop_period": stop.period,

@@ -17,8 +17,12 @@ Definitions used throughout:
 * a section distance is the max-norm of the state difference, each component scaled by its
   range over the samples of the run after `since` (the size of the motion, not of the
   sections, which shrinks to zero on a periodic orbit);
-* the default tolerance follows the integrator (``default_tolerance``): the paper's scheme
-  repeats itself only to its first-order error, the located methods to their tolerance;
+* the period is the core's steady-state rule (tmafm_steady_state, as the observed runs use it:
+  ``classify_sections``) on those scaled distances; its default tolerance follows the
+  integrator (``default_tolerance``): the paper's scheme repeats itself only to its
+  first-order error, the located methods to their tolerance;
+* lock-in amplitude and phase over several periods are the core's steady harmonic (the
+  harmonic over those periods, free of the +-180 wrap);
 * "amplitude" of a mode over a set of samples: both ``max |a_j|`` and the half peak-to-peak
   ``(max a_j - min a_j)/2``.
 """

@@ -291,7 +291,10 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
     core's OpenMP batch, the GIL released; ``threads=None`` takes the OpenMP default.
     ``observables`` (None: all) selects the groups computed (OBSERVABLE_GROUPS); per_period
     then holds only the observables computed.  Results do not depend on the number of
-    threads."""
+    threads.  An input that names no &solver method runs DEFAULT_METHOD (flight_exact).  The
+    steady test follows the method (docs/observables.md, "Steady state"); a run asked to stop
+    at a steady state that ends without one warns (tmafm.UnsteadyWarning) and says why
+    (Observation.unsteady_reason)."""
     from . import _core
     opts = _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_steady)
     groups = observable_groups(observables)

@@ -22,19 +22,23 @@ module tmafm_steady_state
    !> The jitter level is this times the state error of one misplaced switch: the repeat test
    !> compares two points, each off by up to one such error (model-notes finding 14).
    real(dp), parameter :: jitter_factor = 2
-   !> An adaptive method's points repeat to about its V_T error, 1.3-9.5 rtol (README): the
+   !> A located method's points repeat to about its V_T error, 1.3-9.5 rtol (README): the
    !> relative tolerance is at least this times rtol.
    real(dp), parameter :: adaptive_factor = 10
-   !> Within a jitter level, the steps of the `repeats` points before the last ones may be at
-   !> most this times the last ones': a transient still shrinks them, jitter does not.
-   real(dp), parameter :: settle_ratio = 1
+   !> Within a jitter level, the points are still approaching the orbit while the largest step
+   !> over each of three windows of settle_points points is more than settle_ratio times the
+   !> next window's (function shrinking).
+   integer, parameter :: settle_points = 9
+   real(dp), parameter :: settle_ratio = 4
 
    !> What the jitter level of a fixed-step run needs: the steps that misplace a contact entry
    !> (a free step) and an exit (a contact step), and M^-1 applied to the terms that jump when
    !> the phase changes at V_T = 0 (docs/model-notes.md, finding 14).  Inactive (level 0) for
    !> the methods that locate their switches.
    type :: jitter_t
+      !> .true. for a fixed-step run (rk4_paper); the level is 0 otherwise.
       logical :: active = .false.
+      !> Number of modes N.
       integer :: n = 0
       !> Largest misplacement of an entry and of an exit: dtau and dtau/contact_refine.
       real(dp) :: h_entry = 0, h_exit = 0
@@ -134,7 +138,8 @@ contains
    !> absolute jitter level per point) larger than tol * size over the points compared, its
    !> largest value decides instead: the repeats are within it, and the points of a period are
    !> distinct beyond it (a flip transient is then told from a period-2 orbit only when its
-   !> points are more than the jitter apart).  With `scale` (> 0) every size is `scale` (an
+   !> points are more than the jitter apart), and the steps must have stopped shrinking (else
+   !> unsteady_settling: a transient inside the jitter; function shrinking).  With `scale` (> 0) every size is `scale` (an
    !> absolute tolerance tol * scale; tmafm.analysis scales its sections itself).
    pure subroutine steady_test(points, p_max, tol, repeats, period, reason, closest, closest_lag, floor, &
                                scale)
@@ -184,11 +189,10 @@ contains
          if (reason == unsteady_short) reason = unsteady_no_repeat
          if (.not. (step <= threshold)) cycle
          if (apart == threshold) then
-            ! Within the jitter, the points must also have stopped approaching the orbit: the
-            ! `repeats` steps before these were not more than settle_ratio times larger.
+            ! Within the jitter, the points must also have stopped approaching the orbit.
             if (reason == unsteady_no_repeat) reason = unsteady_settling
-            if (m < p + 2*k) cycle
-            if (.not. (largest_step(points, first - k, m - k, p) <= settle_ratio*step)) cycle
+            if (m < p + 3*settle_points) cycle
+            if (shrinking(points, m, p)) cycle
          end if
          distinct = .true.
          do q = 1, p - 1
@@ -263,6 +267,24 @@ contains
          largest_step = max(largest_step, maxval(abs(points(:, j) - points(:, j - lag))))
       end do
    end function largest_step
+
+   !> .true. while the steps at `lag` still shrink: over three windows of settle_points points
+   !> ending at `last`, each window's largest step is more than settle_ratio times the next
+   !> one's.  A transient shrinks them steadily (by rho^settle_points a window); rk4_paper's
+   !> jitter changes its size only in jumps, as the step grid's phase drifts (fig7_dmt's
+   !> falls tenfold from one window to the next once in about 140 periods), never twice in a row.
+   pure logical function shrinking(points, last, lag)
+      real(dp), intent(in) :: points(:, :)
+      integer, intent(in) :: last
+      integer, intent(in) :: lag
+      real(dp) :: window(3)
+      integer :: w, stop_at
+      do w = 1, 3
+         stop_at = last - (3 - w)*settle_points
+         window(w) = largest_step(points, stop_at - settle_points + 1, stop_at, lag)
+      end do
+      shrinking = window(1) > settle_ratio*window(2) .and. window(2) > settle_ratio*window(3)
+   end function shrinking
 
    !> min over j = first..last of max_i |P_j(i) - P_(j-lag)(i)|.
    pure real(dp) function smallest_step(points, first, last, lag)

@@ -258,13 +258,13 @@ subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmoni
                          repeats, stop_at_steady, groups, threads, poll, n_state_max, n_columns, values, &
                          harmonic_amplitude, harmonic_phase, poincare, max_gap, modal_extrema, &
                          n_periods, period, factors, &
-                         has_scales, ierr, errmsg)
+                         has_scales, steady_harmonic_amplitude, steady_harmonic_phase, evidence, ierr, errmsg)
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok, err_runtime
    use tmafm_config, only: config_t
    use tmafm_namelist, only: read_config_text
    use tmafm_observers, only: observer_t, n_observables, observable_factors
-   use tmafm_batch, only: observe_options_t, observe_batch, config_scales
+   use tmafm_batch, only: observe_options_t, observe_batch, config_scales, steady_harmonics, steady_evidence
    use tmafm_units, only: scales_t
    use tmafm_api_poll, only: python_interrupted
    implicit none
@@ -294,6 +294,9 @@ subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmoni
    integer, intent(out) :: period(n_configs)
    real(dp), intent(out) :: factors(n_configs, n_columns)
    integer, intent(out) :: has_scales(n_configs)
+   real(dp), intent(out) :: steady_harmonic_amplitude(n_configs, harmonics)
+   real(dp), intent(out) :: steady_harmonic_phase(n_configs, harmonics)
+   real(dp), intent(out) :: evidence(n_configs, 5)
    integer, intent(out) :: ierr(n_configs)
    character(len=512), intent(out) :: errmsg
    type(config_t), allocatable :: configs(:)
@@ -306,6 +309,7 @@ subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmoni
    values = 0; harmonic_amplitude = 0; harmonic_phase = 0; poincare = 0; n_periods = 0
    max_gap = 0; modal_extrema = 0
    period = 0; factors = 0; has_scales = 0; ierr = 0; errmsg = ''
+   steady_harmonic_amplitude = 0; steady_harmonic_phase = 0; evidence = 0
    if (n_columns /= n_observables) then
       ierr = err_runtime
       write (errmsg, '(a,i0)') 'internal: observe_texts n_columns must be ', n_observables
@@ -357,6 +361,8 @@ subroutine observe_texts(text, offsets, n_configs, n_modes, max_periods, harmoni
       poincare(k, 1:m + 1, 1:s) = transpose(observers(k)%poincare(:, 0:m))
       max_gap(k, 1:m) = observers(k)%max_gap_values(1:m)
       modal_extrema(k, 1:m, 1:s/2, :) = observers(k)%modal_extrema(1:m, :, :)
+      call steady_harmonics(observers(k), steady_harmonic_amplitude(k, :), steady_harmonic_phase(k, :))
+      evidence(k, :) = steady_evidence(observers(k))
       scales = config_scales(configs(k))
       factors(k, :) = observable_factors(scales)
       has_scales(k) = merge(1, 0, scales%known)
@@ -372,7 +378,9 @@ end subroutine observe_texts
 !> run with it (attractor(k) = j, 0: none) and stop it.  Per run k: the steady
 !> values (steady(k, column): the mean over the last max(period, 1) periods, NaN for a group
 !> not computed; the same for the harmonics), the last p_max Poincare points (orbit(k, p_max, :)
-!> is the final state; NaN before the first), periods run, the steady period, the attractor.
+!> is the final state; NaN before the first), periods run, the steady period, the attractor,
+!> why no period was found (reason, tmafm_steady_state unsteady_*) and the jitter level of the
+!> last point (absolute; 0 for a located method).
 !> ierr: err_input for a bad input, options or state (nothing runs), with errmsg; run k's own
 !> failure is run_ierr(k), and errmsg is then the first such message.  `poll` as observe_texts'.
 subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_periods, harmonics, &
@@ -380,15 +388,16 @@ subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_per
                                n_attractor_points, attractor_first, n_first, confirm, capture, threads, &
                                poll, n_columns, steady, steady_harmonic_amplitude, steady_harmonic_phase, &
                                orbit, n_periods, period, attractor, factors, has_scales, run_ierr, &
-                               ierr, errmsg)
+                               reason, jitter, ierr, errmsg)
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok, err_runtime
    use tmafm_config, only: config_t
    use tmafm_namelist, only: read_config_text
    use tmafm_observers, only: observer_t, n_observables, observable_factors
-   use tmafm_batch, only: observe_options_t, observe_states, config_scales
+   use tmafm_batch, only: observe_options_t, observe_states, config_scales, steady_harmonics
+   use tmafm_observers, only: obs_amplitude, obs_phase
    use tmafm_units, only: scales_t
-   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_nan
    use tmafm_api_poll, only: python_interrupted
    implicit none
    !f2py threadsafe
@@ -423,6 +432,8 @@ subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_per
    real(dp), intent(out) :: factors(n_columns)
    integer, intent(out) :: has_scales
    integer, intent(out) :: run_ierr(n_points)
+   integer, intent(out) :: reason(n_points)
+   real(dp), intent(out) :: jitter(n_points)
    integer, intent(out) :: ierr
    character(len=512), intent(out) :: errmsg
    type(config_t) :: config
@@ -434,7 +445,7 @@ subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_per
 
    steady = 0; steady_harmonic_amplitude = 0; steady_harmonic_phase = 0
    orbit = ieee_value(1.0_dp, ieee_quiet_nan)
-   n_periods = 0; period = 0; attractor = 0; factors = 0; has_scales = 0; run_ierr = 0
+   n_periods = 0; period = 0; attractor = 0; factors = 0; has_scales = 0; run_ierr = 0; reason = 0; jitter = 0
    ierr = 0; errmsg = ''
    if (n_columns /= n_observables) then
       ierr = err_runtime
@@ -484,9 +495,15 @@ subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_per
          last = min(max(o%found_period, 1), m)
          if (last > 0) then
             steady(k, :) = sum(o%values(m - last + 1:m, :), 1)/last
-            steady_harmonic_amplitude(k, :) = sum(o%harmonic_amplitude(m - last + 1:m, :), 1)/last
-            steady_harmonic_phase(k, :) = sum(o%harmonic_phase(m - last + 1:m, :), 1)/last
+            ! Amplitude and phase: the harmonic over the orbit's periods (tmafm_steady_state).
+            call steady_harmonics(o, steady_harmonic_amplitude(k, :), steady_harmonic_phase(k, :))
+            if (.not. ieee_is_nan(steady(k, obs_phase))) then
+               steady(k, obs_amplitude) = steady_harmonic_amplitude(k, 1)
+               steady(k, obs_phase) = steady_harmonic_phase(k, 1)
+            end if
          end if
+         reason(k) = o%reason
+         jitter(k) = o%jitter_floor(m)
          kept = min(p_max, m + 1)
          orbit(k, p_max - kept + 1:p_max, :) = transpose(o%poincare(:, m - kept + 1:m))
       end associate
@@ -496,10 +513,16 @@ subroutine observe_states_text(text, n_modes, states, n_points, n_state, max_per
    has_scales = merge(1, 0, scales%known)
 end subroutine observe_states_text
 
-!> The classifier of tmafm_steady_state on a sequence of points (n_points x n_dim), for tests.
-subroutine steady_period_of(points, n_points, n_dim, p_max, tol, repeats, period)
+!> The classifier of tmafm_steady_state on a sequence of points (n_points x n_dim), the one
+!> steady-state rule (tmafm.observe.steady_test, tmafm.analysis, the sweeps' attractor labels):
+!> the period (0: none), the reason when none (unsteady_*), the closest repeat (relative to the
+!> orbit's size, or to `scale` when scale > 0) and its lag, and every lag's largest step
+!> (tmafm_steady_state repeat_steps).  floor(j): the absolute jitter level of point j (all 0:
+!> none).
+subroutine steady_test_of(points, n_points, n_dim, p_max, tol, repeats, floor, scale, period, reason, &
+                          closest, closest_lag, steps)
    use tmafm_kinds, only: dp
-   use tmafm_steady_state, only: steady_period
+   use tmafm_steady_state, only: steady_test, repeat_steps
    implicit none
    integer, intent(in) :: n_points
    integer, intent(in) :: n_dim
@@ -507,9 +530,36 @@ subroutine steady_period_of(points, n_points, n_dim, p_max, tol, repeats, period
    integer, intent(in) :: p_max
    real(dp), intent(in) :: tol
    integer, intent(in) :: repeats
+   real(dp), intent(in) :: floor(n_points)
+   real(dp), intent(in) :: scale
    integer, intent(out) :: period
-   period = steady_period(transpose(points), p_max, tol, repeats)
-end subroutine steady_period_of
+   integer, intent(out) :: reason
+   real(dp), intent(out) :: closest
+   integer, intent(out) :: closest_lag
+   real(dp), intent(out) :: steps(p_max)
+   if (scale > 0) then
+      call steady_test(transpose(points), p_max, tol, repeats, period, reason, closest, closest_lag, floor, &
+                       scale)
+      steps = repeat_steps(transpose(points), p_max, repeats, scale)
+   else
+      call steady_test(transpose(points), p_max, tol, repeats, period, reason, closest, closest_lag, floor)
+      steps = repeat_steps(transpose(points), p_max, repeats)
+   end if
+end subroutine steady_test_of
+
+!> The steady first harmonic of an orbit from its per-period amplitudes and phases (degrees):
+!> tmafm_steady_state steady_harmonic, the phase free of the wrap at +-180.
+subroutine steady_harmonic_of(amplitude, phase, n, mean_amplitude, mean_phase)
+   use tmafm_kinds, only: dp
+   use tmafm_steady_state, only: steady_harmonic
+   implicit none
+   integer, intent(in) :: n
+   real(dp), intent(in) :: amplitude(n)
+   real(dp), intent(in) :: phase(n)
+   real(dp), intent(out) :: mean_amplitude
+   real(dp), intent(out) :: mean_phase
+   call steady_harmonic(amplitude, phase, mean_amplitude, mean_phase)
+end subroutine steady_harmonic_of
 
 !> One free flight of a namelist's model from y0 at tau0, sampled at tau0 + j dt (j = 0 ..
 !> n_samples - 1) twice: as the run loop samples it (flight%sample: each term turned by

@@ -13,7 +13,7 @@ from ._run import COUNTER_KEYS, SCENE_KEYS, Config, Result, resolve, run
 from ._model import POWER_NAMES, ContactState, Model
 from ._resultio import load
 from .errors import (BlowUpError, InputError, InputFileError, InputTypeError, SolverError,
-                     TmafmError)
+                     TmafmError, TmafmWarning, UnsteadyWarning)
 from ._exe import executable
 from .observe import Observation, observe, observe_batch
 
@@ -36,5 +36,6 @@ except PackageNotFoundError:  # running from a source tree
 __all__ = ["run", "resolve", "load", "Config", "Model", "Result", "ContactState", "inputs",
            "SCENE_KEYS", "COUNTER_KEYS", "observe", "observe_batch", "Observation", "POWER_NAMES", "executable",
            "TmafmError", "InputError",
-           "InputTypeError", "InputFileError", "SolverError", "BlowUpError", "__version__",
+           "InputTypeError", "InputFileError", "SolverError", "BlowUpError", "TmafmWarning",
+           "UnsteadyWarning", "__version__",
            "sweep", "approach", "frequency_sweep", "bifurcation", "basin"]

@@ -18,8 +18,12 @@ Definitions used throughout:
 * a section distance is the max-norm of the state difference, each component scaled by its
   range over the samples of the run after `since` (the size of the motion, not of the
   sections, which shrinks to zero on a periodic orbit);
-* the default tolerance follows the integrator (``default_tolerance``): the paper's scheme
-  repeats itself only to its first-order error, the located methods to their tolerance;
+* the period is the core's steady-state rule (tmafm_steady_state, as the observed runs use it:
+  ``classify_sections``) on those scaled distances; its default tolerance follows the
+  integrator (``default_tolerance``): the paper's scheme repeats itself only to its
+  first-order error, the located methods to their tolerance;
+* lock-in amplitude and phase over several periods are the core's steady harmonic (the
+  harmonic over those periods, free of the +-180 wrap);
 * "amplitude" of a mode over a set of samples: both ``max |a_j|`` and the half peak-to-peak
   ``(max a_j - min a_j)/2``.
 """
@@ -205,7 +209,8 @@ def default_tolerance(result) -> float:
 
 
 def section_distances(sections: np.ndarray, n: int, scale: np.ndarray | None = None) -> np.ndarray:
-    """Scaled max-norm distances between sections k and k - n, for k = n .. end.
+    """Scaled max-norm distances between sections k and k - n, for k = n .. end (diagnostics;
+    the classification itself is the core's, ``classify_sections``).
     `scale` defaults to the largest |value| of each component over the sections."""
     sections = _array("section_distances", "sections", sections, 2)
     n = _count("section_distances", "n", n)
@@ -220,11 +225,23 @@ def section_distances(sections: np.ndarray, n: int, scale: np.ndarray | None = N
     return (np.abs(sections[n:] - sections[:-n]) / scale).max(axis=1)
 
 
+def _scaled(sections: np.ndarray, scale: np.ndarray | None) -> np.ndarray:
+    """The sections divided component-wise by `scale` (default: their largest |value|)."""
+    if scale is None:
+        scale = np.abs(sections).max(axis=0)
+        scale = np.where(scale == 0, 1.0, scale)
+    return sections / scale
+
+
 def classify_sections(sections: np.ndarray, tol: float = 1e-6, max_period: int = 16,
                       window: int | None = None, scale: np.ndarray | None = None) -> dict:
-    """Period-n (smallest n <= max_period whose section distances over the last `window`
-    sections all stay below tol) or non-periodic.  Returns the evidence: for each n, the
-    largest distance seen."""
+    """Period-n or non-periodic, by the core's steady-state rule (tmafm_steady_state, the one
+    the observed runs use; tmafm.observe.steady_test): the smallest n <= max_period whose
+    scaled section distances over the last `window` sections all stay below tol and whose n
+    points are distinct.  Each component is scaled by `scale` (default: its largest |value|
+    over the last window + max_period sections).  Returns the evidence: for each n, the largest
+    distance seen, and the core's reason when there is no period."""
+    from .observe import steady_test
     sections = _array("classify_sections", "sections", sections, 2)
     tol = _real("classify_sections", "tol", tol, positive=True)
     max_period = _count("classify_sections", "max_period", max_period)
@@ -235,12 +252,13 @@ def classify_sections(sections: np.ndarray, tol: float = 1e-6, max_period: int =
     if sections.shape[0] < window + max_period:
         raise InputError(f"need at least {window + max_period} drive periods, have {sections.shape[0]}")
     tail = sections[-(window + max_period):]
-    evidence = {n: float(section_distances(tail, n, scale)[-window:].max())
-                for n in range(1, max_period + 1)}
-    for n, distance in evidence.items():
-        if distance <= tol:
-            return {"kind": f"period-{n}", "period": n, "tol": tol, "distances": evidence}
-    return {"kind": "non-periodic", "period": None, "tol": tol, "distances": evidence}
+    test = steady_test(_scaled(tail, scale), max_period, tol, window, scale=1.0)
+    evidence = test["steps"]
+    if test["period"]:
+        n = test["period"]
+        return {"kind": f"period-{n}", "period": n, "tol": tol, "distances": evidence}
+    return {"kind": "non-periodic", "period": None, "tol": tol, "distances": evidence,
+            "reason": test["reason"]}
 
 
 def classify_period(result, tol: float | None = None, max_period: int = 16,
@@ -256,30 +274,40 @@ def classify_period(result, tol: float | None = None, max_period: int = 16,
 
 def steady_state(result, tol: float | None = None, max_period: int = 16, hold: int = 4) -> dict:
     """The first drive period from which the sections repeat with some period n <= max_period
-    (distance <= tol) for all later sections, at least `hold` cycles.  ``reached`` is False
-    otherwise.  tol defaults to default_tolerance."""
+    for all later sections, at least `hold` cycles, by the core's rule (classify_sections):
+    for the smallest such n, the earliest section s such that every section from s on
+    repeats the one n periods earlier (distance <= tol, each component scaled by the size of
+    the motion over the second half of the run).  ``reached`` is False otherwise.  tol
+    defaults to default_tolerance."""
+    from .observe import steady_test
     _result(result, "steady_state")
     tol = _real("steady_state", "tol", tol, optional=True, positive=True)
     max_period = _count("steady_state", "max_period", max_period)
     hold = _count("steady_state", "hold", hold)
     tol = default_tolerance(result) if tol is None else tol
     times, sections = poincare_sections(result)
-    scale = state_scale(result, result.tau[-1] / 2)
-    best = None
+    points = _scaled(sections, state_scale(result, result.tau[-1] / 2))
+    total = points.shape[0]
+
+    def repeats_from(start: int, n: int) -> bool:
+        """Whether every section from `start` on repeats the one n earlier (core's rule)."""
+        count = total - start - n
+        return count >= 1 and steady_test(points[start:], n, tol, count, scale=1.0)["period"] == n
+
     for n in range(1, max_period + 1):
-        if sections.shape[0] < n * (hold + 1) + 1:
+        if total < n * (hold + 1) + 1:
             break
-        d = section_distances(sections, n, scale)   # d[i] compares k = i + n with i
-        bad = np.nonzero(d > tol)[0]
-        start = 0 if bad.size == 0 else bad[-1] + 1  # sections from `start` on repeat
-        if d.size - start >= n * hold:
-            if best is None or start < best[1]:
-                best = (n, start)
-            break
-    if best is None:
-        return {"reached": False, "tau": None, "period": None, "tol": tol}
-    n, start = best
-    return {"reached": True, "tau": float(times[start]), "period": n, "tol": tol}
+        if not repeats_from(total - n * hold - n, n):
+            continue
+        low, high = 0, total - n * hold - n      # repeats_from(high, n) holds; find the least
+        while low < high:
+            mid = (low + high) // 2
+            if repeats_from(mid, n):
+                high = mid
+            else:
+                low = mid + 1
+        return {"reached": True, "tau": float(times[low]), "period": n, "tol": tol}
+    return {"reached": False, "tau": None, "period": None, "tol": tol}
 
 
 def _model_of(result) -> Model:
@@ -471,11 +499,13 @@ def lockin(result, since: float = 0.0) -> dict:
     if obs is not None:
         k0 = sl.start // _stride(result)
         rows = slice(k0, min(k0 + periods, obs.periods))
-        amp, phase = obs.per_period["amplitude"][rows], np.radians(obs.per_period["phase"][rows])
-        in_phase, quadrature = np.mean(amp * np.cos(phase)), np.mean(amp * np.sin(phase))
+        # The core's steady harmonic: the harmonic over the periods, free of the +-180 wrap.
+        from .observe import steady_harmonic
+        amplitude, phase = steady_harmonic(obs.per_period["amplitude"][rows],
+                                           obs.per_period["phase"][rows])
         mean = np.mean(obs.per_period["mean_deflection"][rows]) + result.scene.get("delta_hat", 0.0)
-        return {"mean": float(mean), "amplitude": float(math.hypot(in_phase, quadrature)),
-                "phase": float(math.atan2(quadrature, in_phase)), "periods": periods}
+        return {"mean": float(mean), "amplitude": amplitude, "phase": math.radians(phase),
+                "periods": periods}
     tau, vt = result.tau[sl], result.vt[sl]
     omega = result.scene["omega"]
     in_phase = 2 * np.mean(vt * np.sin(omega * tau))
@@ -495,10 +525,11 @@ def harmonics(result, since: float = 0.0, k_max: int = 20) -> np.ndarray:
     if obs is not None:
         k0 = sl.start // _stride(result)
         rows = slice(k0, min(k0 + periods, obs.periods))
+        from .observe import steady_harmonic
         amp = obs.per_period["harmonic_amplitude"][rows, :k_max]
-        phase = np.radians(obs.per_period["harmonic_phase"][rows, :k_max])
+        phase = obs.per_period["harmonic_phase"][rows, :k_max]
         mean = np.mean(obs.per_period["mean_deflection"][rows]) + result.scene.get("delta_hat", 0.0)
-        coefficients = np.abs(np.mean(amp * np.exp(1j * phase), axis=0))
+        coefficients = [steady_harmonic(amp[:, k], phase[:, k])[0] for k in range(amp.shape[1])]
         return np.concatenate([[abs(mean)], coefficients])
     spectrum = np.abs(np.fft.rfft(result.vt[sl])) / (result.vt[sl].size / 2)
     spectrum[0] /= 2

@@ -5,7 +5,7 @@ The Fortran core reports failures as an integer code and a one-line message
 """
 
 __all__ = ["TmafmError", "InputError", "InputTypeError", "InputFileError", "BlowUpError",
-           "SolverError", "MissingExtraError", "raise_for"]
+           "SolverError", "MissingExtraError", "TmafmWarning", "UnsteadyWarning", "raise_for"]
 
 
 class TmafmError(Exception):
@@ -38,6 +38,15 @@ class SolverError(TmafmError, RuntimeError):
 class BlowUpError(SolverError, ArithmeticError):
     """The integration blew up: NaN, Inf or a runaway amplitude (usually a step past the
     stability limit)."""
+
+
+class TmafmWarning(UserWarning):
+    """Base class of every tmafm warning."""
+
+
+class UnsteadyWarning(TmafmWarning):
+    """An observed run ended without a steady state; ``Observation.unsteady_reason`` says why
+    (docs/observables.md, "Steady state")."""
 
 
 _BY_CODE = {2: InputError, 3: InputFileError, 4: BlowUpError, 5: SolverError}

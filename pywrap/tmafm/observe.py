@@ -17,6 +17,7 @@ stop each run at a known attractor.
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -24,11 +25,12 @@ import numpy as np
 
 from ._fortran import LIMITS, polls
 from ._namelist import shown
-from ._run import Config, _for_core
-from .errors import InputError, InputTypeError, SolverError, raise_for
+from ._run import Config, _for_core, _source
+from .errors import InputError, InputTypeError, SolverError, UnsteadyWarning, raise_for
 
 __all__ = ["Observation", "observe", "observe_batch", "observe_states", "StatesObservation",
            "OBSERVABLES", "OBSERVABLE_GROUPS", "UNITS", "PHYSICAL_UNITS", "steady_period",
+           "steady_test", "steady_harmonic", "unsteady_text", "observed_config", "DEFAULT_METHOD",
            "observable_groups"]
 
 #: The per-period scalar observables, in the core's column order (tmafm_observers).
@@ -76,9 +78,90 @@ PHYSICAL_UNITS = {
 }
 
 
+#: The method an observed run (tmafm.observe, observe_batch, the sweeps) takes when its input
+#: names none (docs/observables.md, "Which method"): located switches, exact free flights.
+#: The packaged inputs name rk4_paper (the paper's scheme, for the figures) and keep it.
+DEFAULT_METHOD = "flight_exact"
+
+#: The steady test's reasons (tmafm_steady_state unsteady_*), by code.
+_REASONS = {1: "short", 2: "no_repeat", 3: "not_distinct", 4: "settling"}
+
+
+def _names_method(nml) -> bool:
+    """Whether an input (path, packaged name, dict; a Config counts as naming its method) gives
+    &solver method itself."""
+    if isinstance(nml, Config):
+        return True
+    if isinstance(nml, Mapping):
+        return any(str(g).lower() == "solver" and isinstance(v, Mapping)
+                   and any(str(k).lower() == "method" for k in v) for g, v in nml.items())
+    text = _source(nml, {})[0]
+    if isinstance(text, bytes):
+        text = text.decode("utf-8", "replace")
+    from ._core import namelist_syntax
+    codes, length, ierr, _ = namelist_syntax(_for_core(text), b"observe input", 8 * len(text) + 64)
+    if ierr or length < 0:
+        return True  # Config reports the error; no default is put in
+    fields, field, records = [], [], []
+    for code in codes[:length]:
+        if code == -1:
+            fields.append("".join(map(chr, field)))
+            field = []
+        elif code == -2:
+            records.append(fields)
+            fields = []
+        else:
+            field.append(int(code))
+    return any(r[1].lower() == "solver" and r[3].lower() == "method" for r in records)
+
+
+def observed_config(nml, **overrides) -> Config:
+    """The Config an observed run of ``nml`` (plus ``overrides``) integrates: DEFAULT_METHOD
+    when neither names &solver method, else the input as given."""
+    if isinstance(nml, Config) and not overrides:
+        return nml
+    solver = next((v for g, v in overrides.items() if str(g).lower() == "solver"), None)
+    named = isinstance(solver, Mapping) and any(str(k).lower() == "method" for k in solver)
+    if not named and not _names_method(nml):
+        overrides = dict(overrides)
+        key = next((g for g in overrides if str(g).lower() == "solver"), "solver")
+        overrides[key] = {**(overrides.get(key) or {}), "method": DEFAULT_METHOD}
+    return Config(nml, **overrides)
+
+
+def unsteady_text(reason: int, periods: int, evidence=None, repeats: int | None = None) -> str:
+    """The reason an observed run has no steady state, as a sentence ('' when steady).
+    ``evidence``: [reason, closest repeat, its lag, tolerance, jitter level] (relative to the
+    orbit's size), as the core reports them."""
+    if reason == 0:
+        return ""
+    if reason == 1:
+        return (f"too few periods: {periods} cannot confirm a period with steady_repeats = "
+                f"{repeats}" if repeats else f"too few periods ({periods}) to confirm a period")
+    closest = lag = tol = jitter = None
+    if evidence is not None:
+        _, closest, lag, tol, jitter = (float(x) for x in evidence)
+    if reason == 3:
+        return (f"after {periods} periods the points repeat but are not distinct (a decaying "
+                f"flip transient)")
+    if reason == 4:
+        return (f"after {periods} periods the points repeat within the method's jitter level "
+                f"({jitter:.2e} of the orbit's size) but were still approaching the orbit")
+    text = f"no repeat within tol after {periods} periods"
+    if closest is not None and np.isfinite(closest):
+        text += (f": the closest repeat (every {int(lag)} period{'s' if lag != 1 else ''}) is "
+                 f"{closest:.2e} of the orbit's size, above ")
+        text += (f"the method's jitter level {jitter:.2e}" if jitter and jitter > tol
+                 else f"the tolerance {tol:.2e}")
+    return text
+
+
 @dataclass
 class Observation:
-    """The observables of one run, one entry per drive period (see docs/observables.md)."""
+    """The observables of one run, one entry per drive period (see docs/observables.md).
+    ``unsteady_reason`` says why no steady state was found ('' when ``steady``); ``evidence``
+    holds the steady test's numbers (closest repeat, its lag, the tolerance and the method's
+    jitter level, relative to the orbit's size)."""
 
     periods: int
     period: int
@@ -90,10 +173,15 @@ class Observation:
     physical: dict | None = None
     physical_units: dict = field(default_factory=lambda: dict(PHYSICAL_UNITS))
     config: Config | None = field(default=None, repr=False)
+    unsteady_reason: str = ""
+    evidence: dict = field(default_factory=dict)
+    steady_harmonics: tuple | None = field(default=None, repr=False)
 
     def steady_values(self, physical: bool = False) -> dict:
         """Each observable averaged over the last found period (p periods), or over the last
         period when none was found; floats, and arrays (one per harmonic) for the harmonics.
+        Amplitude and phase (and the harmonics) are the core's steady harmonic: the harmonic of
+        V_T over those periods, its phase free of the +-180 wrap (docs/observables.md).
         ``physical=True`` averages the SI-derived values instead."""
         source = self.physical if physical else self.per_period
         if source is None:
@@ -104,6 +192,13 @@ class Observation:
         for name, values in source.items():
             mean = np.mean(values[-last:], axis=0)
             out[name] = float(mean) if np.ndim(mean) == 0 else mean
+        if self.steady_harmonics is not None and "harmonic_amplitude" in out:
+            amplitude, phase, length = self.steady_harmonics
+            factor = length if physical else 1.0
+            out["harmonic_amplitude"] = amplitude * factor
+            out["harmonic_phase"] = phase.copy()
+            out["amplitude"] = float(amplitude[0] * factor)
+            out["phase"] = float(phase[0])
         return out
 
 
@@ -198,7 +293,10 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
     core's OpenMP batch, the GIL released; ``threads=None`` takes the OpenMP default.
     ``observables`` (None: all) selects the groups computed (OBSERVABLE_GROUPS); per_period
     then holds only the observables computed.  Results do not depend on the number of
-    threads."""
+    threads.  An input that names no &solver method runs DEFAULT_METHOD (flight_exact).  The
+    steady test follows the method (docs/observables.md, "Steady state"); a run asked to stop
+    at a steady state that ends without one warns (tmafm.UnsteadyWarning) and says why
+    (Observation.unsteady_reason)."""
     from . import _core
     opts = _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_steady)
     groups = observable_groups(observables)
@@ -206,7 +304,7 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
             or not hasattr(configs, "__iter__"):
         raise InputTypeError(f"observe_batch takes a list of inputs, not {shown(configs)}; use "
                              f"tmafm.observe for one")
-    configs = [c if isinstance(c, Config) else Config(c) for c in configs]
+    configs = [observed_config(c) for c in configs]
     threads = _threads(threads, "observe_batch", len(configs))
     if not configs:
         return []
@@ -218,7 +316,7 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
     h = opts["harmonics"]
     try:
         (values, harm_amp, harm_phase, poincare, max_gap, modal, n_periods, found, factors,
-         has_scales, ierr, errmsg) = _core.observe_texts(
+         has_scales, steady_amp, steady_phase, evidence, ierr, errmsg) = _core.observe_texts(
             b"".join(texts), offsets, n_modes, opts["max_periods"], h, opts["p_max"],
             opts["steady_tol"], opts["steady_repeats"], opts["stop_at_steady"],
             _group_bits(groups), threads, polls(), n_state, len(OBSERVABLES), n_configs=len(configs))
@@ -252,9 +350,19 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
                 if name in per:
                     physical[name] = per[name] * factors[k, 0]
         points = poincare[k, :m + 1, :s].copy()
-        out.append(Observation(periods=m, period=int(found[k]), steady=bool(found[k] > 0),
-                               per_period=per, poincare=points, final_state=points[-1].copy(),
-                               physical=physical, config=config))
+        reason = int(round(evidence[k, 0]))
+        text = unsteady_text(reason, m, evidence[k], opts["steady_repeats"])
+        out.append(Observation(
+            periods=m, period=int(found[k]), steady=bool(found[k] > 0), per_period=per,
+            poincare=points, final_state=points[-1].copy(), physical=physical, config=config,
+            unsteady_reason=text,
+            evidence={"reason": _REASONS.get(reason, "steady"), "closest": float(evidence[k, 1]),
+                      "closest_lag": int(evidence[k, 2]), "tol": float(evidence[k, 3]),
+                      "jitter": float(evidence[k, 4])},
+            steady_harmonics=(steady_amp[k].copy(), steady_phase[k].copy(), float(factors[k, 0]))
+            if "lockin" in groups else None))
+        if found[k] == 0 and opts["stop_at_steady"]:
+            warnings.warn(f"{config.label}: {text}", UnsteadyWarning, stacklevel=3)
     return out
 
 
@@ -263,7 +371,7 @@ def observe(nml, *, max_periods: int = 100, p_max: int = 8, steady_tol: float = 
             observables=None, **overrides) -> Observation:
     """Observe one input (a path, a packaged name, a dict or a tmafm.Config, plus ``overrides``
     of groups as in tmafm.run); see observe_batch."""
-    config = nml if isinstance(nml, Config) and not overrides else Config(nml, **overrides)
+    config = observed_config(nml, **overrides)
     return observe_batch([config], threads=1, max_periods=max_periods, p_max=p_max,
                          steady_tol=steady_tol, steady_repeats=steady_repeats,
                          harmonics=harmonics, stop_at_steady=stop_at_steady,
@@ -277,7 +385,10 @@ class StatesObservation:
     (n, harmonics) with lockin), ``orbit`` (n, p_max, 2N: the last p_max Poincare points, the
     final state last, NaN before the first), ``periods``, ``period`` (0: none found),
     ``attractor`` (the known attractor matched, 0-based; -1: none), ``failed`` (bool) and the
-    first failure's message."""
+    first failure's message; ``reason`` (n,): why no period was found (0: found; codes of
+    tmafm_steady_state unsteady_*: 1 too few periods, 2 no repeat within tol, 3 points not
+    distinct, 4 still approaching within the method's jitter); ``jitter`` (n,): the method's
+    jitter level at the last point (absolute; 0 for a located method)."""
 
     steady: dict
     orbit: np.ndarray
@@ -287,6 +398,8 @@ class StatesObservation:
     failed: np.ndarray
     first_failure: str = ""
     physical: dict | None = None
+    reason: np.ndarray | None = None
+    jitter: np.ndarray | None = None
 
 
 def observe_states(config, states, *, threads: int | None = None, max_periods: int = 100,
@@ -337,7 +450,7 @@ def observe_states(config, states, *, threads: int | None = None, max_periods: i
     threads = _threads(threads, "observe_states", len(states))
     try:
         (steady, harm_amp, harm_phase, orbit, n_periods, found, matched, factors, has_scales,
-         run_ierr, ierr, errmsg) = _core.observe_states_text(
+         run_ierr, reason, jitter, ierr, errmsg) = _core.observe_states_text(
             _for_core(config.text), n, np.asfortranarray(states), opts["max_periods"],
             opts["harmonics"], opts["p_max"], opts["steady_tol"], opts["steady_repeats"],
             opts["stop_at_steady"], _group_bits(groups), points, first, int(confirm),
@@ -360,31 +473,63 @@ def observe_states(config, states, *, threads: int | None = None, max_periods: i
     return StatesObservation(steady=values, orbit=orbit, periods=n_periods, period=found,
                              attractor=matched.astype(np.int32) - 1, failed=failed,
                              first_failure=message.strip() if failed.any() else "",
-                             physical=physical)
+                             physical=physical, reason=reason, jitter=jitter)
 
 
-def steady_period(points, p_max: int = 8, tol: float = 1e-6, repeats: int = 3) -> int:
-    """The core's steady-state classifier on a sequence of points (rows): the smallest period
-    p <= p_max whose last ``repeats`` points repeat within tol (relative to the orbit's size)."""
+def steady_test(points, p_max: int = 8, tol: float = 1e-6, repeats: int = 3, floor=None,
+                scale: float | None = None) -> dict:
+    """The core's steady-state test (tmafm_steady_state steady_test, the one rule) on a sequence
+    of points (rows): the smallest period p <= p_max whose last ``repeats`` points repeat within
+    max(tol * size, floor) (size: the orbit's, or ``scale``; ``floor``: an absolute jitter
+    level per point) and whose p points are distinct.  {'period' (0: none), 'reason'
+    ('steady', 'short', 'no_repeat', 'not_distinct', 'settling'), 'closest' (the closest
+    repeat relative to the size), 'closest_lag', 'steps' ({lag: largest step relative to the
+    size} over the last ``repeats`` points, the evidence)}."""
     from . import _core
     for name, value in (("p_max", p_max), ("repeats", repeats)):
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) \
                 or not 1 <= value <= 10_000_000:
-            raise InputTypeError(f"steady_period {name} = {shown(value)}: must be an integer from "
+            raise InputTypeError(f"steady_test {name} = {shown(value)}: must be an integer from "
                                  f"1 to 10000000")
     if isinstance(tol, (bool, np.bool_)) or not isinstance(tol, (int, float, np.floating)) \
             or not 0 < tol < 1:
-        raise InputError(f"steady_period tol = {shown(tol)}: must be a number > 0 and < 1")
+        raise InputError(f"steady_test tol = {shown(tol)}: must be a number > 0 and < 1")
     try:
         if isinstance(points, (str, bytes)):
             raise TypeError("not numbers")
         points = np.asarray(points, dtype=float)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise InputError(f"steady_period points must be real numbers: {shown(str(exc))[1:-1]}") \
+        raise InputError(f"steady_test points must be real numbers: {shown(str(exc))[1:-1]}") \
             from None
     if points.ndim == 1:
         points = points[:, None]
     if points.ndim != 2 or not np.all(np.isfinite(points)):
-        raise InputError(f"steady_period points must be a finite (points,) or (points, values) "
+        raise InputError(f"steady_test points must be a finite (points,) or (points, values) "
                          f"array, got shape {points.shape}")
-    return int(_core.steady_period_of(np.asfortranarray(points), p_max, tol, repeats))
+    floor = np.zeros(len(points)) if floor is None else np.broadcast_to(
+        np.asarray(floor, dtype=float), (len(points),)).copy()
+    period, reason, closest, lag, steps = _core.steady_test_of(
+        np.asfortranarray(points), int(p_max), float(tol), int(repeats), floor,
+        -1.0 if scale is None else float(scale))
+    return {"period": int(period), "reason": _REASONS.get(int(reason), "steady"),
+            "closest": float(closest), "closest_lag": int(lag),
+            "steps": {p + 1: float(x) for p, x in enumerate(steps) if x >= 0}}
+
+
+def steady_period(points, p_max: int = 8, tol: float = 1e-6, repeats: int = 3) -> int:
+    """The core's steady-state classifier on a sequence of points (rows): the smallest period
+    p <= p_max whose last ``repeats`` points repeat within tol (relative to the orbit's size)."""
+    return steady_test(points, p_max, tol, repeats)["period"]
+
+
+def steady_harmonic(amplitude, phase) -> tuple[float, float]:
+    """The core's steady harmonic of an orbit (tmafm_steady_state steady_harmonic): from its
+    per-period amplitudes and phases (degrees), the harmonic of V_T over the orbit's periods,
+    (amplitude, phase in degrees, in (-180, 180])."""
+    from . import _core
+    amplitude = np.atleast_1d(np.asarray(amplitude, dtype=float))
+    phase = np.atleast_1d(np.asarray(phase, dtype=float))
+    if amplitude.shape != phase.shape or amplitude.ndim != 1 or amplitude.size == 0:
+        raise InputError("steady_harmonic: amplitude and phase must be 1-D of one nonzero length")
+    a, p = _core.steady_harmonic_of(amplitude, phase)
+    return float(a), float(p)

@@ -648,7 +648,8 @@ def _failure_attrs(summaries: list[dict]) -> dict:
 
 
 def _base_config(base) -> Config:
-    return base if isinstance(base, Config) else Config(base)
+    # An input that names no &solver method runs the observed runs' default (flight_exact).
+    return base if isinstance(base, Config) else _observe_api().observed_config(base)
 
 
 def _validate(base: dict, points: list[dict]) -> list[Config]:
@@ -950,34 +951,39 @@ def same_orbit(x: np.ndarray, y: np.ndarray, tol: float) -> bool:
     return any(np.max(np.abs(np.roll(x, k, axis=0) - y)) <= tol for k in range(x.shape[0]))
 
 
-def minimal_orbit(orbit: np.ndarray, tol: float) -> np.ndarray:
-    """The orbit cut to its smallest period q (q divides p) whose points repeat within `tol`:
-    a steady-state test can call a period-1 point period-2 while the transient still
-    alternates around it (a negative Floquet multiplier)."""
+def minimal_period(orbit: np.ndarray, tol: float) -> int:
+    """The smallest period q (q divides p) of a periodic Poincaré orbit (p x 2N, points in
+    order) by the core's steady-state rule (tmafm.observe.steady_test): its points, taken
+    cyclically, repeat q periods on within `tol` (absolute), and its q points are distinct.
+    A steady-state test can call a period-1 point period-2 while the transient still
+    alternates around it (a negative Floquet multiplier); p when no q fits."""
+    from .observe import steady_test
+    orbit = np.asarray(orbit, dtype=float)
     p = orbit.shape[0]
-    for q in range(1, p):
-        if p % q == 0 and np.max(np.abs(orbit - np.roll(orbit, q, axis=0))) <= tol:
-            return orbit[:q]
-    return orbit
+    if p == 1:
+        return 1
+    size = float(np.max(np.abs(orbit))) or 1.0
+    q = steady_test(np.concatenate([orbit, orbit]), p, min(tol / size, 0.5), p, scale=size)["period"]
+    return q if q and p % q == 0 else p
+
+
+def minimal_orbit(orbit: np.ndarray, tol: float) -> np.ndarray:
+    """The orbit cut to its minimal period (``minimal_period``)."""
+    return np.asarray(orbit)[:minimal_period(orbit, tol)]
 
 
 def label_attractors(orbits: Sequence[np.ndarray], periods: Sequence[int],
                      tol: float) -> tuple[np.ndarray, list[np.ndarray]]:
-    """(labels, representative orbits): points whose orbits (cut to their minimal period) agree
-    within `tol` up to a cyclic shift share a label 0, 1, ... (in the order of first
-    appearance); no period found gives -1."""
+    """(labels, representative orbits): points whose orbits (cut to their minimal period, by
+    the core's rule) agree within `tol` up to a cyclic shift share a label 0, 1, ... (in the
+    order of first appearance); no period found gives -1."""
     labels = np.full(len(orbits), -1, dtype=np.int32)
     periods = np.asarray(periods, dtype=int)
     cut: dict[int, list] = {}          # minimal period -> [(points, orbits), ...]
     for p in np.unique(periods[periods > 0]):
         index = np.flatnonzero(periods == p)
         stack = np.stack([np.asarray(orbits[i])[-p:] for i in index])
-        # minimal_orbit for every point at once: the smallest q | p whose shift repeats within tol.
-        minimal = np.full(len(index), p)
-        for q in range(p - 1, 0, -1):
-            if p % q == 0:
-                repeats = np.max(np.abs(stack - np.roll(stack, q, axis=1)), axis=(1, 2)) <= tol
-                minimal[repeats] = q
+        minimal = np.array([minimal_period(orbit, tol) for orbit in stack], dtype=int)
         for q in np.unique(minimal):
             take = minimal == q
             cut.setdefault(int(q), []).append((index[take], stack[take, :q]))
@@ -1035,7 +1041,7 @@ def _basin_chunk(config, states, threads, keywords, attractors):
                                  **keywords)
     return {"steady": out.steady, "physical": out.physical, "orbit": out.orbit,
             "periods": out.periods, "period": out.period, "attractor": out.attractor,
-            "failed": out.failed, "first_failure": out.first_failure}
+            "failed": out.failed, "first_failure": out.first_failure, "jitter": out.jitter}
 
 
 def _basin_chunk_processes(args):
@@ -1059,8 +1065,10 @@ def _new_attractors(chunk: dict, known: list, tol: float, run_config, keywords: 
         if not np.all(np.isfinite(orbit)):
             continue
         size = float(np.max(np.abs(orbit))) or 1.0
-        if any(same_orbit(minimal_orbit(orbit, tol * size), minimal_orbit(o, tol * size),
-                          tol * size) for o in known + found):
+        # rk4_paper's orbits are known only to its jitter (docs/observables.md).
+        resolution = max(tol * size, float(chunk["jitter"][k]))
+        if any(same_orbit(minimal_orbit(orbit, resolution), minimal_orbit(o, resolution),
+                          resolution) for o in known + found):
             continue
         refine = dict(keywords, observables=(), stop_at_steady=False,
                       max_periods=max(REFINE_PERIODS, p), capture=None)
@@ -1193,7 +1201,7 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
     merged: dict = {}
     failures = []
     for p, out in sorted(results.values(), key=lambda item: item[0][0]):
-        for name in ("orbit", "periods", "period", "attractor", "failed"):
+        for name in ("orbit", "periods", "period", "attractor", "failed", "jitter"):
             merged.setdefault(name, np.empty((total, *out[name].shape[1:]),
                                              dtype=out[name].dtype))[p] = out[name]
         for group in ("steady", "physical"):
@@ -1209,8 +1217,12 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
     finite = [np.all(np.isfinite(o)) for o in orbits]
     scale = max((float(np.max(np.abs(o))) for o, ok in zip(orbits, finite) if ok), default=0.0) \
         or 1.0
+    # A fixed-step method's orbits are known only to its jitter level (rk4_paper): attractors
+    # closer than that are not told apart (docs/observables.md, "Steady state").
+    jitter = merged["jitter"][np.isfinite(merged["jitter"]) & (period > 0)]
+    resolution = max(tol * scale, float(jitter.max()) if jitter.size else 0.0)
     labels, reps = label_attractors(orbits, [int(q) if ok else 0 for q, ok in zip(period, finite)],
-                                    tol * scale)
+                                    resolution)
     units, physical_units = _units(base_config)
     columns = {name.split(":", 1)[1]: v for name, v in merged.items() if name.startswith("steady:")}
     physical = {name.split(":", 1)[1]: v for name, v in merged.items()
@@ -1218,7 +1230,7 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
     data = _steady_columns(columns, physical, period, period > 0, failed, merged["periods"],
                            shape, ("a1", "adot1"), units, physical_units)
     data["attractor"] = xr.Variable(("a1", "adot1"), labels.reshape(shape), attrs={
-        "long_name": "attractor label (-1: no period found)", "tolerance": tol * scale})
+        "long_name": "attractor label (-1: no period found)", "tolerance": resolution})
     data["attractor_period"] = xr.Variable(("a1", "adot1"), np.array(
         [len(reps[k]) if k >= 0 else 0 for k in labels], dtype=np.int32).reshape(shape),
         attrs={"long_name": "period of the attractor reached (0: none found)"})

@@ -17,14 +17,16 @@ module tmafm_batch
    use tmafm_driver, only: run_trajectory
    use tmafm_simulation, only: prepare_model
    use tmafm_observers, only: observer_t, group_all
+   use tmafm_steady_state, only: jitter_t, jitter_init, adaptive_factor, steady_harmonic
    use tmafm_units, only: scales_t, scales_from_physical
    use tmafm_text, only: int_text, real_text
+   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
    !$ use omp_lib, only: omp_get_thread_num
    implicit none
    private
 
    public :: observe_options_t, observe_config, observe_batch, observe_states, config_scales, &
-      max_observed_periods, max_harmonics, max_p_max
+      max_observed_periods, max_harmonics, max_p_max, steady_harmonics, steady_evidence
 
    !> Most periods one observed run may integrate.
    integer, parameter :: max_observed_periods = 10000000
@@ -192,13 +194,16 @@ contains
       !> If present, the run polls it.
       procedure(stop_poll), optional :: poll
       type(trajectory_t) :: traj
+      type(jitter_t) :: jitter
+      real(dp) :: tol
       integer :: n
 
       n = size(y0)/2
       ierr = ok
       errmsg = ''
-      call observer%init(model, options%max_periods, options%harmonics, options%p_max, options%tol, &
-                         options%repeats, options%stop_at_steady, y0, options%groups)
+      call steady_tolerance(model, settings, options%tol, tol, jitter)
+      call observer%init(model, options%max_periods, options%harmonics, options%p_max, tol, &
+                         options%repeats, options%stop_at_steady, y0, options%groups, jitter)
       if (allocated(options%attractor_first)) then
          if (size(options%attractor_first) >= 2) then
             if (size(options%attractor_points, 1) /= 2*n) then
@@ -214,6 +219,62 @@ contains
       call run_trajectory(model, settings, y0(1:n), y0(n + 1:2*n), traj, ierr, errmsg, &
                           observer=observer, poll=poll)
    end subroutine observe_prepared
+
+   !> The steady test of a run follows its method's accuracy (docs/observables.md, "Steady
+   !> state"): rk4_paper's points repeat only to the jitter of its unlocated switches, whose
+   !> level (tmafm_steady_state jitter_level, from dtau and dtau/contact_refine) floors the
+   !> repeats; an adaptive method's relative tolerance is at least adaptive_factor * rtol.
+   subroutine steady_tolerance(model, settings, steady_tol, tol, jitter)
+      type(model_t), intent(in) :: model
+      type(run_settings_t), intent(in) :: settings
+      real(dp), intent(in) :: steady_tol
+      real(dp), intent(out) :: tol
+      type(jitter_t), intent(out) :: jitter
+      tol = steady_tol
+      select case (trim(settings%method))
+      case (method_rk4_paper)
+         jitter = jitter_init(model, .true., settings%dtau, settings%dtau/settings%contact_refine)
+      case default
+         jitter = jitter_init(model, .false., 0.0_dp, 0.0_dp)
+         tol = min(max(tol, adaptive_factor*settings%rtol), 0.5_dp)
+      end select
+   end subroutine steady_tolerance
+
+   !> The steady harmonics of an observed run: for each harmonic k, the harmonic of V_T over
+   !> its last max(period, 1) periods (tmafm_steady_state steady_harmonic: the mean of the
+   !> per-period Fourier coefficients, its phase free of the wrap at +-180); NaN when no
+   !> period was run.
+   subroutine steady_harmonics(observer, amplitude, phase)
+      type(observer_t), intent(in) :: observer
+      real(dp), intent(out) :: amplitude(:)
+      real(dp), intent(out) :: phase(:)
+      integer :: m, last, k
+      amplitude = ieee_value(1.0_dp, ieee_quiet_nan)
+      phase = amplitude
+      m = observer%n_periods
+      last = min(max(observer%found_period, 1), m)
+      if (last < 1) return
+      do k = 1, min(size(amplitude), observer%harmonics)
+         call steady_harmonic(observer%harmonic_amplitude(m - last + 1:m, k), &
+                              observer%harmonic_phase(m - last + 1:m, k), amplitude(k), phase(k))
+      end do
+   end subroutine steady_harmonics
+
+   !> The steady test's evidence of an observed run: [reason (tmafm_steady_state unsteady_*,
+   !> 0 when steady), the closest repeat relative to the orbit's size, its lag, the relative
+   !> tolerance used, the jitter level of the last point relative to the orbit's size].
+   pure function steady_evidence(observer) result(evidence)
+      type(observer_t), intent(in) :: observer
+      real(dp) :: evidence(5)
+      real(dp) :: size_orbit
+      integer :: m
+      m = observer%n_periods
+      size_orbit = maxval(abs(observer%poincare(:, max(0, m - observer%p_max - observer%repeats):m)))
+      if (.not. (size_orbit > 0)) size_orbit = tiny(1.0_dp)
+      evidence = [real(observer%reason, dp), observer%closest, real(observer%closest_lag, dp), observer%tol, &
+                  observer%jitter_floor(m)/size_orbit]
+      if (observer%closest >= huge(1.0_dp)) evidence(2) = ieee_value(1.0_dp, ieee_quiet_nan)
+   end function steady_evidence
 
    !> Observe every configuration, on `threads` OpenMP threads (0: the OpenMP default);
    !> ierr(k), errmsg(k) belong to configs(k).  Results do not depend on the thread count.

@@ -23,7 +23,7 @@ module tmafm_observers
    use tmafm_contact, only: contact_brackets_t
    use tmafm_embedded_pair, only: embedded_pair_t
    use tmafm_flight, only: free_flight_t
-   use tmafm_steady_state, only: steady_period
+   use tmafm_steady_state, only: steady_test, jitter_t, jitter_level, unsteady_short, steady_found
    use tmafm_quadrature, only: gauss_legendre
    use tmafm_units, only: scales_t
    use tmafm_interpolation, only: hermite_cubic
@@ -83,6 +83,14 @@ module tmafm_observers
       integer :: p_max = 8, repeats = 3
       !> Tolerance of the repeats, relative to the orbit's size.
       real(dp) :: tol = 1.0e-6_dp
+      !> A fixed-step method's jitter (tmafm_steady_state): the repeats are within the largest
+      !> of tol * size and the jitter level of the points compared (jitter_floor(0:periods)).
+      type(jitter_t) :: jitter
+      real(dp), allocatable :: jitter_floor(:)
+      !> The last steady test: why no period was found (tmafm_steady_state unsteady_*; 0 once
+      !> one is), the closest repeat (relative to the orbit's size) and its lag.
+      integer :: reason = unsteady_short, closest_lag = 0
+      real(dp) :: closest = huge(1.0_dp)
       !> Stop the run at the first steady state found.
       logical :: stop_at_steady = .true.
       !> The observable groups computed (bits group_*), and the same as flags.
@@ -173,7 +181,7 @@ contains
    end function group_columns
 
    subroutine observer_init(self, model, max_periods, harmonics, p_max, tol, repeats, &
-                            stop_at_steady, y0, groups)
+                            stop_at_steady, y0, groups, jitter)
       class(observer_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       integer, intent(in) :: max_periods
@@ -185,6 +193,8 @@ contains
       real(dp), intent(in) :: y0(:)
       !> The observable groups to compute (bits group_*); all when absent.
       integer, intent(in), optional :: groups
+      !> A fixed-step method's jitter data (tmafm_steady_state jitter_init); none when absent.
+      type(jitter_t), intent(in), optional :: jitter
       self%groups = group_all
       if (present(groups)) self%groups = iand(groups, group_all)
       self%do_lockin = iand(self%groups, group_lockin) /= 0
@@ -204,6 +214,11 @@ contains
       self%tol = tol
       self%repeats = repeats
       self%stop_at_steady = stop_at_steady
+      self%jitter = jitter_t()
+      if (present(jitter)) self%jitter = jitter
+      self%reason = unsteady_short
+      self%closest = huge(1.0_dp)
+      self%closest_lag = 0
       self%omega = model%scene%omega
       self%period_length = 2*pi/model%scene%omega
       self%done = .false.
@@ -233,6 +248,10 @@ contains
       self%harmonic_phase = 0
       self%poincare = 0
       self%poincare(:, 0) = y0
+      if (allocated(self%jitter_floor)) deallocate (self%jitter_floor)
+      allocate (self%jitter_floor(0:max_periods))
+      ! The initial state closes no period: no switch of it is misplaced.
+      self%jitter_floor = 0
       call reset(self)
    end subroutine observer_init
 
@@ -650,8 +669,14 @@ contains
       self%poincare(:, m) = self%y
       self%n_periods = m
       call reset(self)
+      ! Only a period with a switch has the jitter of a misplaced one.
+      self%jitter_floor(m) = 0
+      if (self%values(m, obs_contacts) > 0 .or. (self%values(m, obs_contact_time) > 0 .and. &
+                                                  self%values(m, obs_contact_time) < (1 - 1.0e-9_dp)*period)) &
+         self%jitter_floor(m) = jitter_level(self%jitter, self%y)
       if (self%stop_at_steady .or. m == self%max_periods) then
-         self%found_period = steady_period(self%poincare(:, 0:m), self%p_max, self%tol, self%repeats)
+         call steady_test(self%poincare(:, 0:m), self%p_max, self%tol, self%repeats, self%found_period, &
+                          self%reason, self%closest, self%closest_lag, self%jitter_floor(0:m))
          if (self%stop_at_steady .and. self%found_period > 0) self%done = .true.
       end if
       if (self%n_attractors > 0 .and. self%found_period == 0) then
@@ -659,6 +684,7 @@ contains
          if (self%attractor > 0) then
             k = self%attractor
             self%found_period = self%attractor_first(k + 1) - self%attractor_first(k)
+            self%reason = steady_found
             if (self%stop_at_steady) self%done = .true.
          end if
       end if

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 import tmafm
-from tmafm import sweepplots
+from tmafm.sweeps import plots as sweepplots
 
 observe_module = importlib.import_module("tmafm.observe")
 

@@ -1,7 +1,7 @@
 """Every public entry point, called with one argument of a wrong type or a hostile value, ends
 in a typed tmafm exception (tmafm.TmafmError: InputError, InputTypeError, ...) with a one-line
 message, or succeeds; never a raw Python exception or a crash.  The entry points: tmafm.__all__
-and the public functions of tmafm.sweeps, tmafm.observe, tmafm.analysis, tmafm.sweepplots,
+and the public functions of tmafm.sweeps, tmafm.observe, tmafm.analysis, tmafm.sweeps.plots,
 tmafm.figures, the methods of Config, Result and Model.  Before (issue 18), among others:
 ``write_dataset(None)`` and ``summarize(None)`` raised AttributeError, ``observe_batch(None)``
 TypeError, ``bifurcation`` over ``model.n_modes = [10**400]`` ValueError ("Maximum allowed
@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 
 import tmafm
-from tmafm import analysis, sweepplots, sweeps
+from tmafm import analysis, sweeps
+from tmafm.sweeps import plots as sweepplots
 
 hypothesis = pytest.importorskip("hypothesis")
 pytest.importorskip("xarray")

@@ -27,8 +27,7 @@ BISTABLE = dict(BASE, scene={"omega": 3.8, "alpha2": 5e-4})
 @pytest.fixture
 def no_runs(monkeypatch):
     """Count every call into the core's observers; a sweep that validates first makes none."""
-    import importlib
-    observe_module = importlib.import_module("tmafm.observe")
+    from tmafm.sweeps import runs as observe_module  # the sweeps' calls into the core's observers
     calls = []
 
     def refuse(*args, **kwargs):
@@ -36,7 +35,7 @@ def no_runs(monkeypatch):
         raise AssertionError("a run started before the sweep input was validated")
 
     monkeypatch.setattr(observe_module, "observe_batch", refuse)
-    monkeypatch.setattr(observe_module, "observe", refuse)
+    monkeypatch.setattr(observe_module, "observe_states", refuse)
     return calls
 
 

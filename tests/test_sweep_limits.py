@@ -17,6 +17,7 @@ import pytest
 
 import tmafm
 from tmafm import sweeps
+from tmafm.sweeps import points, runs
 
 from conftest import INPUTS
 
@@ -27,20 +28,19 @@ BISTABLE = INPUTS / "sweeps" / "bistable_n2.nml"
 
 @pytest.fixture
 def nothing_runs(monkeypatch):
-    """Fail the test if a grid point is built or observed (sweeps._config, the core's batch)."""
+    """Fail the test if a grid point is built or observed (points._config, the core's batch)."""
     def built(*args, **kwargs):
         raise AssertionError("a grid point was built or run")
-    observe = sys.modules["tmafm.observe"]
-    monkeypatch.setattr(sweeps, "_config", built)
-    monkeypatch.setattr(observe, "observe_batch", built)
-    monkeypatch.setattr(observe, "observe_states", built)
+    monkeypatch.setattr(points, "_config", built)
+    monkeypatch.setattr(runs, "observe_batch", built)
+    monkeypatch.setattr(runs, "observe_states", built)
 
 
 @pytest.fixture
 def little_memory(monkeypatch):
     """1 GB available: a grid of 10**6 points (16 GB by the estimate) is then too large, and
     the test needs no absurd grid (which main's code would build until memory ran out)."""
-    monkeypatch.setattr(sweeps, "_available_memory", lambda: 10**9)
+    monkeypatch.setattr(points, "_available_memory", lambda: 10**9)
 
 
 def _sweep_file(folder: Path, extra: str = "values = 1e-3, 2e-3") -> Path:
@@ -199,7 +199,7 @@ def test_a_bifurcation_over_n_modes_keeps_each_points_own_state():
     ds = tmafm.bifurcation("fig2_n4", "model.n_modes", [0, 2, 4], max_periods=3, periods_kept=2,
                            workers=1)
     for i, n_modes in enumerate([0, 2, 4]):
-        groups = sweeps._base_dict(tmafm.Config("fig2_n4"))  # its &initial values are zeros
+        groups = points._base_dict(tmafm.Config("fig2_n4"))  # its &initial values are zeros
         groups["model"]["n_modes"] = n_modes
         groups.pop("initial")
         config = tmafm.Config(groups)

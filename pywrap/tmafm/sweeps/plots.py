@@ -1,7 +1,7 @@
 """Plots of sweep datasets (matplotlib): one function per kind, and plot() that picks by kind.
 
-    >>> from tmafm import sweepplots                                     # doctest: +SKIP
-    >>> sweepplots.plot(tmafm.approach("fig2_n4", delta_hat=...), "approach.png")
+    >>> from tmafm.sweeps import plots                                    # doctest: +SKIP
+    >>> plots.plot(tmafm.approach("fig2_n4", delta_hat=...), "approach.png")
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ __all__ = ["plot", "render", "plot_approach", "plot_frequency", "plot_bifurcatio
 
 
 def _pyplot():
-    from ._extras import require
-    matplotlib = require("matplotlib", "tmafm.sweepplots")
+    from .._extras import require
+    matplotlib = require("matplotlib", "tmafm.sweeps.plots")
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt
@@ -39,7 +39,7 @@ def _save(fig, path) -> Path:
     """Save by the executable's output rules (tmafm._safefile: a temporary and a rename), or
     into memory for render()."""
     import io
-    from ._safefile import save_figure
+    from .._safefile import save_figure
     try:
         if isinstance(path, _Memory):
             buffer = io.BytesIO()
@@ -54,8 +54,8 @@ def _save(fig, path) -> Path:
 def _check(ds, what: str):
     """`ds` if it is a sweep Dataset (xarray.Dataset with tmafm_kind); InputTypeError or
     InputError otherwise."""
-    from ._namelist import shown
-    from .errors import InputError, InputTypeError
+    from .._namelist import shown
+    from ..errors import InputError, InputTypeError
     try:
         import xarray as xr
     except ImportError:
@@ -124,8 +124,8 @@ def plot_frequency(ds, path):
 
 def plot_bifurcation(ds, path, variable="vt"):
     """Poincaré points (`variable`, default V_T at the section) against the swept key."""
-    from ._namelist import shown
-    from .errors import InputError
+    from .._namelist import shown
+    from ..errors import InputError
     _check(ds, "plot_bifurcation")
     if not isinstance(variable, str) or variable not in ds or "swept_key" not in ds.attrs:
         raise InputError(f"plot_bifurcation: variable {shown(variable)} is not in the dataset")
@@ -176,8 +176,8 @@ def plot_basin(ds, path):
 def plot_grid(ds, path, names=("amplitude", "phase", "peak_force", "min_gap")):
     """A grid sweep: lines against its one key, or maps over its two keys (the `names` the
     sweep computed; its steady period when it computed none of them)."""
-    from ._namelist import shown
-    from .errors import InputTypeError
+    from .._namelist import shown
+    from ..errors import InputTypeError
     _check(ds, "plot_grid")
     if isinstance(names, str) or not isinstance(names, (list, tuple)) \
             or not all(isinstance(name, str) for name in names):
@@ -208,7 +208,7 @@ _BY_KIND = {"approach": plot_approach, "frequency_sweep": plot_frequency,
 
 def plot(ds, path):
     """Draw the plot of a sweep Dataset's kind (its 'tmafm_kind' attribute) to `path`."""
-    from ._safefile import as_path
+    from .._safefile import as_path
     _check(ds, "plot")
     return _BY_KIND[ds.attrs["tmafm_kind"]](ds, as_path(path, "plot file"))
 

@@ -1,0 +1,205 @@
+"""Sweep datasets: the steady values of the runs as xarray variables with their units,
+the attributes every dataset carries, the summary docs/sweeps.md quotes, and NetCDF files
+(written as the executable writes its output, and read back)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .._namelist import shown
+from .._run import Config
+from ..errors import InputError, InputFileError, InputTypeError
+from ..observe import PHYSICAL_UNITS, UNITS
+from .points import _input_name
+from .runs import _names
+
+
+def _units(base_config: Config) -> tuple[dict, dict]:
+    """(units, physical units) of the observables (tmafm.observe.UNITS, PHYSICAL_UNITS)."""
+    return dict(UNITS), dict(PHYSICAL_UNITS)
+
+
+def _steady_variables(summaries: list[dict], shape: tuple, dims: tuple, units: dict,
+                      physical_units: dict) -> dict:
+    """The steady variables of a list of summaries (one per point, in grid order)."""
+    good = [s for s in summaries if "error" not in s]
+    names = [name for name in _names() if any(name in s["values"] for s in summaries)]
+    columns = {name: np.array([s["values"].get(name, np.nan) for s in summaries], dtype=float)
+               for name in names}
+    physical = {}
+    for name in names:
+        if good and all(name in s["physical"] for s in good):
+            physical[name] = np.array([s["physical"][name] if "error" not in s else np.nan
+                                       for s in summaries], dtype=float)
+    for name in ("harmonic_amplitude", "harmonic_phase"):
+        if good and all(name in s for s in good):
+            size = len(good[0][name])
+            columns[name] = np.array([s[name] if "error" not in s else np.full(size, np.nan)
+                                      for s in summaries], dtype=float)
+    return _steady_columns(columns, physical, np.array([s["period"] for s in summaries]),
+                           np.array([s["steady"] for s in summaries]),
+                           np.array(["error" in s for s in summaries]),
+                           np.array([s["periods"] for s in summaries]), shape, dims, units,
+                           physical_units)
+
+
+def _steady_columns(columns: dict, physical: dict, period, steady, failed, periods,
+                    shape: tuple, dims: tuple, units: dict, physical_units: dict) -> dict:
+    """The steady variables from arrays over the points (grid order): ``columns`` {name: (n,)
+    or (n, harmonics)}, ``physical`` {name: (n,)}, and period, steady, failed, periods (n,)."""
+    import xarray as xr
+    data = {}
+    for name in _names():
+        if name not in columns:
+            continue
+        data[name] = xr.Variable(dims, columns[name].reshape(shape),
+                                 attrs={"units": units.get(name, "1"),
+                                        "long_name": f"steady {name}"})
+        if name in physical:
+            unit = physical_units.get(name, "")
+            data[f"{name}_{unit}" if unit else f"{name}_physical"] = xr.Variable(
+                dims, physical[name].reshape(shape),
+                attrs={"units": unit, "long_name": f"steady {name} ({unit})"})
+    for name in ("harmonic_amplitude", "harmonic_phase"):
+        if name in columns:
+            data[name] = xr.Variable((*dims, "harmonic"), columns[name].reshape(*shape, -1),
+                                     attrs={"units": units.get(name, ""),
+                                            "long_name": f"steady {name} (harmonics 1, 2, ...)"})
+    data["period"] = xr.Variable(dims, np.asarray(period, dtype=np.int32).reshape(shape),
+                                 attrs={"units": "drive periods",
+                                        "long_name": "period of the steady motion (0: none found)"})
+    data["steady"] = xr.Variable(dims, np.asarray(steady, dtype=np.int8).reshape(shape),
+                                 attrs={"long_name": "1 where steady state was reached"})
+    data["failed"] = xr.Variable(dims, np.asarray(failed, dtype=np.int8).reshape(shape),
+                                 attrs={"long_name": "1 where the run failed (SolverError); "
+                                                     "its values are NaN"})
+    data["periods"] = xr.Variable(dims, np.asarray(periods, dtype=np.int32).reshape(shape),
+                                  attrs={"units": "drive periods", "long_name": "periods run"})
+    return data
+
+
+def _attrs(base, kind: str, keywords: dict) -> dict:
+    from .. import __version__
+    attrs = {"tmafm_kind": kind, "tmafm_version": str(__version__),
+             "base": base.label if isinstance(base, Config) else str(base)
+             if isinstance(base, (str, os.PathLike)) else "<dict input>"}
+    for key, value in keywords.items():
+        if key == "observables":  # a list of groups: NetCDF attributes want one text
+            value = "all" if value is None else ",".join(value)
+        attrs[f"observe_{key}"] = int(value) if isinstance(value, bool) else value
+    return attrs
+
+
+def _failure_attrs(summaries: list[dict]) -> dict:
+    """The count of failed runs and the first one's message, for the Dataset's attributes."""
+    errors = [s["error"] for s in summaries if "error" in s]
+    return {"failures": len(errors), "first_failure": errors[0] if errors else ""}
+
+
+def _grid_dataset(base, base_config, axes, summaries, keywords, kind):
+    import xarray as xr
+    keys = list(axes)
+    shape = tuple(len(v) for v in axes.values())
+    units, physical_units = _units(base_config)
+    data = _steady_variables(summaries, shape, tuple(keys), units, physical_units)
+    coords = {key: xr.Variable((key,), np.asarray(values), attrs={"long_name": key})
+              for key, values in axes.items()}
+    attrs = _attrs(base, kind, keywords)
+    attrs.update(_failure_attrs(summaries))
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def summarize(ds) -> dict:
+    """The facts docs/sweeps.md quotes, from a sweep Dataset: jump positions per curve and
+    direction, attractor counts, period counts, where the bifurcation points split."""
+    _check_dataset(ds, "summarize")
+    kind = ds.attrs.get("tmafm_kind")
+    if kind not in ("sweep", "approach", "frequency_sweep", "bifurcation", "basin") \
+            or "period" not in ds:
+        raise InputError(f"summarize: not a tmafm sweep dataset (tmafm_kind = {shown(kind)})")
+    out = {"kind": kind, "failures": int(ds.attrs.get("failures", 0)),
+           "periods_found": {str(int(k)): int((ds["period"].values == k).sum())
+                             for k in np.unique(ds["period"].values)}}
+    if kind in ("approach", "frequency_sweep"):
+        key = ds.attrs["swept_key"]
+        curve_dims = [d for d in ds["jump"].dims if d not in ("direction", key)]
+        stacked = ds.stack(curve=curve_dims) if curve_dims else ds.expand_dims(curve=[0])
+        out["jumps"] = []
+        for c in range(stacked.sizes["curve"]):
+            for direction in ds["direction"].values:
+                part = stacked.isel(curve=c).sel(direction=direction)
+                flags = part["jump"].values.astype(bool)
+                label = {d: float(part[d].values) for d in curve_dims}
+                out["jumps"].append(dict(label, direction=str(direction),
+                                         at=part[key].values[flags].tolist(),
+                                         amplitude_max=float(np.nanmax(part["amplitude"]))))
+    elif kind == "bifurcation":
+        key = ds.attrs["swept_key"]
+        vt = ds["vt"]
+        spread = ((vt.max("kept") - vt.min("kept")) / np.abs(vt).max("kept")).values
+        out["split_1e-6_at"] = ds[key].values[spread > 1e-6].tolist()
+        out["period"] = dict(zip(map(float, ds[key].values), map(int, ds["period"].values)))
+    elif kind == "basin":
+        labels = ds["attractor"].values
+        out["attractors"] = int(ds.attrs["attractors"])
+        out["points_per_label"] = {str(int(k)): int((labels == k).sum()) for k in
+                                   np.unique(labels)}
+    return out
+
+
+def _netcdf_bytes(ds, engine: str) -> bytes:
+    """The NetCDF file of a Dataset, as bytes (written in a private folder, then read)."""
+    import tempfile
+    with tempfile.TemporaryDirectory() as folder:
+        scratch = Path(folder) / "sweep.nc"
+        ds.to_netcdf(scratch, engine=engine)
+        return scratch.read_bytes()
+
+
+def _check_dataset(ds, what: str):
+    """`ds` if it is an xarray.Dataset; InputTypeError otherwise."""
+    import xarray as xr
+    if not isinstance(ds, xr.Dataset):
+        raise InputTypeError(f"{what}: ds must be an xarray.Dataset (a sweep's result), not "
+                             f"{type(ds).__name__}")
+    return ds
+
+
+def read_dataset(path):
+    """A sweep NetCDF file, loaded into memory; InputFileError if it is missing, InputError if
+    it is not a sweep dataset (what ``--summarize`` reads)."""
+    from .._extras import require
+    xr = require("xarray", "tmafm.sweeps.read_dataset")
+    path = _input_name(path, "sweep dataset")
+    try:
+        is_file = path.is_file()
+    except (OSError, ValueError):
+        is_file = False
+    if not is_file:
+        raise InputFileError(f"sweep dataset {shown(str(path))} not found")
+    try:
+        with xr.open_dataset(path) as ds:
+            ds = ds.load()
+    except Exception as exc:  # the NetCDF back ends raise many kinds
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(f"{shown(str(path))}: not a readable NetCDF file: "
+                         f"{shown(first)[1:-1]}") from None
+    if "tmafm_kind" not in ds.attrs or "period" not in ds:
+        raise InputError(f"{shown(str(path))}: not a tmafm sweep dataset (no tmafm_kind "
+                         f"attribute or period variable)")
+    return ds
+
+
+def write_dataset(ds, path) -> Path:
+    """Write a sweep Dataset to NetCDF as the executable writes its output: a new temporary
+    file, synced and renamed (a device or FIFO is written directly); InputFileError if it
+    cannot be written.  Nothing is left behind on a failure or a KeyboardInterrupt."""
+    from .._extras import netcdf_engine
+    from .._safefile import as_path, write_with
+    _check_dataset(ds, "write_dataset")
+    path = as_path(path, "NetCDF file")
+    engine = netcdf_engine("tmafm.sweeps.write_dataset")
+    return write_with(path, lambda name: ds.to_netcdf(name, engine=engine), what="NetCDF file")

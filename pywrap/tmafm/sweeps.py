@@ -1276,13 +1276,12 @@ def _sweep_groups(path: Path) -> dict:
     """{group: {key: [values]}} of a sweep file, parsed by tmafm's strict reader (the one the
     executable uses): text outside a group, an empty value, an indexed key, an unquoted
     string, a NUL byte, a key or a group given twice are errors, never skipped or merged."""
-    from . import _core
+    from ._fortran import api
     from ._run import _read_text
     label = shown(str(path))[1:-1]
     data = _read_text(path)
-    max_codes = 8 * len(data) + 1024
-    codes, length, ierr, errmsg = _core.namelist_syntax(
-        data, label.encode("utf-8", "backslashreplace"), max_codes)
+    codes = np.zeros(8 * len(data) + 1024, dtype=np.int32)
+    length, ierr, errmsg = api.namelist_syntax(data, label.encode("utf-8", "backslashreplace"), codes)
     raise_for(ierr, errmsg)
     if length < 0:
         raise InputError(f"{label}: the file is too complex to read")

@@ -34,7 +34,7 @@ import time
 from pathlib import Path
 
 import tmafm
-import tmafm._core
+import tmafm._fwrap
 
 ROOT = Path(__file__).resolve().parents[1]
 _TRAJECTORY = (ROOT / "fortran/src/solve/tmafm_trajectory.f90").read_text()
@@ -49,8 +49,8 @@ SCENES = {
         "output": {"sample_dtau": 1.0}}),
 }
 LOOP = """
-import ctypes, tmafm._core
-poll = ctypes.CDLL(tmafm._core.__file__).tmafm_check_signals
+import ctypes, tmafm._fwrap
+poll = ctypes.CDLL(tmafm._fwrap.__file__).tmafm_check_signals
 for _ in range({n}):
     poll()
 """
@@ -58,7 +58,7 @@ for _ in range({n}):
 
 def ctypes_times(n: int = 300_000, repeats: int = 5) -> tuple[float, float]:
     """Least CPU seconds per call of the poll and of libc abs, through ctypes."""
-    poll = ctypes.CDLL(tmafm._core.__file__).tmafm_check_signals
+    poll = ctypes.CDLL(tmafm._fwrap.__file__).tmafm_check_signals
     nop = ctypes.CDLL(None).abs
     best_poll = best_nop = float("inf")
     for _ in range(repeats):

@@ -23,16 +23,13 @@ import json
 import os
 import platform
 import statistics
-import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from pathlib import Path
 
-import f90nml
 import numpy as np
 
 import tmafm
-from tmafm import _core
 
 OUT = Path(__file__).resolve().parent / "results"
 SHORT = {"model": {"n_modes": 4}, "solver": {"tau_end": 0.1}}
@@ -48,22 +45,6 @@ def cpu_per_call(call, calls: int, batches: int = 5) -> float:
             call()
         per.append((time.process_time() - start) / calls)
     return statistics.median(per)
-
-
-def legacy_file_run(groups):
-    """The file-based path of the previous tmafm.run, rebuilt from the flat _core entry points."""
-    handle = tempfile.NamedTemporaryFile("w", suffix=".nml", delete=False)
-    handle.close()
-    try:
-        f90nml.write(f90nml.Namelist(groups), handle.name, force=True)
-        with tempfile.TemporaryDirectory() as scratch:
-            resolved_file = os.path.join(scratch, "resolved.nml")
-            n_modes, n_samples, scene, ierr, errmsg = _core.resolve(handle.name, resolved_file)
-            f90nml.read(resolved_file)
-        out = _core.run(handle.name, n_samples, n_modes, 100_000)
-    finally:
-        os.unlink(handle.name)
-    return out
 
 
 def scenes(count: int) -> list[dict]:
@@ -102,7 +83,6 @@ def main(argv=None) -> dict:
         "run_dict": cpu_per_call(lambda: tmafm.run(SHORT), args.calls),
         "run_path": cpu_per_call(lambda: tmafm.run(path, solver={"tau_end": 0.1}), args.calls),
         "config_run": cpu_per_call(config.run, args.calls),
-        "legacy_file_path": cpu_per_call(lambda: legacy_file_run(SHORT), max(20, args.calls // 10)),
     }
     counters = config.run().counters
     items = scenes(args.scenes)

@@ -1,16 +1,17 @@
 """Generate the Python extensions' wrappers at build time (meson custom_target): f90wrap, then
-f2py-f90wrap for tmafm._fwrap, and numpy.f2py for tmafm._core.
+f2py-f90wrap for tmafm._fwrap (the package's one extension), and numpy.f2py for the test-only
+tmafm_testcore (tests/tmafm_testcore.f90, never installed).
 
     python f90wrap_gen.py f90wrap OUTDIR KIND_MAP SOURCE...   -> f90wrap_<module>.f90, _objects.py
     python f90wrap_gen.py f2py OUTDIR WRAPPER...              -> _fwrapmodule.c, _fwrap-f2pywrappers.f
-    python f90wrap_gen.py core OUTDIR _core.f90 F2CMAP        -> _coremodule.c, _core-f2pywrappers.f
+    python f90wrap_gen.py testcore OUTDIR SOURCE F2CMAP       -> tmafm_testcoremodule.c, ...-f2pywrappers.f
 
 The tools write into the current folder, so each step runs inside OUTDIR, with this
 interpreter (nothing depends on PATH).  After f90wrap, the wrapper of the run entry point
 gets an ``!f2py threadsafe`` line, so the extension releases the GIL while the core integrates.
 After f2py, every wrapper in _fwrapmodule.c loses f90wrap's SIGINT handler and setjmp
-(drop_abort_handler below), and the batch entry points of _coremodule.c free their output
-arrays when a Ctrl-C stops them (free_outputs_on_failure below).  Type-bound procedures named
+(drop_abort_handler below).  The observed runs (batch_run, observe_states_of) write into arrays
+that Python made before the call, so a Ctrl-C that stops them leaks nothing.  Type-bound procedures named
 in SKIP are hidden from f90wrap (hide_bindings below: its --skip keeps bindings).
 """
 
@@ -25,14 +26,16 @@ from pathlib import Path
 #: returns no deferred-length function result (gfortran 12 keeps the length of one in a static
 #: variable of the caller: docs/model-notes.md, finding 11; tests/test_threads.py checks it).
 THREADSAFE = ("f90wrap_tmafm_api__run_config", "f90wrap_tmafm_api__config_from_text",
-              "f90wrap_tmafm_api__config_from_texts", "f90wrap_tmafm_api__trajectory_energy_flow")
+              "f90wrap_tmafm_api__config_from_texts", "f90wrap_tmafm_api__trajectory_energy_flow",
+              "f90wrap_tmafm_api__batch_run", "f90wrap_tmafm_api__observe_states_of")
 #: Core entities that Python never calls (the integrators' own helpers).  f90wrap's --skip
 #: leaves type-bound procedures wrapped, so those named here are hidden from it
 #: (hide_bindings below).
 SKIP = ["check_blowup", "init_trajectory", "scene_from_physical", "errata_for_convention", "parse_errata",
         "errata_label", "contact_angle", "contact_radius", "normal_force_group", "friction_group",
         "contact_brackets", "init_model", "sample_count",
-        # Explicit-shape arrays and row ranges that nothing checks: _core.gap_rows checks them.
+        # Explicit-shape arrays and row ranges that nothing checks (the test-only
+        # tmafm_testcore.gap_rows checks them).
         "gap_rows"]
 
 
@@ -112,38 +115,6 @@ def drop_abort_handler(path: Path) -> None:
     path.write_text(text)
 
 
-#: _core routines that poll for Ctrl-C (pywrap/tmafm_check_signals.c): when Python's handler
-#: raised, the run stops and f2py's wrapper returns NULL, but f2py frees the intent(out) arrays
-#: it made only on success (they are handed to Py_BuildValue with "N").  A stopped batch then
-#: leaked all its output arrays (n_configs x max_periods x columns doubles and more).
-POLLING_CORE = ("observe_texts", "observe_states_text")
-_ROUTINE = r"static PyObject \*f2py_rout__core_{name}\(.*?\n}}\n"
-_BUILD = re.compile(r'capi_buildvalue = Py_BuildValue\("(?P<format>[^"]*)",(?P<args>[^;]*)\);')
-_AFTER_CALL = "} /*if (f2py_success) after callfortranroutine*/"
-
-
-def free_outputs_on_failure(path: Path, routines=POLLING_CORE) -> None:
-    """In each of `routines`, release the arrays passed to Py_BuildValue as "N" (the
-    intent(out) arrays) when the call failed; fails the build if f2py writes them differently."""
-    text = path.read_text()
-    for name in routines:
-        found = re.search(_ROUTINE.format(name=name), text, re.S)
-        body = found and found[0]
-        build = body and _BUILD.search(body)
-        if not build or body.count(_AFTER_CALL) != 1 or not re.fullmatch(r"[NiyO]+", build["format"]):
-            raise SystemExit(f"f90wrap_gen: {path}: no single Py_BuildValue and end of the call in "
-                             f"f2py_rout__core_{name}; has f2py changed how it writes them?")
-        args = [a.strip() for a in build["args"].split(",")]
-        owned = [a for code, a in zip(build["format"], args, strict=True) if code == "N"]
-        if not owned:
-            raise SystemExit(f"f90wrap_gen: {path}: {name} returns no array")
-        release = "".join(f" Py_XDECREF({a});" for a in owned)
-        patched = body.replace(_AFTER_CALL, "} else { /* tmafm: the call failed (Ctrl-C): free "
-                               "the outputs (f90wrap_gen.py) */" + release + " }" + _AFTER_CALL[1:])
-        text = text.replace(body, patched)
-    path.write_text(text)
-
-
 def main() -> None:
     step, outdir, *rest = sys.argv[1:]
     sources = [str(Path(p).resolve()) for p in rest]
@@ -164,12 +135,12 @@ def main() -> None:
         for expected in ("_fwrap-f2pywrappers.f",):
             Path(expected).touch()
         drop_abort_handler(Path("_fwrapmodule.c"))
-    elif step == "core":
+    elif step == "testcore":
         source, f2cmap = sources
-        subprocess.run([sys.executable, "-m", "numpy.f2py", source, "-m", "_core", "--lower",
+        subprocess.run([sys.executable, "-m", "numpy.f2py", source, "-m", "tmafm_testcore", "--lower",
                         "--f2cmap", f2cmap, "--build-dir", "."], check=True,
                        stdout=subprocess.DEVNULL)
-        free_outputs_on_failure(Path("_coremodule.c"))
+        Path("tmafm_testcore-f2pywrappers.f").touch()
     else:
         raise SystemExit(f"unknown step {step!r}")
 

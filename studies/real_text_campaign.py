@@ -5,7 +5,7 @@
 Draws random doubles three ways (random bit patterns, decimals rounded to 1..16 places, and
 m x 10^e with m of 1..16 digits, |e| < 300), and checks for each that tmafm_float_format's
 shortest_text_padded gives exactly tmafm_text's real_text_padded's text (both through
-_core.real_texts) and that this is Python's shortest correctly rounded es text of 2..17 digits
+tests/testcore.py: real_texts) and that this is Python's shortest correctly rounded es text of 2..17 digits
 (tests/test_real_text.py's shortest_es).  Prints the count checked and the mismatches (the first
 five in full); exits 1 on any mismatch.
 """

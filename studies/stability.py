@@ -8,7 +8,7 @@ Writes studies/results/stability.json and studies/results/stability.png.
 
 Theory: RK4 is stable while |R(h lambda)| <= 1 for every eigenvalue lambda of the Jacobian,
 R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24.  The Jacobian is taken by central differences of the
-core's own right-hand side (tmafm._core.model_terms), at a free state and at a state stuck
+core's own right-hand side (tests/testcore.py: tmafm_testcore.model_terms), at a free state and at a state stuck
 in DMT contact, so no physics is restated here.  |lambda_max| h <= 2.78 is the rule of thumb.
 """
 
@@ -19,10 +19,13 @@ import tempfile
 from pathlib import Path
 
 import f90nml
+import sys
+
 import numpy as np
 
 import tmafm
-from tmafm import _core
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
+from testcore import core as _core  # noqa: E402  (the test-only extension, tests/testcore.py)
 from scenes import grazing_scene  # studies/scenes.py, this script's sibling
 
 REPO = Path(__file__).resolve().parent.parent

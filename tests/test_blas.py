@@ -69,7 +69,7 @@ def run_configuration(name: str) -> int:
 def linked_statically() -> bool:
     """Whether neither the extension nor the executable loads a shared BLAS/LAPACK."""
     import tmafm
-    probe = subprocess.run([sys.executable, "-c", "import tmafm._core, json, regenerate; "
+    probe = subprocess.run([sys.executable, "-c", "import tmafm._fwrap, json, regenerate; "
                             "print(json.dumps(regenerate.loaded_blas()))"],
                            capture_output=True, text=True, timeout=120, cwd=HERE / "golden", check=True)
     ext = json.loads(probe.stdout.strip().splitlines()[-1])

@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from tmafm import _core
+from testcore import core as _core
 
 HERTZ, DMT = 1, 2
 THETA, BETA, KAPPA5, KAPPA6 = math.pi / 12, 1.128e-4, 6.7665e-5, 0.7413

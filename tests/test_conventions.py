@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from tmafm import _core
+from testcore import core as _core
 
 from conftest import write_nml
 

@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from tmafm import _core
+from testcore import core as _core
 
 from conftest import INPUTS, write_nml
 from scenes import grazing_scene as grazing_scene_dict  # studies/scenes.py (conftest's sys.path)

@@ -5,7 +5,7 @@ import pytest
 from scipy.linalg import eigh
 from scipy.optimize import brentq
 
-from tmafm import _core
+from testcore import core as _core
 
 from conftest import write_nml
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import tmafm
-from tmafm import _core
+from testcore import core as _core
 
 from conftest import INPUTS, write_nml
 

@@ -5,7 +5,7 @@ import mpmath
 import numpy as np
 import pytest
 
-from tmafm import _core
+from testcore import core as _core
 
 N_MAX = 30
 # Roots of 1 + cos b cosh b = 0 (Blevins, Formulas for natural frequency and mode shape).

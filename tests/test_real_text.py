@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import tmafm
-from tmafm import _core
+from testcore import core as _core
 
 
 def shortest_es(value: float) -> str:

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import tmafm
-from tmafm import _core
+from testcore import core as _core
 
 import scenes  # studies/scenes.py (conftest's sys.path)
 
@@ -99,9 +99,8 @@ def test_rates_at_phase_and_gap_equal_the_old_kernel(tmp_path):
             assert error <= REFERENCE_RTOL, (n, case["convention"], case["law"],
                                              case["in_contact"], case["scene"], error)
         if case["scene"] not in scene_values:
-            scene = _core.resolve(str(path), "")[2]
-            scene_values[case["scene"]] = dict(alpha2=scene[1], omega=scene[7],
-                                               delta_hat=scene[11], xi0=scene[12])
+            scene = tmafm.Config(path).scene
+            scene_values[case["scene"]] = {k: scene[k] for k in ("alpha2", "omega", "delta_hat", "xi0")}
         sv = scene_values[case["scene"]]
         tip = _core.modes(n, np.array([sv["xi0"]]), 0)[1][0]
         phase = sv["omega"] * case["tau"]

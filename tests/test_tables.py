@@ -258,14 +258,14 @@ def _no_core(*args, **kwargs):
                                            ("max_periods", "max_observed_periods"),
                                            ("steady_repeats", "max_observed_periods")])
 def test_observe_refuses_by_itself_with_the_core_limits(option, limit, monkeypatch):
-    # Python refused only above 10**7 (harmonics = 10**6 had f2py allocate max_periods x 10**6
-    # doubles per output before the core refused it): now it refuses above the core's limit
+    # Python refused only above 10**7 (harmonics = 10**6 had max_periods x 10**6 doubles
+    # allocated per output before the core refused it): now it refuses above the core's limit
     # without reaching the core, and passes the limit itself on.
-    from tmafm import _core
+    from tmafm._fortran import api
     most = LIMITS[limit]
     config = tmafm.Config("fig2_n1", solver={"tau_end": 1.0})
     with monkeypatch.context() as patch:
-        patch.setattr(_core, "observe_texts", _no_core)
+        patch.setattr(api, "batch_run", _no_core)
         with pytest.raises(tmafm.InputError, match=rf"^observe {option} = {most + 1}: must be 1 to {most}$"):
             tmafm.observe(config, **{option: most + 1})
         with pytest.raises(_CoreReached):

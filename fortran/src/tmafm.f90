@@ -18,6 +18,12 @@ module tmafm
    ! limits Python checks against.
    use tmafm_keys, only: n_keys, describe_key, max_mode_horizon
    use tmafm_batch, only: max_harmonics, max_p_max, max_observed_periods
+   ! Observed runs and the steady-state rule (what tmafm_api's batches and tests call).
+   use tmafm_batch, only: observe_options_t, observe_batch, observe_states, config_scales, steady_harmonics, &
+      steady_evidence
+   use tmafm_observers, only: observer_t, n_observables, observable_factors, obs_amplitude, obs_phase
+   use tmafm_units, only: scales_t
+   use tmafm_steady_state, only: steady_test, repeat_steps, steady_harmonic
    use tmafm_trajectory, only: trajectory_t
    use tmafm_driver, only: run_trajectory
    ! A base input patched by overrides (tmafm_api), and the rename held apart (the executable).
@@ -49,6 +55,9 @@ module tmafm
    public :: n_keys, describe_key, max_mode_horizon, max_max_steps, max_harmonics, max_p_max, &
              max_observed_periods
    public :: read_config_document, patch_document, commit_output
+   public :: observe_options_t, observe_batch, observe_states, config_scales, steady_harmonics, &
+             steady_evidence, observer_t, n_observables, observable_factors, obs_amplitude, obs_phase, &
+             scales_t, steady_test, repeat_steps, steady_harmonic
    public :: write_trajectory_file, output_sink_t, prepare_output, check_output_size, begin_output, &
              write_output, discard_output, sample_count, target_file, target_device, target_stdout
 

@@ -11,6 +11,9 @@ api = _objects.tmafm_api
 #: A new, empty config_t handle (filled by api.config_from_text(s)).
 config_t = _objects.tmafm_config.config_t
 
+#: A new, empty batch_t handle (filled by api.batch_add, run by api.batch_run).
+batch_t = _objects.tmafm_api.batch_t
+
 
 def text(value) -> str:
     """A blank-padded character result of the core as a str."""

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._fortran import LIMITS, polls
+from ._fortran import LIMITS, api, batch_t, polls
 from ._namelist import shown
 from ._run import Config, _for_core, _source
 from .errors import InputError, InputTypeError, SolverError, UnsteadyWarning, raise_for
@@ -98,8 +98,8 @@ def _names_method(nml) -> bool:
     text = _source(nml, {})[0]
     if isinstance(text, bytes):
         text = text.decode("utf-8", "replace")
-    from ._core import namelist_syntax
-    codes, length, ierr, _ = namelist_syntax(_for_core(text), b"observe input", 8 * len(text) + 64)
+    codes = np.zeros(8 * len(text) + 64, dtype=np.int32)
+    length, ierr, _ = api.namelist_syntax(_for_core(text), b"observe input", codes)
     if ierr or length < 0:
         return True  # Config reports the error; no default is put in
     fields, field, records = [], [], []
@@ -127,6 +127,11 @@ def observed_config(nml, **overrides) -> Config:
         key = next((g for g in overrides if str(g).lower() == "solver"), "solver")
         overrides[key] = {**(overrides.get(key) or {}), "method": DEFAULT_METHOD}
     return Config(nml, **overrides)
+
+
+def _message(errmsg) -> str:
+    """A blank-padded message of the core as a str."""
+    return (errmsg.decode("utf-8", "replace") if isinstance(errmsg, bytes) else str(errmsg)).strip()
 
 
 def unsteady_text(reason: int, periods: int, evidence=None, repeats: int | None = None) -> str:
@@ -297,7 +302,6 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
     steady test follows the method (docs/observables.md, "Steady state"); a run asked to stop
     at a steady state that ends without one warns (tmafm.UnsteadyWarning) and says why
     (Observation.unsteady_reason)."""
-    from . import _core
     opts = _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_steady)
     groups = observable_groups(observables)
     if isinstance(configs, (str, bytes, os.PathLike, Mapping, Config)) \
@@ -308,25 +312,37 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
     threads = _threads(threads, "observe_batch", len(configs))
     if not configs:
         return []
-    # Bytes: the core's offsets count bytes (a non-ASCII &output file is several per character).
-    texts = [_for_core(c.text) for c in configs]
-    offsets = np.cumsum([0] + [len(t) for t in texts]).astype(np.int32)
+    # The Configs' config_t handles are copied into the batch as they are: no text, no parse.
+    batch = batch_t()
+    for c in configs:
+        api.batch_add(batch, c._f)
     n_modes = np.array([c.n_modes for c in configs], dtype=np.int32)
-    n_state = 2 * int(n_modes.max())
-    h = opts["harmonics"]
+    n, n_state, m, h = len(configs), 2 * int(n_modes.max()), opts["max_periods"], opts["harmonics"]
     try:
-        (values, harm_amp, harm_phase, poincare, max_gap, modal, n_periods, found, factors,
-         has_scales, steady_amp, steady_phase, evidence, ierr, errmsg) = _core.observe_texts(
-            b"".join(texts), offsets, n_modes, opts["max_periods"], h, opts["p_max"],
-            opts["steady_tol"], opts["steady_repeats"], opts["stop_at_steady"],
-            _group_bits(groups), threads, polls(), n_state, len(OBSERVABLES), n_configs=len(configs))
+        values = np.zeros((n, m, len(OBSERVABLES)), order="F")
+        harm_amp = np.zeros((n, m, h), order="F")
+        harm_phase = np.zeros((n, m, h), order="F")
+        poincare = np.zeros((n, m + 1, n_state), order="F")
+        max_gap = np.zeros((n, m), order="F")
+        modal = np.zeros((n, m, n_state // 2, 4), order="F")
+        n_periods, found, has_scales, ierr = (np.zeros(n, dtype=np.int32) for _ in range(4))
+        factors = np.zeros((n, len(OBSERVABLES)), order="F")
+        steady_amp = np.zeros((n, h), order="F")
+        steady_phase = np.zeros((n, h), order="F")
+        evidence = np.zeros((n, 5), order="F")
+        code, errmsg = api.batch_run(
+            batch, m, h, opts["p_max"], opts["steady_tol"], opts["steady_repeats"],
+            opts["stop_at_steady"], _group_bits(groups), threads, polls(), values, harm_amp,
+            harm_phase, poincare, max_gap, modal, n_periods, found, factors, has_scales, steady_amp,
+            steady_phase, evidence, ierr)
     except MemoryError as exc:
         raise _no_memory(exc, opts) from None
+    if code:
+        raise_for(int(code), _message(errmsg))
     bad = np.flatnonzero(ierr)
     if bad.size:
         k = int(bad[0])
-        message = errmsg.decode("utf-8", "replace") if isinstance(errmsg, bytes) else str(errmsg)
-        raise_for(int(ierr[k]), f"{configs[k].label}: {message.strip()}")
+        raise_for(int(ierr[k]), f"{configs[k].label}: {_message(errmsg)}")
     out = []
     columns = [(j, name) for j, name in enumerate(OBSERVABLES) if name in computed_names(groups)]
     for k, config in enumerate(configs):
@@ -415,7 +431,6 @@ def observe_states(config, states, *, threads: int | None = None, max_periods: i
     steady_repeats) is labelled k and stopped (docs/sweeps.md).
     A run that fails (SolverError) is marked ``failed`` (NaN values); a bad input, option or
     state raises InputError before any run."""
-    from . import _core
     opts = _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_steady)
     groups = observable_groups(observables)
     config = config if isinstance(config, Config) else Config(config)
@@ -448,18 +463,26 @@ def observe_states(config, states, *, threads: int | None = None, max_periods: i
         points = np.zeros((2 * n, 1), order="F")
         first = np.ones(1, dtype=np.int32)
     threads = _threads(threads, "observe_states", len(states))
+    n_points, h = len(states), opts["harmonics"]
     try:
-        (steady, harm_amp, harm_phase, orbit, n_periods, found, matched, factors, has_scales,
-         run_ierr, reason, jitter, ierr, errmsg) = _core.observe_states_text(
-            _for_core(config.text), n, np.asfortranarray(states), opts["max_periods"],
-            opts["harmonics"], opts["p_max"], opts["steady_tol"], opts["steady_repeats"],
-            opts["stop_at_steady"], _group_bits(groups), points, first, int(confirm),
-            float(capture), threads, polls(), len(OBSERVABLES))
+        steady = np.zeros((n_points, len(OBSERVABLES)), order="F")
+        harm_amp = np.zeros((n_points, h), order="F")
+        harm_phase = np.zeros((n_points, h), order="F")
+        orbit = np.zeros((n_points, opts["p_max"], 2 * n), order="F")
+        n_periods, found, matched, run_ierr, reason = (np.zeros(n_points, dtype=np.int32)
+                                                       for _ in range(5))
+        factors = np.zeros(len(OBSERVABLES))
+        jitter = np.zeros(n_points)
+        has_scales, ierr, errmsg = api.observe_states_of(
+            config._f, np.asfortranarray(states), opts["max_periods"], h, opts["p_max"],
+            opts["steady_tol"], opts["steady_repeats"], opts["stop_at_steady"], _group_bits(groups),
+            points, first, int(confirm), float(capture), threads, polls(), steady, harm_amp,
+            harm_phase, orbit, n_periods, found, matched, factors, run_ierr, reason, jitter)
     except MemoryError as exc:
         raise _no_memory(exc, opts) from None
-    message = errmsg.decode("utf-8", "replace") if isinstance(errmsg, bytes) else str(errmsg)
+    message = _message(errmsg)
     if ierr:
-        raise_for(int(ierr), f"{config.label}: {message.strip()}")
+        raise_for(int(ierr), f"{config.label}: {message}")
     failed = run_ierr != 0
     names = computed_names(groups)
     values = {name: steady[:, j] for j, name in enumerate(OBSERVABLES) if name in names}
@@ -472,7 +495,7 @@ def observe_states(config, states, *, threads: int | None = None, max_periods: i
                     if name in names}
     return StatesObservation(steady=values, orbit=orbit, periods=n_periods, period=found,
                              attractor=matched.astype(np.int32) - 1, failed=failed,
-                             first_failure=message.strip() if failed.any() else "",
+                             first_failure=message if failed.any() else "",
                              physical=physical, reason=reason, jitter=jitter)
 
 
@@ -485,7 +508,6 @@ def steady_test(points, p_max: int = 8, tol: float = 1e-6, repeats: int = 3, flo
     ('steady', 'short', 'no_repeat', 'not_distinct', 'settling'), 'closest' (the closest
     repeat relative to the size), 'closest_lag', 'steps' ({lag: largest step relative to the
     size} over the last ``repeats`` points, the evidence)}."""
-    from . import _core
     for name, value in (("p_max", p_max), ("repeats", repeats)):
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) \
                 or not 1 <= value <= 10_000_000:
@@ -508,9 +530,11 @@ def steady_test(points, p_max: int = 8, tol: float = 1e-6, repeats: int = 3, flo
                          f"array, got shape {points.shape}")
     floor = np.zeros(len(points)) if floor is None else np.broadcast_to(
         np.asarray(floor, dtype=float), (len(points),)).copy()
-    period, reason, closest, lag, steps = _core.steady_test_of(
+    steps = np.zeros(int(p_max))
+    period, reason, closest, lag, ierr, errmsg = api.steady_test_of(
         np.asfortranarray(points), int(p_max), float(tol), int(repeats), floor,
-        -1.0 if scale is None else float(scale))
+        -1.0 if scale is None else float(scale), steps)
+    raise_for(int(ierr), _message(errmsg))
     return {"period": int(period), "reason": _REASONS.get(int(reason), "steady"),
             "closest": float(closest), "closest_lag": int(lag),
             "steps": {p + 1: float(x) for p, x in enumerate(steps) if x >= 0}}
@@ -526,10 +550,10 @@ def steady_harmonic(amplitude, phase) -> tuple[float, float]:
     """The core's steady harmonic of an orbit (tmafm_steady_state steady_harmonic): from its
     per-period amplitudes and phases (degrees), the harmonic of V_T over the orbit's periods,
     (amplitude, phase in degrees, in (-180, 180])."""
-    from . import _core
     amplitude = np.atleast_1d(np.asarray(amplitude, dtype=float))
     phase = np.atleast_1d(np.asarray(phase, dtype=float))
     if amplitude.shape != phase.shape or amplitude.ndim != 1 or amplitude.size == 0:
         raise InputError("steady_harmonic: amplitude and phase must be 1-D of one nonzero length")
-    a, p = _core.steady_harmonic_of(amplitude, phase)
+    a, p, ierr, errmsg = api.steady_harmonic_of(amplitude, phase)
+    raise_for(int(ierr), _message(errmsg))
     return float(a), float(p)

@@ -1,6 +1,6 @@
 """Make tests/data/rhs_reference.npz: the model's right-hand side at random states, as
 computed by the code BEFORE the right-hand side was rewritten (commit d9e0afe), through the
-flat entry point tmafm._core.model_terms.  tests/test_rhs.py checks the current kernel
+flat entry point tests/testcore.py: tmafm_testcore.model_terms.  tests/test_rhs.py checks the current kernel
 against it.  Rerunning this script with a later build regenerates the file from that build,
 so only rerun it to extend the cases, with the old kernel installed.
 
@@ -20,7 +20,8 @@ from pathlib import Path
 import f90nml
 import numpy as np
 
-from tmafm import _core
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent.parent / "tests"))
+from testcore import core as _core  # noqa: E402  (the test-only extension, tests/testcore.py)
 
 N_MAX = 30
 SCENES = ({}, {"xi0": 0.8, "theta": 0.2, "alpha4": 0.0})

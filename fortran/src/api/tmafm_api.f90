@@ -12,9 +12,12 @@
 !> of returning, and a handle allocated inside the call would be lost with everything it holds.
 module tmafm_api
    use tmafm, only: dp, i8, ok, err_input, errmsg_len, sample_count, n_powers, build_model, &
-      simulate, choose_mode_count, read_config_text, config_text, nml_document_t, parse_namelist, &
+      simulate, choose_mode_count, read_config_text, config_text, &
       entry_text, read_config_document, patch_document, n_keys, describe_key, max_modes, max_samples, &
-      max_trajectory_bytes, max_max_steps, max_mode_horizon, max_harmonics, max_p_max, max_observed_periods
+      max_trajectory_bytes, max_max_steps, max_mode_horizon, max_harmonics, max_p_max, max_observed_periods, &
+      nml_document_t, parse_namelist, int_text, observe_options_t, observe_batch, observe_states, config_scales, &
+      steady_harmonics, steady_evidence, observer_t, n_observables, observable_factors, obs_amplitude, obs_phase, &
+      scales_t, steady_test, repeat_steps, steady_harmonic
    ! The types Python sees are named from the modules that define them, not the facade: f90wrap
    ! reads only the wrapped modules' sources and resolves a type through its defining module.
    use tmafm_config, only: config_t
@@ -22,12 +25,15 @@ module tmafm_api
    use tmafm_model, only: model_t
    use tmafm_trajectory, only: trajectory_t
    use tmafm_api_poll, only: python_interrupted
+   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_nan
    implicit none
    private
 
    public :: api_errmsg_len, run_t, config_from_text, config_from_texts, config_sample_count, config_text_length, &
       config_text_codes, model_of_config, run_config, run_sizes, run_samples, run_switches, &
-      run_counters, trajectory_energy_flow, key_count, key_entry, limit_count, limit_entry
+      run_counters, trajectory_energy_flow, key_count, key_entry, limit_count, limit_entry, &
+      batch_t, batch_add, batch_size, batch_run, observe_states_of, steady_test_of, &
+      steady_harmonic_of, namelist_syntax
 
    !> Length of the error messages returned to Python.
    integer, parameter :: api_errmsg_len = errmsg_len
@@ -45,6 +51,14 @@ module tmafm_api
       private
       type(trajectory_t) :: traj
    end type run_t
+
+   !> Configurations queued for one observed batch (batch_add copies them in; no text), held
+   !> for Python: batch_run runs them all and copies the results out.
+   type :: batch_t
+      private
+      integer :: n = 0
+      type(config_t), allocatable :: configs(:)
+   end type batch_t
 
 contains
 
@@ -328,5 +342,433 @@ contains
       name = limit_names(k)
       value = limit_values(k)
    end subroutine limit_entry
+
+   !> Append a copy of `config` (its N already chosen) to `batch`: no text is written or read.
+   subroutine batch_add(batch, config)
+      type(batch_t), intent(inout) :: batch
+      type(config_t), intent(in) :: config
+      type(config_t), allocatable :: grown(:)
+      integer :: k
+      if (.not. allocated(batch%configs)) allocate (batch%configs(8))
+      if (batch%n == size(batch%configs)) then
+         allocate (grown(2*batch%n))
+         do k = 1, batch%n
+            call move_config(batch%configs(k), grown(k))
+         end do
+         call move_alloc(grown, batch%configs)
+      end if
+      batch%n = batch%n + 1
+      batch%configs(batch%n) = config
+      ! N is chosen: the runs reuse it (no second choice of N).
+      batch%configs(batch%n)%auto_modes = .false.
+   end subroutine batch_add
+
+   ! The configuration `from` into `to` (a copy; the old array is dropped right after).
+   subroutine move_config(from, to)
+      type(config_t), intent(in) :: from
+      type(config_t), intent(out) :: to
+      to = from
+   end subroutine move_config
+
+   !> Number of configurations in a batch.
+   function batch_size(batch) result(n)
+      type(batch_t), intent(in) :: batch
+      integer :: n
+      n = batch%n
+   end function batch_size
+
+   ! err_input naming `name` unless an array's shape `actual` is `expected` (ierr set: no change).
+   subroutine check_shape(name, actual, expected, ierr, errmsg)
+      character(len=*), intent(in) :: name
+      integer, intent(in) :: actual(:)
+      integer, intent(in) :: expected(:)
+      integer, intent(inout) :: ierr
+      character(len=*), intent(inout) :: errmsg
+      if (ierr /= ok) return
+      if (size(actual) == size(expected)) then
+         if (all(actual == expected)) return
+      end if
+      ierr = err_input
+      write (errmsg, '(3a,*(i0,:,1x))') 'observe: ', name, ' has the wrong shape: ', actual
+      errmsg = trim(errmsg)//', the call needs'
+      write (errmsg(len_trim(errmsg) + 2:), '(*(i0,:,1x))') expected
+   end subroutine check_shape
+
+   ! The options of an observed run, from the entry points' arguments.
+   subroutine set_options(options, max_periods, harmonics, p_max, tol, repeats, stop_at_steady, groups)
+      type(observe_options_t), intent(inout) :: options
+      integer, intent(in) :: max_periods
+      integer, intent(in) :: harmonics
+      integer, intent(in) :: p_max
+      real(dp), intent(in) :: tol
+      integer, intent(in) :: repeats
+      logical, intent(in) :: stop_at_steady
+      integer, intent(in) :: groups
+      options%max_periods = max_periods
+      options%p_max = p_max
+      options%tol = tol
+      options%repeats = repeats
+      options%harmonics = harmonics
+      options%stop_at_steady = stop_at_steady
+      options%groups = groups
+   end subroutine set_options
+
+   !> Observed runs of a batch's configurations by the core's OpenMP batch (tmafm_batch
+   !> observe_batch) on `threads` threads (0: the OpenMP default); Python calls this without the
+   !> GIL.  The options as tmafm_batch observe_options_t (groups: tmafm_observers group_* bits).
+   !> The results go into arrays Python made, checked against the batch first (ierr = err_input
+   !> and nothing written or run when one has the wrong shape): per configuration k (n of them;
+   !> n_state = 2 max N): values(k, period, column) (tmafm_observers columns), the harmonics (k,
+   !> period, harmonic), Poincare points (k, 0:period, 1:2N), the located max V_T (k, period),
+   !> the modal extrema (k, period, mode, 1:4 = ext_* columns), periods integrated, the steady
+   !> period, the factors to SI-derived units and has_scales (1 for &physical), the steady
+   !> harmonics, the steady test's evidence, and run_ierr(k); errmsg is then the message of the
+   !> first configuration that failed.  `poll`: the calling thread's runs poll for Ctrl-C
+   !> (Python's main thread only); an interrupted batch fails with err_interrupted.
+   subroutine batch_run(batch, max_periods, harmonics, p_max, tol, repeats, stop_at_steady, groups, threads, &
+                        poll, values, harmonic_amplitude, harmonic_phase, poincare, max_gap, modal_extrema, &
+                        n_periods, period, factors, has_scales, steady_harmonic_amplitude, &
+                        steady_harmonic_phase, evidence, run_ierr, ierr, errmsg)
+      type(batch_t), intent(in) :: batch
+      integer, intent(in) :: max_periods
+      integer, intent(in) :: harmonics
+      integer, intent(in) :: p_max
+      real(dp), intent(in) :: tol
+      integer, intent(in) :: repeats
+      logical, intent(in) :: stop_at_steady
+      integer, intent(in) :: groups
+      integer, intent(in) :: threads
+      !> Poll for Ctrl-C (tmafm_api_poll): only on Python's main thread, the only one it helps.
+      logical, intent(in) :: poll
+      real(dp), intent(inout) :: values(:, :, :)
+      real(dp), intent(inout) :: harmonic_amplitude(:, :, :)
+      real(dp), intent(inout) :: harmonic_phase(:, :, :)
+      real(dp), intent(inout) :: poincare(:, :, :)
+      real(dp), intent(inout) :: max_gap(:, :)
+      real(dp), intent(inout) :: modal_extrema(:, :, :, :)
+      integer, intent(inout) :: n_periods(:)
+      integer, intent(inout) :: period(:)
+      real(dp), intent(inout) :: factors(:, :)
+      integer, intent(inout) :: has_scales(:)
+      real(dp), intent(inout) :: steady_harmonic_amplitude(:, :)
+      real(dp), intent(inout) :: steady_harmonic_phase(:, :)
+      real(dp), intent(inout) :: evidence(:, :)
+      integer, intent(inout) :: run_ierr(:)
+      integer, intent(out) :: ierr
+      character(len=api_errmsg_len), intent(out) :: errmsg
+      type(observer_t), allocatable :: observers(:)
+      type(observe_options_t) :: options
+      type(scales_t) :: scales
+      character(len=api_errmsg_len), allocatable :: messages(:)
+      integer :: n, s, k, m, h, p
+
+      ierr = ok
+      errmsg = ''
+      n = batch%n
+      s = 0
+      do k = 1, n
+         s = max(s, 2*batch%configs(k)%n_modes)
+      end do
+      h = harmonics
+      p = max_periods
+      call check_shape('values', shape(values), [n, p, n_observables], ierr, errmsg)
+      call check_shape('harmonic_amplitude', shape(harmonic_amplitude), [n, p, h], ierr, errmsg)
+      call check_shape('harmonic_phase', shape(harmonic_phase), [n, p, h], ierr, errmsg)
+      call check_shape('poincare', shape(poincare), [n, p + 1, s], ierr, errmsg)
+      call check_shape('max_gap', shape(max_gap), [n, p], ierr, errmsg)
+      call check_shape('modal_extrema', shape(modal_extrema), [n, p, s/2, 4], ierr, errmsg)
+      call check_shape('n_periods', shape(n_periods), [n], ierr, errmsg)
+      call check_shape('period', shape(period), [n], ierr, errmsg)
+      call check_shape('factors', shape(factors), [n, n_observables], ierr, errmsg)
+      call check_shape('has_scales', shape(has_scales), [n], ierr, errmsg)
+      call check_shape('steady_harmonic_amplitude', shape(steady_harmonic_amplitude), [n, h], ierr, errmsg)
+      call check_shape('steady_harmonic_phase', shape(steady_harmonic_phase), [n, h], ierr, errmsg)
+      call check_shape('evidence', shape(evidence), [n, 5], ierr, errmsg)
+      call check_shape('run_ierr', shape(run_ierr), [n], ierr, errmsg)
+      if (ierr /= ok .or. n == 0) return
+      values = 0; harmonic_amplitude = 0; harmonic_phase = 0; poincare = 0; n_periods = 0
+      max_gap = 0; modal_extrema = 0; period = 0; factors = 0; has_scales = 0; run_ierr = ok
+      steady_harmonic_amplitude = 0; steady_harmonic_phase = 0; evidence = 0
+      call set_options(options, max_periods, harmonics, p_max, tol, repeats, stop_at_steady, groups)
+      allocate (observers(n), messages(n))
+      messages = ''
+      if (poll) then
+         call observe_batch(batch%configs(1:n), options, observers, run_ierr, messages, threads, &
+                            poll=python_interrupted)
+      else
+         call observe_batch(batch%configs(1:n), options, observers, run_ierr, messages, threads)
+      end if
+      do k = 1, n
+         if (run_ierr(k) /= ok) then
+            if (len_trim(errmsg) == 0) errmsg = messages(k)
+            cycle
+         end if
+         associate (o => observers(k))
+            m = o%n_periods
+            s = o%n_state
+            n_periods(k) = m
+            period(k) = o%found_period
+            values(k, 1:m, :) = o%values(1:m, :)
+            harmonic_amplitude(k, 1:m, :) = o%harmonic_amplitude(1:m, :)
+            harmonic_phase(k, 1:m, :) = o%harmonic_phase(1:m, :)
+            poincare(k, 1:m + 1, 1:s) = transpose(o%poincare(:, 0:m))
+            max_gap(k, 1:m) = o%max_gap_values(1:m)
+            modal_extrema(k, 1:m, 1:s/2, :) = o%modal_extrema(1:m, :, :)
+            call steady_harmonics(o, steady_harmonic_amplitude(k, :), steady_harmonic_phase(k, :))
+            evidence(k, :) = steady_evidence(o)
+         end associate
+         scales = config_scales(batch%configs(k))
+         factors(k, :) = observable_factors(scales)
+         has_scales(k) = merge(1, 0, scales%known)
+      end do
+   end subroutine batch_run
+
+   !> Observed runs of one configuration (its N chosen) from many initial states (states(k, :) =
+   !> [a0, adot0] of run k), by the core's OpenMP batch (tmafm_batch observe_states) without
+   !> the GIL: the model is built once.  Known attractors: orbit j is attractor_points(:,
+   !> attractor_first(j):attractor_first(j+1)-1) (none when size(attractor_first) < 2);
+   !> `confirm` Poincare points in a row within capture of one label the run and stop it.  The
+   !> results go into arrays Python made, checked first (err_input, nothing run, for a wrong
+   !> shape): per run k, the steady values (k, column: the mean over the last max(period, 1)
+   !> periods, NaN for a group not computed; the same for the harmonics), the last p_max
+   !> Poincare points (orbit(k, p_max, :) the final state, NaN before the first), periods run,
+   !> the steady period, the attractor (0: none), why no period was found (tmafm_steady_state
+   !> unsteady_*), the jitter level of the last point, and run_ierr(k).  ierr: err_input for a
+   !> bad input, options or state (nothing runs); errmsg, else, is the first run's failure.
+   subroutine observe_states_of(config, states, max_periods, harmonics, p_max, tol, repeats, stop_at_steady, &
+                                groups, attractor_points, attractor_first, confirm, capture, threads, poll, &
+                                steady, steady_harmonic_amplitude, steady_harmonic_phase, orbit, n_periods, &
+                                period, attractor, factors, run_ierr, reason, jitter, has_scales, ierr, errmsg)
+      type(config_t), intent(in) :: config
+      real(dp), intent(in) :: states(:, :)
+      integer, intent(in) :: max_periods
+      integer, intent(in) :: harmonics
+      integer, intent(in) :: p_max
+      real(dp), intent(in) :: tol
+      integer, intent(in) :: repeats
+      logical, intent(in) :: stop_at_steady
+      integer, intent(in) :: groups
+      real(dp), intent(in) :: attractor_points(:, :)
+      integer, intent(in) :: attractor_first(:)
+      integer, intent(in) :: confirm
+      real(dp), intent(in) :: capture
+      integer, intent(in) :: threads
+      !> Poll for Ctrl-C, as batch_run's `poll`.
+      logical, intent(in) :: poll
+      real(dp), intent(inout) :: steady(:, :)
+      real(dp), intent(inout) :: steady_harmonic_amplitude(:, :)
+      real(dp), intent(inout) :: steady_harmonic_phase(:, :)
+      real(dp), intent(inout) :: orbit(:, :, :)
+      integer, intent(inout) :: n_periods(:)
+      integer, intent(inout) :: period(:)
+      integer, intent(inout) :: attractor(:)
+      real(dp), intent(inout) :: factors(:)
+      integer, intent(inout) :: run_ierr(:)
+      integer, intent(inout) :: reason(:)
+      real(dp), intent(inout) :: jitter(:)
+      integer, intent(out) :: has_scales
+      integer, intent(out) :: ierr
+      character(len=api_errmsg_len), intent(out) :: errmsg
+      type(config_t) :: chosen
+      type(observer_t), allocatable :: observers(:)
+      type(observe_options_t) :: options
+      type(scales_t) :: scales
+      character(len=api_errmsg_len), allocatable :: messages(:)
+      integer :: n, s, k, m, last, kept
+
+      ierr = ok
+      errmsg = ''
+      has_scales = 0
+      n = size(states, 1)
+      s = size(states, 2)
+      call check_shape('steady', shape(steady), [n, n_observables], ierr, errmsg)
+      call check_shape('steady_harmonic_amplitude', shape(steady_harmonic_amplitude), [n, harmonics], ierr, errmsg)
+      call check_shape('steady_harmonic_phase', shape(steady_harmonic_phase), [n, harmonics], ierr, errmsg)
+      call check_shape('orbit', shape(orbit), [n, p_max, s], ierr, errmsg)
+      call check_shape('n_periods', shape(n_periods), [n], ierr, errmsg)
+      call check_shape('period', shape(period), [n], ierr, errmsg)
+      call check_shape('attractor', shape(attractor), [n], ierr, errmsg)
+      call check_shape('factors', shape(factors), [n_observables], ierr, errmsg)
+      call check_shape('run_ierr', shape(run_ierr), [n], ierr, errmsg)
+      call check_shape('reason', shape(reason), [n], ierr, errmsg)
+      call check_shape('jitter', shape(jitter), [n], ierr, errmsg)
+      if (size(attractor_first) >= 2) call check_shape('attractor_points', [size(attractor_points, 1)], [s], &
+                                                       ierr, errmsg)
+      if (ierr /= ok) return
+      steady = 0; steady_harmonic_amplitude = 0; steady_harmonic_phase = 0
+      orbit = ieee_value(1.0_dp, ieee_quiet_nan)
+      n_periods = 0; period = 0; attractor = 0; factors = 0; run_ierr = 0; reason = 0; jitter = 0
+      chosen = config
+      ! N is chosen: the runs reuse it (no second choice of N).
+      chosen%auto_modes = .false.
+      call set_options(options, max_periods, harmonics, p_max, tol, repeats, stop_at_steady, groups)
+      options%confirm = confirm
+      options%capture = capture
+      if (size(attractor_first) >= 2) then
+         options%attractor_points = attractor_points
+         options%attractor_first = attractor_first
+      end if
+      allocate (observers(n), messages(n))
+      if (poll) then
+         call observe_states(chosen, transpose(states), options, observers, ierr, errmsg, run_ierr, messages, &
+                             threads, poll=python_interrupted)
+      else
+         call observe_states(chosen, transpose(states), options, observers, ierr, errmsg, run_ierr, messages, &
+                             threads)
+      end if
+      if (ierr /= ok) return
+      do k = 1, n
+         if (run_ierr(k) /= ok) then
+            if (len_trim(errmsg) == 0) errmsg = messages(k)
+            steady(k, :) = ieee_value(1.0_dp, ieee_quiet_nan)
+            steady_harmonic_amplitude(k, :) = ieee_value(1.0_dp, ieee_quiet_nan)
+            steady_harmonic_phase(k, :) = ieee_value(1.0_dp, ieee_quiet_nan)
+            cycle
+         end if
+         associate (o => observers(k))
+            m = o%n_periods
+            n_periods(k) = m
+            period(k) = o%found_period
+            attractor(k) = o%attractor
+            last = min(max(o%found_period, 1), m)
+            if (last > 0) then
+               steady(k, :) = sum(o%values(m - last + 1:m, :), 1)/last
+               ! Amplitude and phase: the harmonic over the orbit's periods (tmafm_steady_state).
+               call steady_harmonics(o, steady_harmonic_amplitude(k, :), steady_harmonic_phase(k, :))
+               if (.not. ieee_is_nan(steady(k, obs_phase))) then
+                  steady(k, obs_amplitude) = steady_harmonic_amplitude(k, 1)
+                  steady(k, obs_phase) = steady_harmonic_phase(k, 1)
+               end if
+            end if
+            reason(k) = o%reason
+            jitter(k) = o%jitter_floor(m)
+            kept = min(p_max, m + 1)
+            orbit(k, p_max - kept + 1:p_max, :) = transpose(o%poincare(:, m - kept + 1:m))
+         end associate
+      end do
+      scales = config_scales(chosen)
+      factors = observable_factors(scales)
+      has_scales = merge(1, 0, scales%known)
+   end subroutine observe_states_of
+
+   !> The classifier of tmafm_steady_state on a sequence of points (n_points x n_dim), the one
+   !> steady-state rule: the period (0: none), the reason when none (unsteady_*), the closest
+   !> repeat (relative to the orbit's size, or to `scale` when scale > 0) and its lag, and into
+   !> steps (p_max of them) every lag's largest step (repeat_steps).  floor(j): the absolute
+   !> jitter level of point j.  err_input (nothing computed) when floor or steps has the wrong size.
+   subroutine steady_test_of(points, p_max, tol, repeats, floor, scale, steps, period, reason, closest, &
+                             closest_lag, ierr, errmsg)
+      real(dp), intent(in) :: points(:, :)
+      integer, intent(in) :: p_max
+      real(dp), intent(in) :: tol
+      integer, intent(in) :: repeats
+      real(dp), intent(in) :: floor(:)
+      real(dp), intent(in) :: scale
+      real(dp), intent(inout) :: steps(:)
+      integer, intent(out) :: period
+      integer, intent(out) :: reason
+      real(dp), intent(out) :: closest
+      integer, intent(out) :: closest_lag
+      integer, intent(out) :: ierr
+      character(len=api_errmsg_len), intent(out) :: errmsg
+      period = 0
+      reason = 0
+      closest = 0
+      closest_lag = 0
+      ierr = ok
+      errmsg = ''
+      call check_shape('floor', shape(floor), [size(points, 1)], ierr, errmsg)
+      call check_shape('steps', shape(steps), [p_max], ierr, errmsg)
+      if (ierr /= ok) return
+      if (scale > 0) then
+         call steady_test(transpose(points), p_max, tol, repeats, period, reason, closest, closest_lag, floor, &
+                          scale)
+         steps = repeat_steps(transpose(points), p_max, repeats, scale)
+      else
+         call steady_test(transpose(points), p_max, tol, repeats, period, reason, closest, closest_lag, floor)
+         steps = repeat_steps(transpose(points), p_max, repeats)
+      end if
+   end subroutine steady_test_of
+
+   !> The steady first harmonic of an orbit from its per-period amplitudes and phases (degrees):
+   !> tmafm_steady_state steady_harmonic, the phase free of the wrap at +-180.  err_input when
+   !> the two differ in size.
+   subroutine steady_harmonic_of(amplitude, phase, mean_amplitude, mean_phase, ierr, errmsg)
+      real(dp), intent(in) :: amplitude(:)
+      real(dp), intent(in) :: phase(:)
+      real(dp), intent(out) :: mean_amplitude
+      real(dp), intent(out) :: mean_phase
+      integer, intent(out) :: ierr
+      character(len=api_errmsg_len), intent(out) :: errmsg
+      mean_amplitude = 0
+      mean_phase = 0
+      ierr = ok
+      errmsg = ''
+      call check_shape('phase', shape(phase), shape(amplitude), ierr, errmsg)
+      if (ierr /= ok) return
+      call steady_harmonic(amplitude, phase, mean_amplitude, mean_phase)
+   end subroutine steady_harmonic_of
+
+   !> The syntax tree of namelist text, as tmafm's strict reader parses it (tmafm_nml_syntax), for
+   !> files that Python reads itself (sweep files): one record per value, the fields group ordinal,
+   !> group name, entry ordinal, key, value kind (value_* constant), repeat count and value text
+   !> (a string's contents), as character codes into `codes`; -1 ends a field, -2 a record.
+   !> codes(1:length) are in use; length = -1 if codes is too small.
+   subroutine namelist_syntax(text, label, codes, length, ierr, errmsg)
+      character(len=*), intent(in) :: text
+      character(len=*), intent(in) :: label
+      integer, intent(inout) :: codes(:)
+      integer, intent(out) :: length
+      integer, intent(out) :: ierr
+      character(len=api_errmsg_len), intent(out) :: errmsg
+      type(nml_document_t) :: doc
+      integer :: g, e, v
+
+      codes = 0
+      length = 0
+      call parse_namelist(text, label, doc, ierr, errmsg)
+      if (ierr /= ok) return
+      do g = 1, doc%n_groups
+         associate (group => doc%groups(g))
+            do e = 1, group%n_entries
+               associate (entry => group%entries(e))
+                  do v = 1, size(entry%values)
+                     call put(int_text(g))
+                     call put(group%name)
+                     call put(int_text(e))
+                     call put(entry%key)
+                     call put(int_text(entry%values(v)%kind))
+                     call put(int_text(entry%values(v)%repeat))
+                     call put(entry%values(v)%text)
+                     call mark(-2)
+                  end do
+               end associate
+            end do
+         end associate
+      end do
+   contains
+      subroutine put(field)
+         character(len=*), intent(in) :: field
+         integer :: k
+         if (length < 0) return
+         if (length + len(field) + 1 > size(codes)) then
+            length = -1
+            return
+         end if
+         codes(length + 1:length + len(field)) = [(iachar(field(k:k)), k = 1, len(field))]
+         length = length + len(field)
+         call mark(-1)
+      end subroutine put
+      subroutine mark(code)
+         integer, intent(in) :: code
+         if (length < 0) return
+         if (length + 1 > size(codes)) then
+            length = -1
+            return
+         end if
+         length = length + 1
+         codes(length) = code
+      end subroutine mark
+   end subroutine namelist_syntax
 
 end module tmafm_api

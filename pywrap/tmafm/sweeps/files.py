@@ -38,10 +38,9 @@ _INTEGER, _REAL, _LOGICAL, _STRING, _WORD = 1, 2, 3, 4, 5
 def _syntax_codes(data: bytes, label: str) -> list[int]:
     """The codes of tmafm's strict reader (tmafm_nml_syntax) for the text of a file: the only
     call into the core of the sweeps' file reader."""
-    from .. import _core
-    max_codes = 8 * len(data) + 1024
-    codes, length, ierr, errmsg = _core.namelist_syntax(
-        data, label.encode("utf-8", "backslashreplace"), max_codes)
+    from .._fortran import api
+    codes = np.zeros(8 * len(data) + 1024, dtype=np.int32)
+    length, ierr, errmsg = api.namelist_syntax(data, label.encode("utf-8", "backslashreplace"), codes)
     raise_for(ierr, errmsg)
     if length < 0:
         raise InputError(f"{label}: the file is too complex to read")

@@ -179,3 +179,13 @@ def test_every_entry_point_refuses_a_hostile_argument_with_a_typed_error(entry_p
 
     check()
     assert "matplotlib" in sys.modules  # the plots ran too
+
+
+@pytest.mark.parametrize("shape", [(2, 0), (0, 3), (0, 0)])
+def test_analysis_refuses_sections_with_no_values(shape):
+    """Found by the campaign above: section_distances on a (2, 0) array raised numpy's
+    zero-size ValueError instead of a tmafm error."""
+    with pytest.raises(tmafm.InputError, match="has no values"):
+        analysis.section_distances(np.zeros(shape), 1)
+    with pytest.raises(tmafm.InputError, match="has no values"):
+        analysis.classify_sections(np.zeros(shape), max_period=1, window=1)

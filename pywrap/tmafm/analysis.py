@@ -116,6 +116,8 @@ def _array(what: str, name: str, value, ndim: int) -> np.ndarray:
     if array.ndim != ndim or not np.all(np.isfinite(array)):
         raise InputError(f"{what}: {name} must be finite numbers of {ndim} dimension(s), got "
                          f"shape {array.shape}")
+    if 0 in array.shape:
+        raise InputError(f"{what}: {name} has no values (shape {array.shape})")
     return array
 
 

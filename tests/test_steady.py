@@ -192,3 +192,18 @@ def test_rk4_paper_basin_labels_one_attractor_at_its_jitter():
     assert np.all(ds["period"].values == 1) and np.all(ds["attractor"].values == 0)
     scale = float(np.abs(ds["attractor_orbit_0"].values).max())
     assert ds["attractor"].attrs["tolerance"] > 1e-2 * scale
+
+
+def test_a_sweep_warns_once_for_all_its_unsteady_points():
+    """A sweep reports its unsteady runs in one UnsteadyWarning (how many, and the first
+    reason), not one per point; the dataset's period is 0 at each of them."""
+    pytest.importorskip("xarray")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        base = tmafm.Config("fig2_n4", solver={"method": "flight_exact"})
+        ds = tmafm.sweep(base, {"scene.delta_hat": [0.0, 1e-4, 2e-4]}, max_periods=2)
+    unsteady = [w for w in caught if issubclass(w.category, tmafm.UnsteadyWarning)]
+    assert len(unsteady) == 1, [str(w.message) for w in unsteady]
+    assert "3 of 3 runs ended without a steady state" in str(unsteady[0].message)
+    assert "too few periods" in str(unsteady[0].message)
+    assert (ds["period"].values == 0).all()

@@ -293,14 +293,15 @@ def _no_memory(exc: MemoryError, opts: dict) -> SolverError:
 def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods: int = 100,
                   p_max: int = 8, steady_tol: float = 1e-6, steady_repeats: int = 3,
                   harmonics: int = 3, stop_at_steady: bool = True,
-                  observables=None) -> list[Observation]:
+                  observables=None, warn: bool = True) -> list[Observation]:
     """Observe every input of ``configs`` (paths, packaged names, dicts or tmafm.Config) with the
     core's OpenMP batch, the GIL released; ``threads=None`` takes the OpenMP default.
     ``observables`` (None: all) selects the groups computed (OBSERVABLE_GROUPS); per_period
     then holds only the observables computed.  Results do not depend on the number of
     threads.  An input that names no &solver method runs DEFAULT_METHOD (flight_exact).  The
     steady test follows the method (docs/observables.md, "Steady state"); a run asked to stop
-    at a steady state that ends without one warns (tmafm.UnsteadyWarning) and says why
+    at a steady state that ends without one warns (tmafm.UnsteadyWarning; ``warn=False``: the
+    caller reports it, as the sweeps do once per sweep) and says why
     (Observation.unsteady_reason)."""
     opts = _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_steady)
     groups = observable_groups(observables)
@@ -377,7 +378,7 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
                       "jitter": float(evidence[k, 4])},
             steady_harmonics=(steady_amp[k].copy(), steady_phase[k].copy(), float(factors[k, 0]))
             if "lockin" in groups else None))
-        if found[k] == 0 and opts["stop_at_steady"]:
+        if warn and found[k] == 0 and opts["stop_at_steady"]:
             warnings.warn(f"{config.label}: {text}", UnsteadyWarning, stacklevel=3)
     return out
 

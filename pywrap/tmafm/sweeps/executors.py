@@ -18,7 +18,7 @@ import numpy as np
 from .._namelist import shown
 from ..errors import InputTypeError
 from ..observe import MAX_THREADS
-from .runs import _run_chunk, _run_chunk_processes
+from .runs import _run_chunk, _run_chunk_processes, _warn_unsteady
 
 
 def _is_client(client) -> bool:
@@ -219,4 +219,6 @@ def _run_points(base: dict, points: list[dict], *, workers=None, client=None, pr
     finally:
         if bar is not None:
             bar.close()
-    return list(itertools.chain.from_iterable(results))
+    summaries = list(itertools.chain.from_iterable(results))
+    _warn_unsteady(summaries, label, keywords)
+    return summaries

@@ -3,12 +3,13 @@ core's observers), and the picklable summary a sweep keeps of each run."""
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from .._run import Config
-from ..errors import SolverError
+from ..errors import SolverError, UnsteadyWarning
 from ..observe import computed_names, observable_groups, observe_batch, observe_states
 from .points import _config
 
@@ -25,6 +26,7 @@ def _summary(obs, keep: int = 0) -> dict:
     steady = obs.steady_values()
     names = [name for name in _names() if name in steady]
     out = {"steady": bool(obs.steady), "period": int(obs.period), "periods": int(obs.periods),
+           "unsteady_reason": getattr(obs, "unsteady_reason", "") or "",
            "values": {name: float(steady[name]) for name in names},
            "final_state": np.asarray(obs.final_state, dtype=float).copy()}
     for name in ("harmonic_amplitude", "harmonic_phase"):
@@ -49,7 +51,7 @@ def _run_chunk(base: dict, points: Sequence[Mapping], threads, keywords: Mapping
     if configs is None:
         configs = [_config(base, point) for point in points]
     try:
-        observations = observe_batch(configs, threads=threads, **keywords)
+        observations = observe_batch(configs, threads=threads, warn=False, **keywords)
     except SolverError:
         # One run failed (the batch names the first): run the chunk's points one by one, so
         # every other point keeps its result and each failure is recorded with its message.
@@ -60,7 +62,7 @@ def _run_chunk(base: dict, points: Sequence[Mapping], threads, keywords: Mapping
 def _observe_one(config: Config, keywords: Mapping, keep: int = 0) -> dict:
     """The summary of one run, or a failed summary carrying the solver's message."""
     try:
-        return _summary(observe_batch([config], threads=1, **keywords)[0], keep)
+        return _summary(observe_batch([config], threads=1, warn=False, **keywords)[0], keep)
     except SolverError as exc:
         return _failed_summary(str(exc), 2 * config.n_modes, keep, _names(keywords))
 
@@ -100,3 +102,17 @@ def _followed(config: Config, states: np.ndarray, keywords: Mapping):
     """The runs of a few states on one thread (observe_states): how a new attractor's orbit is
     followed further (attractors._new_attractors)."""
     return observe_states(config, states, threads=1, **keywords)
+
+
+def _warn_unsteady(summaries, label: str, keywords: Mapping) -> None:
+    """One tmafm.UnsteadyWarning for a whole sweep (not one per point): how many of its runs,
+    asked to stop at a steady state, ended without one, and the first one's reason."""
+    if not keywords.get("stop_at_steady", True):
+        return
+    reasons = [s.get("unsteady_reason") for s in summaries
+               if s is not None and not s.get("steady") and "error" not in s]
+    reasons = [r for r in reasons if r]
+    if reasons:
+        warnings.warn(f"{label}: {len(reasons)} of {len(summaries)} runs ended without a steady "
+                      f"state (the dataset's period is 0 there); the first: {reasons[0]}",
+                      UnsteadyWarning, stacklevel=3)

@@ -621,8 +621,7 @@ def check_performance(ck, group="performance"):
     sp = "The Python layer's own cost"
     for label, key, fmt in (("`tmafm.run(dict)`", "run_dict", "{:.3f}"),
                             ("`tmafm.run(path, solver={...})` (a file plus an override)", "run_path", "{:.2f}"),
-                            ("a reused `Config.run()`", "config_run", "{:.3f}"),
-                            ("the old file-based path (f90nml files in and out)", "legacy_file_path", "{:.2f}")):
+                            ("a reused `Config.run()`", "config_run", "{:.3f}")):
         ck.text(group, doc, f"| {label} | {{}} |", [fmt.format(ms[key])], sp)
     th = po["throughput"]
     rate = th["scenes_per_s"]

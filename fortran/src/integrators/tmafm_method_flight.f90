@@ -47,6 +47,7 @@ contains
       call flight%init(model, ierr, errmsg)
       if (ierr /= ok) return
       call flight%sample_step(settings%sample_dtau)
+      if (present(observer)) call observer%prepare_flight(model, flight)
       call traj%store(model, y0)
       call contact%init(contact_pair, model, settings, 0.0_dp, y0)
       horizon = traj%tau(size(traj%tau))

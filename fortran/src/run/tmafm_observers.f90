@@ -2,10 +2,15 @@
 !> (their dense output) or the exact free flight, split at the period boundaries tau = k T,
 !> T = 2 pi/Omega (docs/observables.md defines each one, with units and signs).
 !>
-!> Integrals (Fourier coefficients of V_T, mean deflection, the powers of model_t%energy_flow,
-!> the virial) use 8-point Gauss-Legendre on each piece (a step, or a flight cut into pieces
-!> of at most T/16; 3 points on a fixed rk4_paper step's cubic; on a pair's warped step after
-!> a contact entry the nodes are placed in sigma, where the integrands are smooth); contact
+!> A free flight of flight_exact is exact: it is cut only at the period boundaries, and over
+!> each part the Fourier sums of V_T, the mean deflection and the drive and beam-damping powers
+!> are integrated in closed form (the contact powers and the virial are zero out of contact),
+!> and max and min V_T and each mode's max and min are located by a scan whose intervals are
+!> cleared by a rigorous bound, with Brent on the exact derivative where one holds an
+!> extremum (tmafm_flight_observables; docs/model-notes.md, item 14).
+!> Steps are integrated by 8-point Gauss-Legendre on each piece (a step cut into pieces of at
+!> most T/16; 3 points on a fixed rk4_paper step's cubic; on a pair's warped step after a
+!> contact entry the nodes are placed in sigma, where the integrands are smooth); contact
 !> times come from the located switches; min V_T and the peak normal force are located on the
 !> dense output by a golden-section search around the best node, and so are max V_T and each
 !> mode's max and min over the period's in-contact part and its free part.
@@ -23,6 +28,7 @@ module tmafm_observers
    use tmafm_contact, only: contact_brackets_t
    use tmafm_embedded_pair, only: embedded_pair_t
    use tmafm_flight, only: free_flight_t
+   use tmafm_flight_observables, only: flight_observables_t, channel_gap
    use tmafm_steady_state, only: steady_period
    use tmafm_quadrature, only: gauss_legendre
    use tmafm_units, only: scales_t
@@ -56,7 +62,7 @@ module tmafm_observers
       'contacts_per_period', 'dissipated_energy', 'dissipated_beam', 'dissipated_contact_damping', &
       'dissipated_friction', 'drive_work', 'virial', 'contact_normal_work']
 
-   !> Gauss-Legendre points per piece, and pieces per period at least (for long flights).
+   !> Gauss-Legendre points per piece, and pieces per period at least (for long steps).
    integer, parameter :: gl_points = 8, pieces_per_period = 16
    !> Gauss-Legendre points per fixed step (its dense output is a cubic: 3 points integrate
    !> the quadratic powers of it exactly to degree 5, beyond RK4's own O(h^4)).
@@ -125,6 +131,8 @@ module tmafm_observers
       real(dp), allocatable :: y(:)
       !> The fixed step being fed (rk4_paper).
       type(hermite_t) :: cubic
+      !> The closed forms of the free flights (flight_exact; set by prepare_flight).
+      type(flight_observables_t) :: exact
       !> Results: values(period, column), the harmonics (period, k), Poincare points (2N, 0:periods).
       real(dp), allocatable :: values(:, :), harmonic_amplitude(:, :), harmonic_phase(:, :)
       real(dp), allocatable :: poincare(:, :)
@@ -141,6 +149,8 @@ module tmafm_observers
       !> Feed an accepted step [tau, tau + taken] of an embedded pair (dense output built when
       !> needs_dense says so, read through the pair's time map).
       procedure :: pair_step => observer_pair_step
+      !> Form the closed forms of a model's free flights (flight_exact, once per run, after init).
+      procedure :: prepare_flight => observer_prepare_flight
       !> Feed a free flight [tau, tau + length] of the exact flight solution started at tau.
       procedure :: flight_segment => observer_flight_segment
       !> Feed a fixed step [tau, tau + h] through its cubic Hermite interpolant (rk4_paper).
@@ -299,14 +309,54 @@ contains
       call process(self, model, tau, tau + taken, in_contact, tau, 1.0_dp, pair=pair)
    end subroutine observer_pair_step
 
+   subroutine observer_prepare_flight(self, model, flight)
+      class(observer_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      type(free_flight_t), intent(in) :: flight
+      call self%exact%init(model, flight, self%harmonics)
+   end subroutine observer_prepare_flight
+
    subroutine observer_flight_segment(self, model, flight, tau, length)
       class(observer_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       type(free_flight_t), intent(in) :: flight
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: length
-      call process(self, model, tau, tau + length, .false., tau, 1.0_dp, flight=flight)
+      real(dp) :: a, b, boundary
+      ! As process, but the flight is cut only at the period boundaries: its integrals are in
+      ! closed form and its extrema are located on any interval (tmafm_flight_observables).
+      a = tau
+      do while (a < tau + length .and. .not. self%done)
+         boundary = (self%n_periods + 1)*self%period_length
+         b = min(tau + length, boundary)
+         if (b > a) call flight_piece(self, flight, a, b)
+         if (b >= boundary) then
+            call flight%state(model, boundary - tau, self%y)
+            call finish_period(self)
+         end if
+         a = b
+      end do
    end subroutine observer_flight_segment
+
+   !> The closed-form integrals of the flight over [a, b] (one period's part of it), and its
+   !> located extrema there: max and min V_T and each mode's max and min out of contact.
+   subroutine flight_piece(self, flight, a, b)
+      class(observer_t), intent(inout) :: self
+      type(free_flight_t), intent(in) :: flight
+      real(dp), intent(in) :: a
+      real(dp), intent(in) :: b
+      integer :: j
+      call self%exact%integrate(flight, a, b, self%do_lockin, self%do_energy, self%acc_sin, self%acc_cos, &
+                                self%acc_deflection, self%acc_powers(power_drive), &
+                                self%acc_powers(power_beam_damping))
+      if (.not. self%do_extrema) return
+      call self%exact%extremum(flight, channel_gap, -1.0_dp, a, b, self%min_gap)
+      call self%exact%extremum(flight, channel_gap, 1.0_dp, a, b, self%max_gap)
+      do j = 1, self%n_state/2
+         call self%exact%extremum(flight, j, 1.0_dp, a, b, self%acc_modal(j, ext_max_free))
+         call self%exact%extremum(flight, j, -1.0_dp, a, b, self%acc_modal(j, ext_min_free))
+      end do
+   end subroutine flight_piece
 
    subroutine observer_hermite_step(self, model, tau, h, y0, f0, y1, f1, in_contact)
       class(observer_t), intent(inout) :: self
@@ -343,20 +393,16 @@ contains
    end subroutine observer_contact_start
 
    !> The state at time t of the current source: the pair's dense output (at its time map's
-   !> fraction of t), the flight started at origin, or the cubic over [origin, origin + h].
-   subroutine state_at(model, origin, h, t, y, pair, flight, cubic)
-      type(model_t), intent(in) :: model
+   !> fraction of t), or the cubic over [origin, origin + h].
+   subroutine state_at(origin, h, t, y, pair, cubic)
       real(dp), intent(in) :: origin
       real(dp), intent(in) :: h
       real(dp), intent(in) :: t
       real(dp), intent(out) :: y(:)
       class(embedded_pair_t), intent(in), optional :: pair
-      type(free_flight_t), intent(in), optional :: flight
       type(hermite_t), intent(in), optional :: cubic
       if (present(pair)) then
          call pair%dense(pair%map%theta_at(t), y)
-      else if (present(flight)) then
-         call flight%state(model, t - origin, y)
       else
          call hermite_cubic(cubic%y0, cubic%f0, cubic%y1, cubic%f1, h, (t - origin)/h, y)
       end if
@@ -364,7 +410,7 @@ contains
 
    !> The function an extremum search minimises: V_T (kind 1), minus the normal force (2), or
    !> mode -kind's a_j (kind < 0); times sign (+1 or -1, for a maximum).
-   subroutine target(model, kind, sign, origin, h, t, y, value, pair, flight, cubic)
+   subroutine target(model, kind, sign, origin, h, t, y, value, pair, cubic)
       type(model_t), intent(in) :: model
       integer, intent(in) :: kind
       real(dp), intent(in) :: sign
@@ -374,10 +420,9 @@ contains
       real(dp), intent(inout) :: y(:)
       real(dp), intent(out) :: value
       class(embedded_pair_t), intent(in), optional :: pair
-      type(free_flight_t), intent(in), optional :: flight
       type(hermite_t), intent(in), optional :: cubic
       type(contact_brackets_t) :: state
-      call state_at(model, origin, h, t, y, pair, flight, cubic)
+      call state_at(origin, h, t, y, pair, cubic)
       if (kind < 0) then
          value = sign*y(-kind)
       else if (kind == 1) then
@@ -389,7 +434,7 @@ contains
    end subroutine target
 
    !> Golden-section minimum of target(kind, sign) on [lo, hi]; value at the best point found.
-   subroutine golden_minimum(model, kind, sign, origin, h, lo_in, hi_in, best, y, pair, flight, cubic)
+   subroutine golden_minimum(model, kind, sign, origin, h, lo_in, hi_in, best, y, pair, cubic)
       type(model_t), intent(in) :: model
       integer, intent(in) :: kind
       real(dp), intent(in) :: sign
@@ -400,7 +445,6 @@ contains
       real(dp), intent(inout) :: best
       real(dp), intent(inout) :: y(:)
       class(embedded_pair_t), intent(in), optional :: pair
-      type(free_flight_t), intent(in), optional :: flight
       type(hermite_t), intent(in), optional :: cubic
       real(dp), parameter :: g = (sqrt(5.0_dp) - 1)/2
       real(dp) :: lo, hi, x1, x2, f1, f2
@@ -409,21 +453,21 @@ contains
       hi = hi_in
       x1 = hi - g*(hi - lo)
       x2 = lo + g*(hi - lo)
-      call target(model, kind, sign, origin, h, x1, y, f1, pair, flight, cubic)
-      call target(model, kind, sign, origin, h, x2, y, f2, pair, flight, cubic)
+      call target(model, kind, sign, origin, h, x1, y, f1, pair, cubic)
+      call target(model, kind, sign, origin, h, x2, y, f2, pair, cubic)
       do k = 1, golden_iterations
          if (f1 <= f2) then
             hi = x2
             x2 = x1
             f2 = f1
             x1 = hi - g*(hi - lo)
-            call target(model, kind, sign, origin, h, x1, y, f1, pair, flight, cubic)
+            call target(model, kind, sign, origin, h, x1, y, f1, pair, cubic)
          else
             lo = x1
             x1 = x2
             f1 = f2
             x2 = lo + g*(hi - lo)
-            call target(model, kind, sign, origin, h, x2, y, f2, pair, flight, cubic)
+            call target(model, kind, sign, origin, h, x2, y, f2, pair, cubic)
          end if
          if (hi - lo <= 4*epsilon(1.0_dp)*max(abs(lo), abs(hi))) exit
       end do
@@ -431,7 +475,7 @@ contains
    end subroutine golden_minimum
 
    !> Accumulate [t_start, t_end] (one phase), finishing every period whose end it reaches.
-   subroutine process(self, model, t_start, t_end, in_contact, origin, h, pair, flight, cubic)
+   subroutine process(self, model, t_start, t_end, in_contact, origin, h, pair, cubic)
       class(observer_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: t_start
@@ -440,7 +484,6 @@ contains
       real(dp), intent(in) :: origin
       real(dp), intent(in) :: h
       class(embedded_pair_t), intent(in), optional :: pair
-      type(free_flight_t), intent(in), optional :: flight
       type(hermite_t), intent(in), optional :: cubic
       real(dp) :: a, b, boundary
       logical :: pieces
@@ -451,13 +494,13 @@ contains
          boundary = (self%n_periods + 1)*self%period_length
          if (pieces) then
             b = min(t_end, boundary, a + self%period_length/pieces_per_period)
-            if (b > a) call piece(self, model, a, b, in_contact, origin, h, pair, flight, cubic)
+            if (b > a) call piece(self, model, a, b, in_contact, origin, h, pair, cubic)
          else
             b = min(t_end, boundary)
          end if
          if (in_contact .and. b > a) self%acc_contact_time = self%acc_contact_time + (b - a)
          if (b >= boundary) then
-            call state_at(model, origin, h, boundary, self%y, pair, flight, cubic)
+            call state_at(origin, h, boundary, self%y, pair, cubic)
             call finish_period(self)
          end if
          a = b
@@ -465,7 +508,7 @@ contains
    end subroutine process
 
    !> Gauss-Legendre sums over [a, b] in one phase, and the extrema located in it.
-   subroutine piece(self, model, a, b, in_contact, origin, h, pair, flight, cubic)
+   subroutine piece(self, model, a, b, in_contact, origin, h, pair, cubic)
       class(observer_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: a
@@ -474,7 +517,6 @@ contains
       real(dp), intent(in) :: origin
       real(dp), intent(in) :: h
       class(embedded_pair_t), intent(in), optional :: pair
-      type(free_flight_t), intent(in), optional :: flight
       type(hermite_t), intent(in), optional :: cubic
       real(dp) :: t(0:gl_points + 1), gap(0:gl_points + 1), force(0:gl_points + 1)
       real(dp) :: power(n_powers), energy, weight, half, mid, tip_u, best, s1, c1, sk, ck, next
@@ -515,7 +557,7 @@ contains
       do i = 0, m + 1
          ! The ends serve only the located extrema.
          if ((i == 0 .or. i == m + 1) .and. .not. (self%do_extrema .or. self%do_force)) cycle
-         call state_at(model, origin, h, t(i), self%y, pair, flight, cubic)
+         call state_at(origin, h, t(i), self%y, pair, cubic)
          gap(i) = model%tip_gap(t(i), self%y)
          if (self%do_extrema) self%modal_nodes(i, :) = self%y(1:n)
          if (in_contact .and. (self%do_force .or. self%do_energy)) then
@@ -554,7 +596,7 @@ contains
       if (best < self%min_gap) then
          if (i_best > 0 .and. i_best < m + 1) &
             call golden_minimum(model, 1, 1.0_dp, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
-                                pair, flight, cubic)
+                                pair, cubic)
          self%min_gap = min(self%min_gap, best)
       end if
       call locate_extremum(self%max_gap, gap(0:m + 1), 1, 1.0_dp)
@@ -577,7 +619,7 @@ contains
          if (-best > self%peak_force) then
             if (i_best > 0 .and. i_best < m + 1) &
                call golden_minimum(model, 2, 1.0_dp, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
-                                   pair, flight, cubic)
+                                   pair, cubic)
             self%peak_force = max(self%peak_force, -best)
          end if
       end subroutine locate_peak_force
@@ -596,7 +638,7 @@ contains
          found = -direction*values(j)
          if (j > 0 .and. j < m + 1) &
             call golden_minimum(model, kind, -direction, origin, h, t(j - 1), t(j + 1), found, self%y, &
-                                pair, flight, cubic)
+                                pair, cubic)
          extreme = -direction*found
       end subroutine locate_extremum
    end subroutine piece

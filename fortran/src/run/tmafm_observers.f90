@@ -13,7 +13,8 @@
 !> contact entry the nodes are placed in sigma, where the integrands are smooth); contact
 !> times come from the located switches; min V_T and the peak normal force are located on the
 !> dense output by a golden-section search around the best node, and so are max V_T and each
-!> mode's max and min over the period's in-contact part and its free part.
+!> mode's max and min over the period's in-contact part and its free part (on a pair's step
+!> also around a best piece end, when the function falls into the piece there).
 !> Every array is allocated in init; feeding steps allocates nothing.
 !>
 !> A run computes only the observable groups it asks for (observer_t%groups, bits group_*):
@@ -121,8 +122,8 @@ module tmafm_observers
       real(dp) :: min_gap = huge(1.0_dp), peak_force = -huge(1.0_dp), max_gap = -huge(1.0_dp)
       !> The current period's located extrema of each mode (mode, ext_* column).
       real(dp), allocatable :: acc_modal(:, :)
-      !> Work array: each mode's a_j at a piece's nodes (node, mode).
-      real(dp), allocatable :: modal_nodes(:, :)
+      !> Work arrays: each mode's a_j at a piece's nodes (node, mode), and a_j' at its ends.
+      real(dp), allocatable :: modal_nodes(:, :), modal_rates(:, :)
       !> Contacts begun in the current period.
       integer :: contacts = 0
       !> Gauss-Legendre nodes and weights on [-1, 1]; state registers.
@@ -226,9 +227,10 @@ contains
       allocate (self%cubic%y0(size(y0)), self%cubic%f0(size(y0)), self%cubic%y1(size(y0)), &
                 self%cubic%f1(size(y0)))
       if (allocated(self%acc_sin)) deallocate (self%acc_sin, self%acc_cos)
-      if (allocated(self%acc_modal)) deallocate (self%acc_modal, self%modal_nodes)
+      if (allocated(self%acc_modal)) deallocate (self%acc_modal, self%modal_nodes, self%modal_rates)
       if (allocated(self%max_gap_values)) deallocate (self%max_gap_values, self%modal_extrema)
-      allocate (self%acc_modal(self%n_state/2, 4), self%modal_nodes(0:gl_points + 1, self%n_state/2))
+      allocate (self%acc_modal(self%n_state/2, 4), self%modal_nodes(0:gl_points + 1, self%n_state/2), &
+                self%modal_rates(0:1, self%n_state/2))
       allocate (self%max_gap_values(max_periods), &
                 self%modal_extrema(max_periods, self%n_state/2, 4))
       self%max_gap_values = 0
@@ -518,7 +520,7 @@ contains
       real(dp), intent(in) :: h
       class(embedded_pair_t), intent(in), optional :: pair
       type(hermite_t), intent(in), optional :: cubic
-      real(dp) :: t(0:gl_points + 1), gap(0:gl_points + 1), force(0:gl_points + 1)
+      real(dp) :: t(0:gl_points + 1), gap(0:gl_points + 1), force(0:gl_points + 1), gap_rate(0:1)
       real(dp) :: power(n_powers), energy, weight, half, mid, tip_u, best, s1, c1, sk, ck, next
       real(dp) :: nodes(gl_points), weights(gl_points), gl_weight(gl_points), theta_nodes(gl_points)
       real(dp) :: theta_a, theta_b
@@ -558,7 +560,14 @@ contains
          ! The ends serve only the located extrema.
          if ((i == 0 .or. i == m + 1) .and. .not. (self%do_extrema .or. self%do_force)) cycle
          call state_at(origin, h, t(i), self%y, pair, cubic)
-         gap(i) = model%tip_gap(t(i), self%y)
+         if ((i == 0 .or. i == m + 1) .and. present(pair)) then
+            ! A pair's piece ends also give the rates: whether an extremum may lie just inside.
+            call model%gap_at_phase(self%y, sin(model%scene%omega*t(i)), cos(model%scene%omega*t(i)), gap(i), &
+                                    gap_rate(min(i, 1)))
+            self%modal_rates(min(i, 1), :) = self%y(n + 1:2*n)
+         else
+            gap(i) = model%tip_gap(t(i), self%y)
+         end if
          if (self%do_extrema) self%modal_nodes(i, :) = self%y(1:n)
          if (in_contact .and. (self%do_force .or. self%do_energy)) then
             state = model%contact(t(i), self%y(1:n))
@@ -593,10 +602,10 @@ contains
 
       i_best = minloc(gap(0:m + 1), 1) - 1
       best = gap(i_best)
-      if (best < self%min_gap) then
-         if (i_best > 0 .and. i_best < m + 1) &
-            call golden_minimum(model, 1, 1.0_dp, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
-                                pair, cubic)
+      if (beats(-best, -self%min_gap)) then
+         if (searched(i_best, end_rate(i_best, 1))) &
+            call golden_minimum(model, 1, 1.0_dp, origin, h, t(max(i_best - 1, 0)), t(min(i_best + 1, m + 1)), &
+                                best, self%y, pair, cubic)
          self%min_gap = min(self%min_gap, best)
       end if
       call locate_extremum(self%max_gap, gap(0:m + 1), 1, 1.0_dp)
@@ -616,10 +625,10 @@ contains
       subroutine locate_peak_force()
          i_best = maxloc(force(0:m + 1), 1) - 1
          best = -force(i_best)
-         if (-best > self%peak_force) then
-            if (i_best > 0 .and. i_best < m + 1) &
-               call golden_minimum(model, 2, 1.0_dp, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
-                                   pair, cubic)
+         if (beats(-best, self%peak_force)) then
+            if (searched(i_best, end_rate(i_best, 1))) &
+               call golden_minimum(model, 2, 1.0_dp, origin, h, t(max(i_best - 1, 0)), t(min(i_best + 1, m + 1)), &
+                                   best, self%y, pair, cubic)
             self%peak_force = max(self%peak_force, -best)
          end if
       end subroutine locate_peak_force
@@ -634,13 +643,52 @@ contains
          integer :: j
          real(dp) :: found
          j = maxloc(direction*values, 1) - 1
-         if (direction*values(j) <= direction*extreme) return
+         if (.not. beats(direction*values(j), direction*extreme)) return
          found = -direction*values(j)
-         if (j > 0 .and. j < m + 1) &
-            call golden_minimum(model, kind, -direction, origin, h, t(j - 1), t(j + 1), found, self%y, &
-                                pair, cubic)
+         if (searched(j, -direction*end_rate(j, kind))) &
+            call golden_minimum(model, kind, -direction, origin, h, t(max(j - 1, 0)), t(min(j + 1, m + 1)), found, &
+                                self%y, pair, cubic)
          extreme = -direction*found
       end subroutine locate_extremum
+
+      !> Whether the best node i is searched around: an interior node always; on a pair's step a
+      !> piece end too, when the function searched (whose minimum is sought) falls into the piece
+      !> there (slope: its rate at the end), so that its minimum lies between the end and the
+      !> next node: the two pieces that share an end would otherwise both miss it.
+      logical function searched(i, slope)
+         integer, intent(in) :: i
+         real(dp), intent(in) :: slope
+         searched = i > 0 .and. i < m + 1
+         if (searched .or. .not. present(pair)) return
+         if (i == 0) then
+            searched = slope < 0
+         else
+            searched = slope > 0
+         end if
+      end function searched
+
+      !> The rate at node i, if it is an end of a pair's piece, of mode -kind's a_j (kind < 0) or
+      !> of V_T (kind 1; also for the force's maximum, which comes with V_T's minimum); else 0
+      !> (not used).
+      real(dp) function end_rate(i, kind)
+         integer, intent(in) :: i
+         integer, intent(in) :: kind
+         end_rate = 0
+         if (.not. (present(pair) .and. (i == 0 .or. i == m + 1))) return
+         if (kind < 0) then
+            end_rate = self%modal_rates(min(i, 1), -kind)
+         else
+            end_rate = gap_rate(min(i, 1))
+         end if
+      end function end_rate
+
+      !> Whether a node's value may raise the running maximum `extreme`: if it is larger, and
+      !> on a pair's step also if it is equal (the node is then the end this piece shares with
+      !> the last one, and the extremum may lie just inside this piece).
+      logical function beats(value, extreme)
+         real(dp), intent(in) :: value, extreme
+         beats = value > extreme .or. (value == extreme .and. present(pair))
+      end function beats
    end subroutine piece
 
    !> Close the current period: its observables, its end's Poincare point (in self%y), and the

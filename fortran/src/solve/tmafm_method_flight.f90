@@ -11,6 +11,7 @@ module tmafm_method_flight
    use tmafm_settings, only: run_settings_t
    use tmafm_trajectory, only: trajectory_t, check_blowup, progress_t
    use tmafm_flight, only: free_flight_t
+   use tmafm_flight_observables, only: flight_observables_t
    use tmafm_method_adaptive, only: adaptive_state_t, pair_dop853
    use tmafm_observers, only: observer_t, stop_requested
    implicit none
@@ -39,14 +40,18 @@ contains
       type(observer_t), intent(inout), optional :: observer
 
       type(free_flight_t) :: flight
+      type(flight_observables_t) :: closed
       type(adaptive_state_t) :: contact
-      real(dp) :: s_contact, horizon, sin_block(sample_chunk), cos_block(sample_chunk)
-      logical :: found
-      integer :: evaluations, left, count, k
+      real(dp) :: s_contact, horizon, sin_block(sample_chunk), cos_block(sample_chunk), s_over, a_over
+      real(dp) :: y_over(size(y0))
+      logical :: found, over
+      integer :: evaluations, left, count, k, mode
 
       call flight%init(model, ierr, errmsg)
       if (ierr /= ok) return
       call flight%sample_step(settings%sample_dtau)
+      call closed%init(model, flight, 1)
+      if (present(observer)) call observer%prepare_flight(model, flight)
       call traj%store(model, y0)
       call contact%init(contact_pair, model, settings, 0.0_dp, y0)
       horizon = traj%tau(size(traj%tau))
@@ -68,6 +73,15 @@ contains
             traj%steps = traj%steps + 1
             call traj%charge(settings, tau, 1 + evaluations, ierr, errmsg)
             if (ierr /= ok) return
+            ! The flight's largest |a_j| against &solver blowup_limit, located (not only at its
+            ! ends and samples): an envelope clears most flights at once.
+            call closed%exceeds(flight, s_contact, settings%blowup_limit, over, s_over, mode, a_over)
+            if (over) then
+               call flight%state(model, s_over, y_over)
+               y_over(mode) = a_over
+               call check_blowup(model, settings, tau + s_over, s_over, .false., y_over, ierr, errmsg)
+               if (ierr /= ok) return
+            end if
             ! The flight's samples, sample_chunk at a time: their drive phases, their states
             ! (straight into the trajectory's rows), then V_T and the flags.
             left = traj%samples_by(tau + s_contact)

@@ -2,13 +2,19 @@
 !> (their dense output) or the exact free flight, split at the period boundaries tau = k T,
 !> T = 2 pi/Omega (docs/observables.md defines each one, with units and signs).
 !>
-!> Integrals (Fourier coefficients of V_T, mean deflection, the powers of model_t%energy_flow,
-!> the virial) use 8-point Gauss-Legendre on each piece (a step, or a flight cut into pieces
-!> of at most T/16; 3 points on a fixed rk4_paper step's cubic; on a pair's warped step after
-!> a contact entry the nodes are placed in sigma, where the integrands are smooth); contact
+!> A free flight of flight_exact is exact: it is cut only at the period boundaries, and over
+!> each part the Fourier sums of V_T, the mean deflection and the drive and beam-damping powers
+!> are integrated in closed form (the contact powers and the virial are zero out of contact),
+!> and max and min V_T and each mode's max and min are located by a scan whose intervals are
+!> cleared by a rigorous bound, with Brent on the exact derivative where one holds an
+!> extremum (tmafm_flight_observables; docs/model-notes.md, item 16).
+!> Steps are integrated by 8-point Gauss-Legendre on each piece (a step cut into pieces of at
+!> most T/16; 3 points on a fixed rk4_paper step's cubic; on a pair's warped step after a
+!> contact entry the nodes are placed in sigma, where the integrands are smooth); contact
 !> times come from the located switches; min V_T and the peak normal force are located on the
 !> dense output by a golden-section search around the best node, and so are max V_T and each
-!> mode's max and min over the period's in-contact part and its free part.
+!> mode's max and min over the period's in-contact part and its free part (on a pair's step
+!> also around a best piece end, when the function falls into the piece there).
 !> Every array is allocated in init; feeding steps allocates nothing.
 !>
 !> A run computes only the observable groups it asks for (observer_t%groups, bits group_*):
@@ -23,6 +29,7 @@ module tmafm_observers
    use tmafm_contact, only: contact_brackets_t
    use tmafm_embedded_pair, only: embedded_pair_t
    use tmafm_flight, only: free_flight_t
+   use tmafm_flight_observables, only: flight_observables_t, channel_gap
    use tmafm_steady_state, only: steady_test, jitter_t, jitter_level, unsteady_short, steady_found
    use tmafm_quadrature, only: gauss_legendre
    use tmafm_units, only: scales_t
@@ -56,7 +63,7 @@ module tmafm_observers
       'contacts_per_period', 'dissipated_energy', 'dissipated_beam', 'dissipated_contact_damping', &
       'dissipated_friction', 'drive_work', 'virial', 'contact_normal_work']
 
-   !> Gauss-Legendre points per piece, and pieces per period at least (for long flights).
+   !> Gauss-Legendre points per piece, and pieces per period at least (for long steps).
    integer, parameter :: gl_points = 8, pieces_per_period = 16
    !> Gauss-Legendre points per fixed step (its dense output is a cubic: 3 points integrate
    !> the quadratic powers of it exactly to degree 5, beyond RK4's own O(h^4)).
@@ -123,8 +130,8 @@ module tmafm_observers
       real(dp) :: min_gap = huge(1.0_dp), peak_force = -huge(1.0_dp), max_gap = -huge(1.0_dp)
       !> The current period's located extrema of each mode (mode, ext_* column).
       real(dp), allocatable :: acc_modal(:, :)
-      !> Work array: each mode's a_j at a piece's nodes (node, mode).
-      real(dp), allocatable :: modal_nodes(:, :)
+      !> Work arrays: each mode's a_j at a piece's nodes (node, mode), and a_j' at its ends.
+      real(dp), allocatable :: modal_nodes(:, :), modal_rates(:, :)
       !> Contacts begun in the current period.
       integer :: contacts = 0
       !> Gauss-Legendre nodes and weights on [-1, 1]; state registers.
@@ -133,6 +140,8 @@ module tmafm_observers
       real(dp), allocatable :: y(:)
       !> The fixed step being fed (rk4_paper).
       type(hermite_t) :: cubic
+      !> The closed forms of the free flights (flight_exact; set by prepare_flight).
+      type(flight_observables_t) :: exact
       !> Results: values(period, column), the harmonics (period, k), Poincare points (2N, 0:periods).
       real(dp), allocatable :: values(:, :), harmonic_amplitude(:, :), harmonic_phase(:, :)
       real(dp), allocatable :: poincare(:, :)
@@ -149,6 +158,8 @@ module tmafm_observers
       !> Feed an accepted step [tau, tau + taken] of an embedded pair (dense output built when
       !> needs_dense says so, read through the pair's time map).
       procedure :: pair_step => observer_pair_step
+      !> Form the closed forms of a model's free flights (flight_exact, once per run, after init).
+      procedure :: prepare_flight => observer_prepare_flight
       !> Feed a free flight [tau, tau + length] of the exact flight solution started at tau.
       procedure :: flight_segment => observer_flight_segment
       !> Feed a fixed step [tau, tau + h] through its cubic Hermite interpolant (rk4_paper).
@@ -231,9 +242,10 @@ contains
       allocate (self%cubic%y0(size(y0)), self%cubic%f0(size(y0)), self%cubic%y1(size(y0)), &
                 self%cubic%f1(size(y0)))
       if (allocated(self%acc_sin)) deallocate (self%acc_sin, self%acc_cos)
-      if (allocated(self%acc_modal)) deallocate (self%acc_modal, self%modal_nodes)
+      if (allocated(self%acc_modal)) deallocate (self%acc_modal, self%modal_nodes, self%modal_rates)
       if (allocated(self%max_gap_values)) deallocate (self%max_gap_values, self%modal_extrema)
-      allocate (self%acc_modal(self%n_state/2, 4), self%modal_nodes(0:gl_points + 1, self%n_state/2))
+      allocate (self%acc_modal(self%n_state/2, 4), self%modal_nodes(0:gl_points + 1, self%n_state/2), &
+                self%modal_rates(0:1, self%n_state/2))
       allocate (self%max_gap_values(max_periods), &
                 self%modal_extrema(max_periods, self%n_state/2, 4))
       self%max_gap_values = 0
@@ -318,14 +330,54 @@ contains
       call process(self, model, tau, tau + taken, in_contact, tau, 1.0_dp, pair=pair)
    end subroutine observer_pair_step
 
+   subroutine observer_prepare_flight(self, model, flight)
+      class(observer_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      type(free_flight_t), intent(in) :: flight
+      call self%exact%init(model, flight, self%harmonics)
+   end subroutine observer_prepare_flight
+
    subroutine observer_flight_segment(self, model, flight, tau, length)
       class(observer_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       type(free_flight_t), intent(in) :: flight
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: length
-      call process(self, model, tau, tau + length, .false., tau, 1.0_dp, flight=flight)
+      real(dp) :: a, b, boundary
+      ! As process, but the flight is cut only at the period boundaries: its integrals are in
+      ! closed form and its extrema are located on any interval (tmafm_flight_observables).
+      a = tau
+      do while (a < tau + length .and. .not. self%done)
+         boundary = (self%n_periods + 1)*self%period_length
+         b = min(tau + length, boundary)
+         if (b > a) call flight_piece(self, flight, a, b)
+         if (b >= boundary) then
+            call flight%state(model, boundary - tau, self%y)
+            call finish_period(self)
+         end if
+         a = b
+      end do
    end subroutine observer_flight_segment
+
+   !> The closed-form integrals of the flight over [a, b] (one period's part of it), and its
+   !> located extrema there: max and min V_T and each mode's max and min out of contact.
+   subroutine flight_piece(self, flight, a, b)
+      class(observer_t), intent(inout) :: self
+      type(free_flight_t), intent(in) :: flight
+      real(dp), intent(in) :: a
+      real(dp), intent(in) :: b
+      integer :: j
+      call self%exact%integrate(flight, a, b, self%do_lockin, self%do_energy, self%acc_sin, self%acc_cos, &
+                                self%acc_deflection, self%acc_powers(power_drive), &
+                                self%acc_powers(power_beam_damping))
+      if (.not. self%do_extrema) return
+      call self%exact%extremum(flight, channel_gap, -1.0_dp, a, b, self%min_gap)
+      call self%exact%extremum(flight, channel_gap, 1.0_dp, a, b, self%max_gap)
+      do j = 1, self%n_state/2
+         call self%exact%extremum(flight, j, 1.0_dp, a, b, self%acc_modal(j, ext_max_free))
+         call self%exact%extremum(flight, j, -1.0_dp, a, b, self%acc_modal(j, ext_min_free))
+      end do
+   end subroutine flight_piece
 
    subroutine observer_hermite_step(self, model, tau, h, y0, f0, y1, f1, in_contact)
       class(observer_t), intent(inout) :: self
@@ -362,20 +414,16 @@ contains
    end subroutine observer_contact_start
 
    !> The state at time t of the current source: the pair's dense output (at its time map's
-   !> fraction of t), the flight started at origin, or the cubic over [origin, origin + h].
-   subroutine state_at(model, origin, h, t, y, pair, flight, cubic)
-      type(model_t), intent(in) :: model
+   !> fraction of t), or the cubic over [origin, origin + h].
+   subroutine state_at(origin, h, t, y, pair, cubic)
       real(dp), intent(in) :: origin
       real(dp), intent(in) :: h
       real(dp), intent(in) :: t
       real(dp), intent(out) :: y(:)
       class(embedded_pair_t), intent(in), optional :: pair
-      type(free_flight_t), intent(in), optional :: flight
       type(hermite_t), intent(in), optional :: cubic
       if (present(pair)) then
          call pair%dense(pair%map%theta_at(t), y)
-      else if (present(flight)) then
-         call flight%state(model, t - origin, y)
       else
          call hermite_cubic(cubic%y0, cubic%f0, cubic%y1, cubic%f1, h, (t - origin)/h, y)
       end if
@@ -383,7 +431,7 @@ contains
 
    !> The function an extremum search minimises: V_T (kind 1), minus the normal force (2), or
    !> mode -kind's a_j (kind < 0); times sign (+1 or -1, for a maximum).
-   subroutine target(model, kind, sign, origin, h, t, y, value, pair, flight, cubic)
+   subroutine target(model, kind, sign, origin, h, t, y, value, pair, cubic)
       type(model_t), intent(in) :: model
       integer, intent(in) :: kind
       real(dp), intent(in) :: sign
@@ -393,10 +441,9 @@ contains
       real(dp), intent(inout) :: y(:)
       real(dp), intent(out) :: value
       class(embedded_pair_t), intent(in), optional :: pair
-      type(free_flight_t), intent(in), optional :: flight
       type(hermite_t), intent(in), optional :: cubic
       type(contact_brackets_t) :: state
-      call state_at(model, origin, h, t, y, pair, flight, cubic)
+      call state_at(origin, h, t, y, pair, cubic)
       if (kind < 0) then
          value = sign*y(-kind)
       else if (kind == 1) then
@@ -408,7 +455,7 @@ contains
    end subroutine target
 
    !> Golden-section minimum of target(kind, sign) on [lo, hi]; value at the best point found.
-   subroutine golden_minimum(model, kind, sign, origin, h, lo_in, hi_in, best, y, pair, flight, cubic)
+   subroutine golden_minimum(model, kind, sign, origin, h, lo_in, hi_in, best, y, pair, cubic)
       type(model_t), intent(in) :: model
       integer, intent(in) :: kind
       real(dp), intent(in) :: sign
@@ -419,7 +466,6 @@ contains
       real(dp), intent(inout) :: best
       real(dp), intent(inout) :: y(:)
       class(embedded_pair_t), intent(in), optional :: pair
-      type(free_flight_t), intent(in), optional :: flight
       type(hermite_t), intent(in), optional :: cubic
       real(dp), parameter :: g = (sqrt(5.0_dp) - 1)/2
       real(dp) :: lo, hi, x1, x2, f1, f2
@@ -428,21 +474,21 @@ contains
       hi = hi_in
       x1 = hi - g*(hi - lo)
       x2 = lo + g*(hi - lo)
-      call target(model, kind, sign, origin, h, x1, y, f1, pair, flight, cubic)
-      call target(model, kind, sign, origin, h, x2, y, f2, pair, flight, cubic)
+      call target(model, kind, sign, origin, h, x1, y, f1, pair, cubic)
+      call target(model, kind, sign, origin, h, x2, y, f2, pair, cubic)
       do k = 1, golden_iterations
          if (f1 <= f2) then
             hi = x2
             x2 = x1
             f2 = f1
             x1 = hi - g*(hi - lo)
-            call target(model, kind, sign, origin, h, x1, y, f1, pair, flight, cubic)
+            call target(model, kind, sign, origin, h, x1, y, f1, pair, cubic)
          else
             lo = x1
             x1 = x2
             f1 = f2
             x2 = lo + g*(hi - lo)
-            call target(model, kind, sign, origin, h, x2, y, f2, pair, flight, cubic)
+            call target(model, kind, sign, origin, h, x2, y, f2, pair, cubic)
          end if
          if (hi - lo <= 4*epsilon(1.0_dp)*max(abs(lo), abs(hi))) exit
       end do
@@ -450,7 +496,7 @@ contains
    end subroutine golden_minimum
 
    !> Accumulate [t_start, t_end] (one phase), finishing every period whose end it reaches.
-   subroutine process(self, model, t_start, t_end, in_contact, origin, h, pair, flight, cubic)
+   subroutine process(self, model, t_start, t_end, in_contact, origin, h, pair, cubic)
       class(observer_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: t_start
@@ -459,7 +505,6 @@ contains
       real(dp), intent(in) :: origin
       real(dp), intent(in) :: h
       class(embedded_pair_t), intent(in), optional :: pair
-      type(free_flight_t), intent(in), optional :: flight
       type(hermite_t), intent(in), optional :: cubic
       real(dp) :: a, b, boundary
       logical :: pieces
@@ -470,13 +515,13 @@ contains
          boundary = (self%n_periods + 1)*self%period_length
          if (pieces) then
             b = min(t_end, boundary, a + self%period_length/pieces_per_period)
-            if (b > a) call piece(self, model, a, b, in_contact, origin, h, pair, flight, cubic)
+            if (b > a) call piece(self, model, a, b, in_contact, origin, h, pair, cubic)
          else
             b = min(t_end, boundary)
          end if
          if (in_contact .and. b > a) self%acc_contact_time = self%acc_contact_time + (b - a)
          if (b >= boundary) then
-            call state_at(model, origin, h, boundary, self%y, pair, flight, cubic)
+            call state_at(origin, h, boundary, self%y, pair, cubic)
             call finish_period(self)
          end if
          a = b
@@ -484,7 +529,7 @@ contains
    end subroutine process
 
    !> Gauss-Legendre sums over [a, b] in one phase, and the extrema located in it.
-   subroutine piece(self, model, a, b, in_contact, origin, h, pair, flight, cubic)
+   subroutine piece(self, model, a, b, in_contact, origin, h, pair, cubic)
       class(observer_t), intent(inout) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: a
@@ -493,9 +538,8 @@ contains
       real(dp), intent(in) :: origin
       real(dp), intent(in) :: h
       class(embedded_pair_t), intent(in), optional :: pair
-      type(free_flight_t), intent(in), optional :: flight
       type(hermite_t), intent(in), optional :: cubic
-      real(dp) :: t(0:gl_points + 1), gap(0:gl_points + 1), force(0:gl_points + 1)
+      real(dp) :: t(0:gl_points + 1), gap(0:gl_points + 1), force(0:gl_points + 1), gap_rate(0:1)
       real(dp) :: power(n_powers), energy, weight, half, mid, tip_u, best, s1, c1, sk, ck, next
       real(dp) :: nodes(gl_points), weights(gl_points), gl_weight(gl_points), theta_nodes(gl_points)
       real(dp) :: theta_a, theta_b
@@ -534,8 +578,15 @@ contains
       do i = 0, m + 1
          ! The ends serve only the located extrema.
          if ((i == 0 .or. i == m + 1) .and. .not. (self%do_extrema .or. self%do_force)) cycle
-         call state_at(model, origin, h, t(i), self%y, pair, flight, cubic)
-         gap(i) = model%tip_gap(t(i), self%y)
+         call state_at(origin, h, t(i), self%y, pair, cubic)
+         if ((i == 0 .or. i == m + 1) .and. present(pair)) then
+            ! A pair's piece ends also give the rates: whether an extremum may lie just inside.
+            call model%gap_at_phase(self%y, sin(model%scene%omega*t(i)), cos(model%scene%omega*t(i)), gap(i), &
+                                    gap_rate(min(i, 1)))
+            self%modal_rates(min(i, 1), :) = self%y(n + 1:2*n)
+         else
+            gap(i) = model%tip_gap(t(i), self%y)
+         end if
          if (self%do_extrema) self%modal_nodes(i, :) = self%y(1:n)
          if (in_contact .and. (self%do_force .or. self%do_energy)) then
             state = model%contact(t(i), self%y(1:n))
@@ -570,10 +621,10 @@ contains
 
       i_best = minloc(gap(0:m + 1), 1) - 1
       best = gap(i_best)
-      if (best < self%min_gap) then
-         if (i_best > 0 .and. i_best < m + 1) &
-            call golden_minimum(model, 1, 1.0_dp, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
-                                pair, flight, cubic)
+      if (beats(-best, -self%min_gap)) then
+         if (searched(i_best, end_rate(i_best, 1))) &
+            call golden_minimum(model, 1, 1.0_dp, origin, h, t(max(i_best - 1, 0)), t(min(i_best + 1, m + 1)), &
+                                best, self%y, pair, cubic)
          self%min_gap = min(self%min_gap, best)
       end if
       call locate_extremum(self%max_gap, gap(0:m + 1), 1, 1.0_dp)
@@ -593,10 +644,10 @@ contains
       subroutine locate_peak_force()
          i_best = maxloc(force(0:m + 1), 1) - 1
          best = -force(i_best)
-         if (-best > self%peak_force) then
-            if (i_best > 0 .and. i_best < m + 1) &
-               call golden_minimum(model, 2, 1.0_dp, origin, h, t(i_best - 1), t(i_best + 1), best, self%y, &
-                                   pair, flight, cubic)
+         if (beats(-best, self%peak_force)) then
+            if (searched(i_best, end_rate(i_best, 1))) &
+               call golden_minimum(model, 2, 1.0_dp, origin, h, t(max(i_best - 1, 0)), t(min(i_best + 1, m + 1)), &
+                                   best, self%y, pair, cubic)
             self%peak_force = max(self%peak_force, -best)
          end if
       end subroutine locate_peak_force
@@ -611,13 +662,52 @@ contains
          integer :: j
          real(dp) :: found
          j = maxloc(direction*values, 1) - 1
-         if (direction*values(j) <= direction*extreme) return
+         if (.not. beats(direction*values(j), direction*extreme)) return
          found = -direction*values(j)
-         if (j > 0 .and. j < m + 1) &
-            call golden_minimum(model, kind, -direction, origin, h, t(j - 1), t(j + 1), found, self%y, &
-                                pair, flight, cubic)
+         if (searched(j, -direction*end_rate(j, kind))) &
+            call golden_minimum(model, kind, -direction, origin, h, t(max(j - 1, 0)), t(min(j + 1, m + 1)), found, &
+                                self%y, pair, cubic)
          extreme = -direction*found
       end subroutine locate_extremum
+
+      !> Whether the best node i is searched around: an interior node always; on a pair's step a
+      !> piece end too, when the function searched (whose minimum is sought) falls into the piece
+      !> there (slope: its rate at the end), so that its minimum lies between the end and the
+      !> next node: the two pieces that share an end would otherwise both miss it.
+      logical function searched(i, slope)
+         integer, intent(in) :: i
+         real(dp), intent(in) :: slope
+         searched = i > 0 .and. i < m + 1
+         if (searched .or. .not. present(pair)) return
+         if (i == 0) then
+            searched = slope < 0
+         else
+            searched = slope > 0
+         end if
+      end function searched
+
+      !> The rate at node i, if it is an end of a pair's piece, of mode -kind's a_j (kind < 0) or
+      !> of V_T (kind 1; also for the force's maximum, which comes with V_T's minimum); else 0
+      !> (not used).
+      real(dp) function end_rate(i, kind)
+         integer, intent(in) :: i
+         integer, intent(in) :: kind
+         end_rate = 0
+         if (.not. (present(pair) .and. (i == 0 .or. i == m + 1))) return
+         if (kind < 0) then
+            end_rate = self%modal_rates(min(i, 1), -kind)
+         else
+            end_rate = gap_rate(min(i, 1))
+         end if
+      end function end_rate
+
+      !> Whether a node's value may raise the running maximum `extreme`: if it is larger, and
+      !> on a pair's step also if it is equal (the node is then the end this piece shares with
+      !> the last one, and the extremum may lie just inside this piece).
+      logical function beats(value, extreme)
+         real(dp), intent(in) :: value, extreme
+         beats = value > extreme .or. (value == extreme .and. present(pair))
+      end function beats
    end subroutine piece
 
    !> Close the current period: its observables, its end's Poincare point (in self%y), and the

@@ -1,0 +1,657 @@
+!> What an observer needs from the exact free flight (tmafm_flight), in closed form: the
+!> integrals of the per-period observables over any interval of a flight, and the extrema of a
+!> mode's amplitude or of V_T, located with a guarantee (docs/model-notes.md, item 16).
+!>
+!> Out of contact y(tau0 + s) = Re(Q e^{i Omega tau}) + sum_k mult_k Re(V_k z_k e^{lambda_k s}),
+!> Q = v - i u, so every integrand of a flight (V_T times e^{i m Omega tau}, p.a, the drive power
+!> a'.Re(g e^{i Omega tau}), the beam-damping power -alpha3 |a'|^2) is a short sum of
+!> exponentials e^{mu s}, and
+!>
+!>   int_a^b e^{mu s} ds = (e^{mu b} - e^{mu a})/mu = e^{mu a} h phi1(mu h),  h = b - a,
+!>   phi1(x) = (e^x - 1)/x,
+!>
+!> the difference form where |Re mu h| + |Im mu h| >= 1/2 (it then loses at most a factor
+!> 2 sqrt 2 of the end values' rounding, eps max|e^{mu s}| h), phi1 by its series (16 terms)
+!> below, so resonances mu ~ 0 (lambda_k + i m Omega with Im lambda_k ~ -m Omega, lambda_k +
+!> conj lambda_k with a small damping) cost no accuracy.  The exponents mu and 1/mu, the Gram sums V'_k.V'_l and
+!> V'_k.conj(V'_l) of the velocity rows, and their products with the drive and the particular
+!> solution depend only on the model: they are formed once per run, in init (the exponents of
+!> the harmonics past the first as they are needed: O(n_terms) memory for any harmonics).  An
+!> interval costs 2 n_terms complex exp, (2 harmonics + 1) n_terms exponential integrals for
+!> the lock-in sums (2 without them) and 2 n_terms^2 for |a'|^2.
+!>
+!> The extrema: a channel f (mode j's a_j, or V_T) is Re(c_p e^{i Omega tau}) + c_0 + sum_k
+!> Re(c_k e^{lambda_k s}), with f', f'', f''' in closed form and |f''''| <= Omega^4 |c_p| +
+!> sum_k |c_k| |lambda_k|^4 |e^{lambda_k s}| (largest at the left end for a decaying term).
+!> Its maximum over an interval (a minimum is the maximum of -f) is found by a scan: an interval
+!> [s0, s1] is cleared when the cubic Hermite interpolant of f plus its error bound
+!> |f''''| (s-s0)^2 (s-s1)^2/24 stays below the running maximum (tmafm_flight's test for V_T's
+!> first root, with the running maximum for the root level); an interval that is not cleared and
+!> brackets a sign change of f' (+ to -) is searched by Brent on f', and a neighbourhood of the
+!> maximum found is cleared by Taylor's bound there (f'' < 0); any other interval is halved.  So
+!> the maximum is never below the value of f at any point of the interval, to round-off.  The
+!> scan step is the largest for which the error bound is half the headroom below the running
+!> maximum (or the rise of the headroom, or its curvature), so points far below it are passed in
+!> large steps.  The same scan started at a limit finds where some |a_j| of a flight exceeds it
+!> (exceeds: &solver blowup_limit), after an envelope sum_k |c_k| + |c_p| that clears most
+!> flights at once.
+module tmafm_flight_observables
+   use tmafm_kinds, only: dp
+   use tmafm_model, only: model_t
+   use tmafm_flight, only: free_flight_t
+   use tmafm_events, only: hermite_minimum
+   use tmafm_roots, only: bracketed_root_t
+   implicit none
+   private
+
+   public :: flight_observables_t, channel_gap
+
+   !> The channel V_T (a channel j > 0 is mode j's a_j).
+   integer, parameter :: channel_gap = 0
+
+   !> A point of a scan: the time s in the flight, sigma f, sigma f', sigma f'' (sigma = +1 for a
+   !> maximum, -1 for a minimum), the size sum |terms| of f there, and the bound on |f''''| of
+   !> the decaying terms (valid to the right of s) and of the growing ones (valid to its left).
+   type :: scan_point_t
+      real(dp) :: s = 0, f = 0, d1 = 0, d2 = 0, size = 0, decaying = 0, growing = 0
+   end type scan_point_t
+
+   !> An interval of a scan still to classify, and how often it was halved.
+   type :: scan_interval_t
+      type(scan_point_t) :: left, right
+      integer :: depth = 0
+   end type scan_interval_t
+
+   !> Deepest halving of an interval the bound does not clear; most intervals on the stack.
+   integer, parameter :: max_depth = 40, stack_size = 2*max_depth + 8
+   !> Most evaluations of one scan before it accepts what it has (never reached in practice).
+   integer, parameter :: max_scan_points = 2000000
+   !> Below this |Re(mu h)| + |Im(mu h)| an exponential integral is e^{mu a} h phi1(mu h).
+   real(dp), parameter :: series_below = 0.5_dp
+   !> Terms of the series of phi1 (for |x| < 1/2 the next is below 2^-60).
+   integer, parameter :: series_terms = 16
+
+   !> The closed forms of one model's free flight, and their workspace.
+   type :: flight_observables_t
+      !> Modes N, terms kept (one per real eigenvalue or conjugate pair), lock-in harmonics H.
+      integer :: n_modes = 0, n_terms = 0, harmonics = 0
+      !> Omega, delta_hat, alpha2, alpha3.
+      real(dp) :: omega = 0, delta_hat = 0, alpha2 = 0, alpha3 = 0
+      !> Eigenvalues lambda_k, their multiplicity (1 or 2), real parts and |lambda_k|^4.
+      complex(dp), allocatable :: lambda(:)
+      real(dp), allocatable :: mult(:), decay_rate(:), rate4(:)
+      !> mu(k, m) = lambda_k + i m Omega and 1/mu for m = -1, 0, 1 (the other harmonics' exponents
+      !> are formed as they are needed: their tables would take n_terms H numbers).
+      complex(dp), allocatable :: mu(:, :), inv_mu(:, :)
+      !> lambda_k + lambda_l, lambda_k + conj(lambda_l) and their inverses (n_terms^2).
+      complex(dp), allocatable :: mu_pair(:, :), inv_pair(:, :), mu_herm(:, :), inv_herm(:, :)
+      !> V'_k . V'_l and V'_k . conj(V'_l) over the velocity rows of the eigenvectors.
+      complex(dp), allocatable :: gram(:, :), herm(:, :)
+      !> V'_k . g, V'_k . conj(g) (g = d_c - i d_s: the drive power is a'.Re(g e^{i Omega tau})),
+      !> V'_k . Q', V'_k . conj(Q') (Q' = v' - i u': the particular a').
+      complex(dp), allocatable :: drive_plus(:), drive_minus(:), part_plus(:), part_minus(:)
+      !> Particular parts: V_T (drive included), p.a, Q'.g, Q'.conj(g), Q'.Q', |Q'|^2.
+      complex(dp) :: tip_part = 0, deflection_part = 0, qg = 0, qcg = 0, qq = 0
+      real(dp) :: q_norm2 = 0
+      !> |V(j, k)| (modes x terms) and the amplitude |Q_j| of each mode's particular part: the
+      !> envelope of a_j over a flight (blow-up check).
+      real(dp), allocatable :: vector_size(:, :), particular_size(:)
+      !> Workspace: e^{lambda_k s} at an interval's ends, the integrals J(k, m) = int
+      !> e^{lambda_k s} e^{i m Omega tau} dtau for m = -1, 0, 1, a channel's coefficients
+      !> (multiplicity included) and their sizes, and |z_k|.
+      complex(dp), allocatable :: e_a(:), e_b(:), j_int(:, :)
+      complex(dp), allocatable :: coef(:)
+      real(dp), allocatable :: coef_size(:), z_size(:)
+      !> The channel being scanned: its particular part c_p, its constant c_0, sigma, the size of
+      !> its particular part and its share of the bound on |f''''|.
+      complex(dp) :: c_part = 0
+      real(dp) :: c_const = 0, sigma = 1, part_size = 0, part_bound = 0
+      !> Points evaluated by the scans since init (for measurements).
+      integer :: scan_points = 0
+      !> Stack of intervals of a scan.
+      type(scan_interval_t) :: stack(stack_size)
+   contains
+      !> The closed forms of a model's free flight, decomposed by `flight` (once per run).
+      procedure :: init => observables_init
+      !> Add the integrals over [tau_a, tau_b] of the flight under way to the lock-in sums and
+      !> the mean deflection (lockin) and to the drive and beam-damping powers (energy).
+      procedure :: integrate => observables_integrate
+      !> Raise a running maximum (sigma = 1) or lower a running minimum (sigma = -1) of a channel
+      !> by its extremum over [tau_a, tau_b] of the flight under way.
+      procedure :: extremum => observables_extremum
+      !> A point of [0, s_max] of the flight where some |a_j| exceeds a limit, if there is one.
+      procedure :: exceeds => observables_exceeds
+   end type flight_observables_t
+
+contains
+
+   subroutine observables_init(self, model, flight, harmonics)
+      class(flight_observables_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      type(free_flight_t), intent(in) :: flight
+      !> Lock-in harmonics the integrals serve (at least 1).
+      integer, intent(in) :: harmonics
+      complex(dp), allocatable :: g(:), q(:)
+      complex(dp) :: i_omega
+      integer :: n, nt, k, l, m
+
+      n = model%n_modes
+      nt = flight%n_terms
+      self%n_modes = n
+      self%n_terms = nt
+      self%harmonics = max(harmonics, 1)
+      self%omega = model%scene%omega
+      self%delta_hat = model%scene%delta_hat
+      self%alpha2 = model%scene%alpha2
+      self%alpha3 = model%scene%alpha3
+      self%scan_points = 0
+      if (allocated(self%lambda)) deallocate (self%lambda, self%mult, self%decay_rate, self%rate4, self%mu, &
+                                              self%inv_mu, self%mu_pair, self%inv_pair, self%mu_herm, &
+                                              self%inv_herm, self%gram, self%herm, self%drive_plus, &
+                                              self%drive_minus, self%part_plus, self%part_minus, &
+                                              self%vector_size, self%particular_size, self%e_a, self%e_b, &
+                                              self%j_int, self%coef, self%coef_size, self%z_size)
+      allocate (self%lambda(nt), self%mult(nt), self%decay_rate(nt), self%rate4(nt), self%mu(nt, -1:1), &
+                self%inv_mu(nt, -1:1), self%mu_pair(nt, nt), self%inv_pair(nt, nt), self%mu_herm(nt, nt), &
+                self%inv_herm(nt, nt), self%gram(nt, nt), self%herm(nt, nt), self%drive_plus(nt), &
+                self%drive_minus(nt), self%part_plus(nt), self%part_minus(nt), self%vector_size(n, nt), &
+                self%particular_size(n), self%e_a(nt), self%e_b(nt), self%j_int(nt, -1:1), self%coef(nt), &
+                self%coef_size(nt), self%z_size(nt))
+      self%lambda = flight%eigenvalue
+      self%mult = flight%multiplicity
+      self%decay_rate = real(flight%eigenvalue, dp)
+      self%rate4 = abs(flight%eigenvalue)**4
+      i_omega = cmplx(0, self%omega, dp)
+      do m = -1, 1
+         self%mu(:, m) = self%lambda + m*i_omega
+         self%inv_mu(:, m) = reciprocal(self%mu(:, m))
+      end do
+      ! The drive power a'.(d_s sin + d_c cos) (model_t%energy_flow) is a'.Re(g e^{i Omega tau}).
+      allocate (g(n), q(n))
+      associate (s => model%scene)
+         g = cmplx(-s%alpha2*s%alpha3*s%omega*model%integral, &
+                   -s%alpha2*s%omega**2*(s%alpha1*model%mass_point + model%integral), dp)
+      end associate
+      q = cmplx(flight%v(n + 1:2*n), -flight%u(n + 1:2*n), dp)
+      do k = 1, nt
+         associate (vk => flight%vectors(n + 1:2*n, k))
+            self%drive_plus(k) = sum(vk*g)
+            self%drive_minus(k) = sum(vk*conjg(g))
+            self%part_plus(k) = sum(vk*q)
+            self%part_minus(k) = sum(vk*conjg(q))
+            do l = 1, nt
+               self%gram(k, l) = sum(vk*flight%vectors(n + 1:2*n, l))
+               self%herm(k, l) = sum(vk*conjg(flight%vectors(n + 1:2*n, l)))
+               self%mu_pair(k, l) = self%lambda(k) + self%lambda(l)
+               self%mu_herm(k, l) = self%lambda(k) + conjg(self%lambda(l))
+            end do
+         end associate
+         self%inv_pair(:, k) = reciprocal(self%mu_pair(:, k))
+         self%inv_herm(:, k) = reciprocal(self%mu_herm(:, k))
+         self%vector_size(:, k) = abs(flight%vectors(1:n, k))
+      end do
+      self%qg = sum(q*g)
+      self%qcg = sum(q*conjg(g))
+      self%qq = sum(q*q)
+      self%q_norm2 = sum(real(q, dp)**2 + aimag(q)**2)
+      self%tip_part = cmplx(flight%tip_cos, -flight%tip_sin, dp)
+      self%deflection_part = cmplx(flight%tip_cos, -(flight%tip_sin - self%alpha2), dp)
+      self%particular_size = hypot(flight%u(1:n), flight%v(1:n))
+   end subroutine observables_init
+
+   !> 1/x elementwise, 0 where x = 0 (an exponent that is exactly zero only ever takes the series).
+   pure elemental function reciprocal(x) result(r)
+      complex(dp), intent(in) :: x
+      complex(dp) :: r
+      if (x == (0.0_dp, 0.0_dp)) then
+         r = 0
+      else
+         r = 1/x
+      end if
+   end function reciprocal
+
+   !> int over an interval of length h of e^{mu s}, from its values fa, fb at the ends:
+   !> (fb - fa)/mu (times inv_mu = 1/mu when given), or fa h phi1(mu h) (series) where |mu h| is
+   !> small.
+   pure complex(dp) function segment(fa, fb, mu, h, inv_mu)
+      complex(dp), intent(in) :: fa, fb, mu
+      real(dp), intent(in) :: h
+      complex(dp), intent(in), optional :: inv_mu
+      complex(dp) :: x, p
+      integer :: j
+      x = mu*h
+      if (abs(real(x, dp)) + abs(aimag(x)) >= series_below) then
+         if (present(inv_mu)) then
+            segment = (fb - fa)*inv_mu
+         else
+            segment = (fb - fa)/mu
+         end if
+      else
+         ! phi1(x) = sum_j x^j/(j+1)! = 1 + x/2 (1 + x/3 (1 + x/4 (...))).
+         p = 1
+         do j = series_terms + 1, 2, -1
+            p = 1 + x*p*(1.0_dp/j)
+         end do
+         segment = fa*h*p
+      end if
+   end function segment
+
+   subroutine observables_integrate(self, flight, tau_a, tau_b, lockin, energy, acc_sin, acc_cos, deflection, &
+                                    drive, beam)
+      class(flight_observables_t), intent(inout) :: self
+      type(free_flight_t), intent(in) :: flight
+      real(dp), intent(in) :: tau_a, tau_b
+      logical, intent(in) :: lockin, energy
+      !> int V_T sin(m Omega tau) and cos(m Omega tau), m = 1..size (at most H), and int p.a.
+      real(dp), intent(inout) :: acc_sin(:), acc_cos(:), deflection
+      !> int of the drive power and of the beam-damping power.
+      real(dp), intent(inout) :: drive, beam
+      real(dp) :: h, sa, sb, sq
+      complex(dp) :: x, zk, l_int, m_int, pa1, pb1, pa, pb, pa_next, pb_next, k_prev, k_now, k_next, k1, k2
+      complex(dp) :: i_omega, jp, jm
+      integer :: k, l, m, top, nt
+
+      if (.not. (lockin .or. energy)) return
+      nt = self%n_terms
+      h = tau_b - tau_a
+      sa = tau_a - flight%tau0
+      sb = tau_b - flight%tau0
+      i_omega = cmplx(0, self%omega, dp)
+      ! e^{i m Omega tau} at the ends: m = 1, 2 here, the next ones by the same products.
+      pa1 = cmplx(cos(self%omega*tau_a), sin(self%omega*tau_a), dp)
+      pb1 = cmplx(cos(self%omega*tau_b), sin(self%omega*tau_b), dp)
+      pa_next = pa1*pa1
+      pb_next = pb1*pb1
+      k1 = segment(pa1, pb1, i_omega, h, 1/i_omega)
+      k2 = segment(pa_next, pb_next, 2*i_omega, h, 1/(2*i_omega))
+      do k = 1, nt
+         self%e_a(k) = exp(self%lambda(k)*sa)
+         self%e_b(k) = exp(self%lambda(k)*sb)
+         self%j_int(k, 1) = segment(self%e_a(k)*pa1, self%e_b(k)*pb1, self%mu(k, 1), h, self%inv_mu(k, 1))
+         self%j_int(k, -1) = segment(self%e_a(k)*conjg(pa1), self%e_b(k)*conjg(pb1), self%mu(k, -1), h, &
+                                     self%inv_mu(k, -1))
+         if (lockin) self%j_int(k, 0) = segment(self%e_a(k), self%e_b(k), self%mu(k, 0), h, self%inv_mu(k, 0))
+      end do
+
+      if (lockin) then
+         ! V_T = Re(t e^{i Omega tau}) + delta_hat + sum_k mult_k Re(w_k e^{lambda_k s}); each
+         ! Re(w e^{lambda s}) e^{i m Omega tau} integrates to (w J(k, m) + conj(w J(k, -m)))/2,
+         ! and Re(t e^{i Omega tau}) e^{i m Omega tau} to (t K(m+1) + conj(t) K(m-1))/2.
+         top = min(self%harmonics, size(acc_sin))
+         k_prev = h
+         k_now = k1
+         k_next = k2
+         pa = pa1
+         pb = pb1
+         do m = 1, top
+            if (m > 1) then
+               k_prev = k_now
+               k_now = k_next
+               pa = pa_next
+               pb = pb_next
+               pa_next = pa*pa1
+               pb_next = pb*pb1
+               k_next = segment(pa_next, pb_next, (m + 1)*i_omega, h)
+            end if
+            x = 0.5_dp*(self%tip_part*k_next + conjg(self%tip_part)*k_prev) + self%delta_hat*k_now
+            do k = 1, nt
+               if (m == 1) then
+                  jp = self%j_int(k, 1)
+                  jm = self%j_int(k, -1)
+               else
+                  jp = segment(self%e_a(k)*pa, self%e_b(k)*pb, self%lambda(k) + m*i_omega, h)
+                  jm = segment(self%e_a(k)*conjg(pa), self%e_b(k)*conjg(pb), self%lambda(k) - m*i_omega, h)
+               end if
+               x = x + (0.5_dp*self%mult(k))*(flight%tip_weight(k)*jp + conjg(flight%tip_weight(k)*jm))
+            end do
+            acc_cos(m) = acc_cos(m) + real(x, dp)
+            acc_sin(m) = acc_sin(m) + aimag(x)
+         end do
+         x = self%deflection_part*k1
+         do k = 1, nt
+            x = x + self%mult(k)*flight%tip_weight(k)*self%j_int(k, 0)
+         end do
+         deflection = deflection + real(x, dp)
+      end if
+
+      if (energy) then
+         ! a' = Re(Q' e^{i Omega tau}) + sum_k mult_k Re(z_k V'_k e^{lambda_k s}), and
+         ! Re(A).Re(B) = Re(A.B + A.conj(B))/2 for complex vectors A, B.
+         x = 0.5_dp*(self%qg*k2 + self%qcg*h)
+         do k = 1, nt
+            x = x + (0.5_dp*self%mult(k))*flight%z(k)*(self%drive_plus(k)*self%j_int(k, 1) &
+                                                        + self%drive_minus(k)*self%j_int(k, -1))
+         end do
+         drive = drive + real(x, dp)
+         ! |a'|^2: the particular part squared, twice its products with the modal terms, and
+         ! the products of the modal terms in pairs (k, l), each pair once (k < l counted twice).
+         sq = 0.5_dp*(real(self%qq*k2, dp) + self%q_norm2*h)
+         x = 0
+         do k = 1, nt
+            zk = flight%z(k)
+            x = x + self%mult(k)*zk*(self%part_plus(k)*self%j_int(k, 1) + self%part_minus(k)*self%j_int(k, -1))
+            do l = k, nt
+               l_int = segment(self%e_a(k)*self%e_a(l), self%e_b(k)*self%e_b(l), self%mu_pair(k, l), h, &
+                               self%inv_pair(k, l))
+               m_int = segment(self%e_a(k)*conjg(self%e_a(l)), self%e_b(k)*conjg(self%e_b(l)), &
+                               self%mu_herm(k, l), h, self%inv_herm(k, l))
+               x = x + (merge(0.5_dp, 1.0_dp, l == k)*self%mult(k)*self%mult(l)) &
+                   *(zk*flight%z(l)*self%gram(k, l)*l_int + zk*conjg(flight%z(l))*self%herm(k, l)*m_int)
+            end do
+         end do
+         sq = sq + real(x, dp)
+         beam = beam - self%alpha3*sq
+      end if
+
+   end subroutine observables_integrate
+
+   !> Set the channel (mode j > 0, or V_T) of the flight under way, for sigma f.
+   subroutine set_channel(self, flight, channel, sigma)
+      class(flight_observables_t), intent(inout) :: self
+      type(free_flight_t), intent(in) :: flight
+      integer, intent(in) :: channel
+      real(dp), intent(in) :: sigma
+      integer :: k, n
+      n = self%n_modes
+      self%sigma = sigma
+      if (channel == channel_gap) then
+         self%coef = self%mult*flight%tip_weight
+         self%c_part = self%tip_part
+         self%c_const = self%delta_hat
+      else
+         self%coef = self%mult*flight%z*flight%vectors(channel, :)
+         self%c_part = cmplx(flight%v(channel), -flight%u(channel), dp)
+         self%c_const = 0
+      end if
+      do k = 1, self%n_terms
+         self%coef_size(k) = abs(self%coef(k))
+      end do
+      self%part_size = abs(self%c_part) + abs(self%c_const)
+      self%part_bound = self%omega**4*abs(self%c_part)
+   end subroutine set_channel
+
+   !> The channel at s (time since the flight's start): sigma f, f', f'' (and f''' if asked),
+   !> its size and the two parts of the bound on |f''''|.
+   subroutine evaluate(self, flight, s, point, third)
+      class(flight_observables_t), intent(inout) :: self
+      type(free_flight_t), intent(in) :: flight
+      real(dp), intent(in) :: s
+      type(scan_point_t), intent(out) :: point
+      real(dp), intent(out), optional :: third
+      complex(dp) :: x, e, le, l2e
+      real(dp) :: phase, decay, angle, f, d1, d2, d3
+      integer :: k
+      phase = self%omega*(flight%tau0 + s)
+      x = self%c_part*cmplx(cos(phase), sin(phase), dp)
+      f = real(x, dp) + self%c_const
+      d1 = -self%omega*aimag(x)
+      d2 = -self%omega**2*real(x, dp)
+      d3 = self%omega**3*aimag(x)
+      point%s = s
+      point%size = self%part_size
+      point%decaying = self%part_bound
+      point%growing = 0
+      do k = 1, self%n_terms
+         decay = exp(self%decay_rate(k)*s)
+         angle = aimag(self%lambda(k))*s
+         e = self%coef(k)*(decay*cmplx(cos(angle), sin(angle), dp))
+         le = self%lambda(k)*e
+         l2e = self%lambda(k)*le
+         f = f + real(e, dp)
+         d1 = d1 + real(le, dp)
+         d2 = d2 + real(l2e, dp)
+         d3 = d3 + real(self%lambda(k)*l2e, dp)
+         point%size = point%size + self%coef_size(k)*decay
+         if (self%decay_rate(k) <= 0) then
+            point%decaying = point%decaying + self%coef_size(k)*self%rate4(k)*decay
+         else
+            point%growing = point%growing + self%coef_size(k)*self%rate4(k)*decay
+         end if
+      end do
+      point%f = self%sigma*f
+      point%d1 = self%sigma*d1
+      point%d2 = self%sigma*d2
+      if (present(third)) third = abs(d3)
+      self%scan_points = self%scan_points + 1
+   end subroutine evaluate
+
+   subroutine observables_extremum(self, flight, channel, sigma, tau_a, tau_b, extreme)
+      class(flight_observables_t), intent(inout) :: self
+      type(free_flight_t), intent(in) :: flight
+      !> channel_gap (V_T) or a mode j.
+      integer, intent(in) :: channel
+      !> 1: raise a running maximum; -1: lower a running minimum.
+      real(dp), intent(in) :: sigma
+      real(dp), intent(in) :: tau_a, tau_b
+      real(dp), intent(inout) :: extreme
+      real(dp) :: best, s_best
+      call set_channel(self, flight, channel, sigma)
+      best = sigma*extreme
+      call scan(self, flight, tau_a - flight%tau0, tau_b - flight%tau0, best, s_best)
+      extreme = sigma*best
+   end subroutine observables_extremum
+
+   subroutine observables_exceeds(self, flight, s_max, limit, found, s_found, mode, value)
+      class(flight_observables_t), intent(inout) :: self
+      type(free_flight_t), intent(in) :: flight
+      real(dp), intent(in) :: s_max
+      !> The limit on |a_j| (&solver blowup_limit).
+      real(dp), intent(in) :: limit
+      !> .true. if some |a_j| > limit was found: at s_found, a_mode = value there.
+      logical, intent(out) :: found
+      real(dp), intent(out) :: s_found
+      integer, intent(out) :: mode
+      real(dp), intent(out) :: value
+      real(dp) :: envelope, best, sigma
+      integer :: j, k, side
+      found = .false.
+      s_found = 0
+      mode = 0
+      value = 0
+      do k = 1, self%n_terms
+         self%z_size(k) = self%mult(k)*abs(flight%z(k))
+         ! A growing term (alpha3 < 0 only) is largest at the flight's end.
+         if (self%decay_rate(k) > 0) self%z_size(k) = self%z_size(k)*exp(self%decay_rate(k)*s_max)
+      end do
+      do j = 1, self%n_modes
+         ! |a_j| <= |Q_j| + sum_k mult_k |V_jk| |z_k| |e^{lambda_k s}|: most flights stop here.
+         envelope = self%particular_size(j)
+         do k = 1, self%n_terms
+            envelope = envelope + self%vector_size(j, k)*self%z_size(k)
+         end do
+         if (envelope <= limit) cycle
+         sigma = 1
+         do side = 1, 2
+            call set_channel(self, flight, j, sigma)
+            best = limit
+            call scan(self, flight, 0.0_dp, s_max, best, s_found)
+            if (best > limit) then
+               found = .true.
+               mode = j
+               value = sigma*best
+               return
+            end if
+            sigma = -1
+         end do
+      end do
+   end subroutine observables_exceeds
+
+   !> The scan of sigma f over [s_lo, s_hi] (see the module's doc): best is raised to the
+   !> largest value found, s_best is where (unchanged if best was not raised).
+   subroutine scan(self, flight, s_lo, s_hi, best, s_best)
+      class(flight_observables_t), intent(inout) :: self
+      type(free_flight_t), intent(in) :: flight
+      real(dp), intent(in) :: s_lo, s_hi
+      real(dp), intent(inout) :: best, s_best
+      type(scan_point_t) :: a_point, b_point, last, left, right, middle, peak
+      type(bracketed_root_t) :: root
+      real(dp) :: h, bound, radius, third, x, width
+      integer :: top, depth, first_points
+
+      first_points = self%scan_points
+      call evaluate(self, flight, s_lo, a_point)
+      call raise(a_point)
+      if (.not. (s_hi > s_lo)) return
+      call evaluate(self, flight, s_hi, last)
+      call raise(last)
+      do while (a_point%s < s_hi)
+         h = step(a_point)
+         if (a_point%s + 1.25_dp*h >= s_hi) then
+            b_point = last
+         else
+            call evaluate(self, flight, a_point%s + h, b_point)
+            call raise(b_point)
+         end if
+         ! Classify [a_point, b_point], and the parts it splits into, until none is left.
+         top = 1
+         self%stack(1) = scan_interval_t(a_point, b_point, 0)
+         do while (top > 0)
+            left = self%stack(top)%left
+            right = self%stack(top)%right
+            depth = self%stack(top)%depth
+            top = top - 1
+            width = right%s - left%s
+            if (.not. (width > 0)) cycle
+            bound = (left%decaying + right%growing)*(1 + 16*epsilon(1.0_dp))
+            if (cleared(left, right, width, bound, best + tolerance(left, right))) cycle
+            if (depth >= max_depth .or. top + 2 > stack_size .or. &
+                self%scan_points - first_points > max_scan_points .or. &
+                width <= 4*epsilon(1.0_dp)*(abs(flight%tau0) + abs(right%s))) then
+               ! Nothing left to halve: take f at the interval's middle too.
+               call evaluate(self, flight, left%s + width/2, middle)
+               call raise(middle)
+               cycle
+            end if
+            if (left%d1 > 0 .and. right%d1 < 0) then
+               ! f' falls through zero: Brent on f', then Taylor's bound clears a neighbourhood
+               ! of the maximum found; the rest of the interval goes back on the stack.
+               call root%start(left%s, left%d1, right%s, right%d1, &
+                               4*epsilon(1.0_dp)*(abs(flight%tau0) + abs(right%s)))
+               do while (.not. root%converged())
+                  call root%next_point(x)
+                  call evaluate(self, flight, x, middle)
+                  call raise(middle)
+                  call root%update(middle%d1)
+               end do
+               call evaluate(self, flight, root%b, peak, third)
+               call raise(peak)
+               radius = taylor_radius(peak, third, bound, best + tolerance(peak, peak))
+               if (radius > 0) then
+                  if (peak%s + radius < right%s) then
+                     call evaluate(self, flight, peak%s + radius, middle)
+                     call raise(middle)
+                     top = top + 1
+                     self%stack(top) = scan_interval_t(middle, right, depth + 1)
+                  end if
+                  if (peak%s - radius > left%s) then
+                     call evaluate(self, flight, peak%s - radius, middle)
+                     call raise(middle)
+                     top = top + 1
+                     self%stack(top) = scan_interval_t(left, middle, depth + 1)
+                  end if
+                  cycle
+               end if
+            end if
+            ! Halve: the right half first on the stack, so the left one is classified first.
+            call evaluate(self, flight, left%s + width/2, middle)
+            call raise(middle)
+            top = top + 1
+            self%stack(top) = scan_interval_t(middle, right, depth + 1)
+            top = top + 1
+            self%stack(top) = scan_interval_t(left, middle, depth + 1)
+         end do
+         a_point = b_point
+      end do
+
+   contains
+
+      !> Raise best by a point's value.
+      subroutine raise(point)
+         type(scan_point_t), intent(in) :: point
+         if (point%f > best) then
+            best = point%f
+            s_best = point%s
+         end if
+      end subroutine raise
+
+      !> The scan step from a point: the largest h whose Hermite error bound at mid-interval is
+      !> half the headroom G = best - f (h^4 <= 192 G/B), or half its rise G' h t at t = 1/3
+      !> (h^3 <= 81 G'/B), or, where G is convex and not falling (past a maximum), a quarter of
+      !> its curvature (h^2 <= 6 G''/B); at least the flight's smallest scan step.
+      real(dp) function step(point)
+         type(scan_point_t), intent(in) :: point
+         real(dp) :: g, b
+         b = point%decaying + point%growing
+         if (.not. (b > 0)) then
+            step = s_hi - point%s
+            return
+         end if
+         g = max(best - point%f, 0.0_dp) + tolerance(point, point)
+         step = sqrt(sqrt(192*g/b))
+         step = max(step, (81*abs(point%d1)/b)**(1.0_dp/3))
+         if (-point%d1 >= 0 .and. -point%d2 > 0) step = max(step, sqrt(6*(-point%d2)/b))
+         step = max(step, flight%min_step)
+      end function step
+   end subroutine scan
+
+   !> The rounding allowance of values of f at two points: 8 eps times the larger size.
+   elemental real(dp) function tolerance(p, q)
+      type(scan_point_t), intent(in) :: p, q
+      tolerance = 8*epsilon(1.0_dp)*max(p%size, q%size)
+   end function tolerance
+
+   !> Whether sigma f < level all over [left, right] (width apart), with |f''''| <= bound there.
+   !> With c = level - (the cubic Hermite of sigma f) and K = bound width^4/24, level - sigma f >=
+   !> E(t) = c(t) - K t^2 (1-t)^2 (t the fraction of the interval).  First the cheap test,
+   !> K t^2 (1-t)^2 <= K t (1-t)/4: the least value of the cubic c(t) - K t (1-t)/4 (at an end or
+   !> its interior minimum, in closed form); then E on a grid of 32 intervals less max|E''|/(8 32^2)
+   !> between grid points.  Both less the rounding of the cubic.
+   pure logical function cleared(left, right, width, bound, level)
+      type(scan_point_t), intent(in) :: left, right
+      real(dp), intent(in) :: width, bound, level
+      integer, parameter :: n_check = 32
+      real(dp) :: c0, c1, d0, d1, big_k, a3, b3, theta, cubic_min, rounding, lowest, t
+      integer :: k
+      cleared = .false.
+      c0 = level - left%f
+      c1 = level - right%f
+      if (.not. (c0 > 0 .and. c1 > 0)) return
+      d0 = -left%d1*width
+      d1 = -right%d1*width
+      big_k = bound*width**4/24
+      a3 = 2*c0 + d0 - 2*c1 + d1
+      b3 = -3*c0 - 2*d0 + 3*c1 - d1
+      rounding = 8*epsilon(1.0_dp)*(abs(a3) + abs(b3) + abs(d0) + abs(c0) + big_k)
+      call hermite_minimum(c0, d0 - big_k/4, c1, d1 + big_k/4, theta, cubic_min)
+      if (.not. (theta > 0)) then
+         cleared = .true.
+         return
+      end if
+      if (cubic_min - rounding > 0) then
+         cleared = .true.
+         return
+      end if
+      lowest = min(c0, c1)
+      do k = 1, n_check - 1
+         t = real(k, dp)/n_check
+         lowest = min(lowest, ((a3*t + b3)*t + d0)*t + c0 - big_k*(t*(1 - t))**2)
+      end do
+      cleared = lowest - (2*abs(b3) + 6*abs(a3) + 2*big_k)/(8*n_check**2) - rounding > 0
+   end function cleared
+
+   !> The radius r of a neighbourhood of a maximum `peak` (sigma f'' < 0 there) where sigma f
+   !> stays below level, by Taylor's bound: with |f'''(peak)| = third and |f''''| <= bound,
+   !> f(peak + d) <= f + f' d + f'' d^2/2 + third |d|^3/6 + bound d^4/24 <= f + f' d + f'' d^2/4
+   !> <= f + f'^2/|f''| while third r/6 + bound r^2/24 <= |f''|/4; 0 when that is not below level.
+   pure real(dp) function taylor_radius(peak, third, bound, level)
+      type(scan_point_t), intent(in) :: peak
+      real(dp), intent(in) :: third, bound, level
+      real(dp) :: c2
+      taylor_radius = 0
+      c2 = -peak%d2
+      if (.not. (c2 > 0)) return
+      if (.not. (peak%f + peak%d1**2/c2 < level)) return
+      taylor_radius = (c2/2)/(third/6 + sqrt(third**2/36 + bound*c2/24))
+   end function taylor_radius
+
+end module tmafm_flight_observables

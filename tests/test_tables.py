@@ -275,3 +275,128 @@ def test_observe_refuses_by_itself_with_the_core_limits(option, limit, monkeypat
         monkeypatch.setitem(LIMITS, limit, most + 10)  # the dict observe checks against
         with pytest.raises(tmafm.InputError, match=rf"observe {option} = {most + 1}: must be 1 to {most}$"):
             tmafm.observe(config, max_periods=1, **{option: most + 1})
+
+
+# --- the core's observable table (fortran/src/solve/tmafm_observable_table.f90) ---------------
+
+def _core_observables() -> list[dict]:
+    """The observable table read straight from tmafm_api observable_entry (not through Python's
+    copy in tmafm._fortran)."""
+    rows = []
+    for k in range(1, int(api.observable_count()) + 1):
+        name, group, bit, unit, si_unit, scale, kind, index = api.observable_entry(k)
+        rows.append({"name": name.decode().strip(), "group": group.decode().strip(), "bit": int(bit),
+                     "unit": unit.decode().strip(), "si_unit": si_unit.decode().strip(),
+                     "scale": scale.decode().strip(), "kind": kind.decode().strip(),
+                     "index": int(index)})
+    return rows
+
+
+def test_the_observe_tables_are_the_cores():
+    import importlib
+
+    ob = importlib.import_module("tmafm.observe")
+
+    rows = _core_observables()
+    assert len(rows) == 22 and len({r["name"] for r in rows}) == 22
+    assert list(api.observable_entry(len(rows) + 1))[2] == 0  # beyond the table: blank
+    columns = sorted((r for r in rows if r["kind"] == "column"), key=lambda r: r["index"])
+    assert ob.OBSERVABLES == tuple(r["name"] for r in columns)
+    assert [r["index"] for r in columns] == list(range(1, 15))
+    modal = sorted((r for r in rows if r["kind"] == "modal"), key=lambda r: r["index"])
+    assert ob.MODAL_EXTREMA == tuple(r["name"] for r in modal)
+    assert ob.UNITS == {r["name"]: r["unit"] for r in rows}
+    assert ob.PHYSICAL_UNITS == {r["name"]: r["si_unit"] for r in rows if r["si_unit"]}
+    groups = {}
+    for r in rows:
+        groups.setdefault(r["group"], []).append(r["name"])
+    always = groups.pop("always")
+    assert {g: set(v) for g, v in ob.OBSERVABLE_GROUPS.items()} == {g: set(v) for g, v in groups.items()}
+    assert ob._GROUP_BITS == {r["group"]: r["bit"] for r in rows if r["group"] != "always"}
+    assert set(ob._GROUP_BITS.values()) == {1, 2, 4, 8}
+    assert all(r["bit"] == 0 for r in rows if r["group"] == "always")
+    assert set(ob.ALWAYS) | {"poincare"} == set(always)
+    # Every name in a group is an observable Python reports (a column, or one it adds).
+    reported = set(ob.UNITS)
+    assert all(set(v) <= reported for v in ob.OBSERVABLE_GROUPS.values())
+
+
+_DOC_UNITS = str.maketrans({"²": "^2", "³": "^3", "τ": "tau", "µ": "u"})
+
+
+def _doc_table(text: str, header: str) -> list[list[str]]:
+    """The cells of the markdown table whose header line starts with `header`."""
+    start = text.index(header)
+    rows = []
+    for line in text[start:].splitlines()[2:]:
+        if not line.startswith("|"):
+            break
+        rows.append([c.strip() for c in line.strip().strip("|").split(" | ")])
+    return rows
+
+
+def test_observables_md_tables_are_the_cores():
+    text = (REPO / "docs" / "observables.md").read_text()
+    rows = {r["name"]: r for r in _core_observables()}
+    # The quantities table: every observable once, with its model and SI-derived units.
+    seen = set()
+    for cells in _doc_table(text, "| name | definition | unit |"):
+        names = re.findall(r"`(\w+)`", cells[0])
+        units, si = (c.translate(_DOC_UNITS) for c in (cells[2], cells[3]))
+        split = [units.split(", "), si.split(", ")]
+        for j, name in enumerate(names):
+            assert name in rows and name not in seen, f"docs/observables.md lists {name!r}"
+            seen.add(name)
+            unit = split[0][j] if len(names) > 1 and len(split[0]) == len(names) else units
+            si_unit = split[1][j] if len(names) > 1 and len(split[1]) == len(names) else si
+            assert unit == rows[name]["unit"], f"docs/observables.md: unit of {name}"
+            assert (si_unit if si_unit != "none" else "") == rows[name]["si_unit"], \
+                f"docs/observables.md: SI-derived unit of {name}"
+    assert seen == set(rows)
+    # The group table ("Selecting observables"): every observable in its group.
+    groups = {}
+    for cells in _doc_table(text, "| group | observables |"):
+        group = re.fullmatch(r"`(\w+)`", cells[0])
+        groups[group[1] if group else "always"] = set(re.findall(r"`(\w+)`", cells[1]))
+    core = {}
+    for r in rows.values():
+        core.setdefault(r["group"], set()).add(r["name"])
+    assert groups == core
+
+
+def _table_factors(config) -> np.ndarray:
+    factors = np.zeros(int(api.observable_count()))
+    ierr, msg = api.observable_table_factors(config._f, factors)
+    assert ierr == 0, msg
+    return factors
+
+
+def test_the_factor_column_is_observable_factors_and_the_scales_of_eq12():
+    config = tmafm.Config("physical_polystyrene", solver={"method": "dop853"})
+    rows = _core_observables()
+    factors = _table_factors(config)
+    # Oracle: the scales of Eq. (10)-(12) from the &physical values, written out here.
+    phys = config.to_dict()["physical"]
+    ei = phys["youngs_modulus_tip"] * phys["width"] * phys["thickness"] ** 3 / 12
+    m = phys["density"] * phys["width"] * phys["thickness"]
+    length, d = phys["length"], phys["gap"]
+    oracle = {"": 0.0, "one": 1.0, "length": d * 1e9, "time": math.sqrt(m * length ** 4 / ei) * 1e6,
+              "force": ei / length ** 2 * 1e9, "energy": ei * d ** 2 / length ** 3 * 1e18,
+              "force_length": ei / length ** 2 * d * 1e18}
+    for r, factor in zip(rows, factors, strict=True):
+        assert factor == pytest.approx(oracle[r["scale"]], rel=1e-12), r["name"]
+    # The core's observable_factors (what Observation.physical is multiplied by) agree with the
+    # table's column for column, and Python converts the other rows with the table's factor.
+    obs = tmafm.observe(config, max_periods=4, stop_at_steady=False)
+    for r, factor in zip(rows, factors, strict=True):
+        if r["name"] == "poincare":
+            assert r["name"] not in obs.physical
+            continue
+        model, physical = obs.per_period[r["name"]], obs.physical[r["name"]]
+        usable = np.isfinite(model) & (model != 0)
+        assert usable.any(), r["name"]
+        np.testing.assert_allclose(physical[usable] / model[usable], factor, rtol=1e-14,
+                                   err_msg=r["name"])
+    # A wrong size is refused.
+    ierr, msg = api.observable_table_factors(config._f, np.zeros(3))
+    assert ierr != 0 and "observable_count" in msg.decode()

@@ -22,6 +22,9 @@ module tmafm
    use tmafm_batch, only: observe_options_t, observe_batch, observe_states, config_scales, steady_harmonics, &
       steady_evidence
    use tmafm_observers, only: observer_t, n_observables, observable_factors, obs_amplitude, obs_phase
+   ! The observable table (what Python's observable tables and docs/observables.md come from).
+   use tmafm_observable_table, only: observable_row_t, observable_rows, n_observable_rows, &
+      observable_group_name, observable_si_factor, observable_kind_names, observable_scale_names
    use tmafm_units, only: scales_t
    use tmafm_steady_state, only: steady_test, repeat_steps, steady_harmonic
    use tmafm_trajectory, only: trajectory_t
@@ -58,6 +61,8 @@ module tmafm
    public :: observe_options_t, observe_batch, observe_states, config_scales, steady_harmonics, &
              steady_evidence, observer_t, n_observables, observable_factors, obs_amplitude, obs_phase, &
              scales_t, steady_test, repeat_steps, steady_harmonic
+   public :: observable_row_t, observable_rows, n_observable_rows, observable_group_name, &
+             observable_si_factor, observable_kind_names, observable_scale_names
    public :: write_trajectory_file, output_sink_t, prepare_output, check_output_size, begin_output, &
              write_output, discard_output, sample_count, target_file, target_device, target_stdout
 

@@ -1,5 +1,5 @@
 """The generated f90wrap layer, imported in one place: ``api`` (module tmafm_api) and the classes,
-and the core's limits (``LIMITS``)."""
+the core's limits (``LIMITS``) and its observable table (``OBSERVABLE_TABLE``)."""
 
 import threading
 
@@ -34,6 +34,33 @@ def _limits() -> dict:
 #: limit_entry): max_modes, max_samples, max_trajectory_bytes, max_max_steps, max_mode_horizon,
 #: max_harmonics, max_p_max, max_observed_periods.
 LIMITS = _limits()
+
+
+#: The widths of tmafm_api observable_entry's texts: a text that fills its field may have been cut.
+_OBSERVABLE_WIDTHS = {"name": 32, "group": 16, "unit": 16, "si_unit": 8, "scale": 16, "kind": 16}
+
+
+def _observables() -> tuple:
+    rows = []
+    for k in range(1, int(api.observable_count()) + 1):
+        name, group, bit, unit, si_unit, scale, kind, index = api.observable_entry(k)
+        row = {"name": text(name), "group": text(group), "bit": int(bit), "unit": text(unit),
+               "si_unit": text(si_unit), "scale": text(scale), "kind": text(kind),
+               "index": int(index)}
+        if any(len(row[f]) >= width for f, width in _OBSERVABLE_WIDTHS.items()):
+            raise ImportError(f"tmafm: observable {k} of the core's table has a text as long as its "
+                              f"field in tmafm_api observable_entry: widen the field ({row['name']})")
+        rows.append(row)
+    return tuple(rows)
+
+
+#: The core's observable table (fortran/src/solve/tmafm_observable_table.f90, read through
+#: tmafm_api observable_entry), one dict per row: name, group ('lockin', 'extrema',
+#: 'peak_force', 'energy', 'always'), bit (the group's bit of observer_t%groups; 0 for always),
+#: unit (model), si_unit ('' for none), scale (the tmafm_units scales_t component that converts
+#: it, 'one' or ''), kind ('column', 'harmonic', 'extremum', 'modal', 'points') and index (its
+#: obs_* column or ext_* index; 0 else).  tmafm.observe's tables are built from it.
+OBSERVABLE_TABLE = _observables()
 
 
 def polls() -> bool:

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._fortran import LIMITS, api, batch_t, polls
+from ._fortran import LIMITS, OBSERVABLE_TABLE, api, batch_t, polls
 from ._namelist import shown
 from ._run import Config, _for_core, _source
 from .errors import InputError, InputTypeError, SolverError, UnsteadyWarning, raise_for
@@ -33,49 +33,35 @@ __all__ = ["Observation", "observe", "observe_batch", "observe_states", "StatesO
            "steady_test", "steady_harmonic", "unsteady_text", "observed_config", "DEFAULT_METHOD",
            "observable_groups"]
 
-#: The per-period scalar observables, in the core's column order (tmafm_observers).
-OBSERVABLES = ("amplitude", "phase", "mean_deflection", "min_gap", "peak_force", "contact_time",
-               "contacts_per_period", "dissipated_energy", "dissipated_beam",
-               "dissipated_contact_damping", "dissipated_friction", "drive_work", "virial",
-               "contact_normal_work")
+#: The core's observable table (tmafm._fortran.OBSERVABLE_TABLE), and its rows by name.
+_TABLE = OBSERVABLE_TABLE
+_ROW = {r["name"]: r for r in _TABLE}
 
-_ENERGY = "E1 I d^2/L^3"
+
+def _indexed(kind: str) -> tuple[str, ...]:
+    """The names of the core's rows of one kind, in their index order (1, 2, ...)."""
+    rows = sorted((r for r in _TABLE if r["kind"] == kind), key=lambda r: r["index"])
+    if [r["index"] for r in rows] != list(range(1, len(rows) + 1)):
+        raise ImportError(f"tmafm: the core's {kind} observables are not indexed 1..{len(rows)}")
+    return tuple(r["name"] for r in rows)
+
+
+#: The per-period scalar observables, in the core's column order (tmafm_observers obs_*).
+OBSERVABLES = _indexed("column")
 #: Model units of each observable (d: the gap; tau: time in units of sqrt(m L^4/(E1 I)).
-UNITS = {
-    "amplitude": "d", "phase": "deg", "mean_deflection": "d", "min_gap": "d",
-    "peak_force": "E1 I/L^2", "contact_time": "tau", "contacts_per_period": "1",
-    "dissipated_energy": _ENERGY, "dissipated_beam": _ENERGY,
-    "dissipated_contact_damping": _ENERGY, "dissipated_friction": _ENERGY,
-    "drive_work": _ENERGY, "virial": "E1 I d/L^2", "contact_normal_work": _ENERGY,
-    "harmonic_amplitude": "d", "harmonic_phase": "deg", "poincare": "(d, d/tau)",
-    "max_gap": "d", "modal_max_contact": "d", "modal_min_contact": "d", "modal_max_free": "d",
-    "modal_min_free": "d",
-}
+UNITS = {r["name"]: r["unit"] for r in _TABLE}
 #: Located extrema of each mode per period (n_periods, N), in the core's ext_* column order.
-MODAL_EXTREMA = ("modal_max_contact", "modal_min_contact", "modal_max_free", "modal_min_free")
+MODAL_EXTREMA = _indexed("modal")
 #: The groups of observables a run may compute (``observables=``), with their core bit
 #: (tmafm_observers group_*).  contact_time, contacts_per_period and the Poincare points are
 #: always computed.
-OBSERVABLE_GROUPS = {
-    "lockin": ("amplitude", "phase", "mean_deflection", "harmonic_amplitude", "harmonic_phase"),
-    "extrema": ("min_gap", "max_gap") + MODAL_EXTREMA,
-    "peak_force": ("peak_force",),
-    "energy": ("dissipated_energy", "dissipated_beam", "dissipated_contact_damping",
-               "dissipated_friction", "drive_work", "virial", "contact_normal_work"),
-}
-_GROUP_BITS = {"lockin": 1, "extrema": 2, "peak_force": 4, "energy": 8}
-#: Always computed, whatever ``observables`` asks.
-ALWAYS = ("contact_time", "contacts_per_period")
+OBSERVABLE_GROUPS = {g: tuple(r["name"] for r in _TABLE if r["group"] == g)
+                     for g in dict.fromkeys(r["group"] for r in _TABLE if r["bit"])}
+_GROUP_BITS = {r["group"]: r["bit"] for r in _TABLE if r["bit"]}
+#: Always computed scalars, whatever ``observables`` asks (the Poincare points are too).
+ALWAYS = tuple(name for name in OBSERVABLES if _ROW[name]["group"] == "always")
 #: SI-derived units of ``Observation.physical`` (inputs given in &physical).
-PHYSICAL_UNITS = {
-    "amplitude": "nm", "phase": "deg", "mean_deflection": "nm", "min_gap": "nm",
-    "peak_force": "nN", "contact_time": "us", "contacts_per_period": "1",
-    "dissipated_energy": "aJ", "dissipated_beam": "aJ", "dissipated_contact_damping": "aJ",
-    "dissipated_friction": "aJ", "drive_work": "aJ", "virial": "aJ", "contact_normal_work": "aJ",
-    "harmonic_amplitude": "nm", "harmonic_phase": "deg", "max_gap": "nm",
-    "modal_max_contact": "nm", "modal_min_contact": "nm", "modal_max_free": "nm",
-    "modal_min_free": "nm",
-}
+PHYSICAL_UNITS = {r["name"]: r["si_unit"] for r in _TABLE if r["si_unit"]}
 
 
 #: The method an observed run (tmafm.observe, observe_batch, the sweeps) takes when its input

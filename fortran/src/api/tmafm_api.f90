@@ -17,7 +17,8 @@ module tmafm_api
       max_trajectory_bytes, max_max_steps, max_mode_horizon, max_harmonics, max_p_max, max_observed_periods, &
       nml_document_t, parse_namelist, int_text, observe_options_t, observe_batch, observe_states, config_scales, &
       steady_harmonics, steady_evidence, observer_t, n_observables, observable_factors, obs_amplitude, obs_phase, &
-      scales_t, steady_test, repeat_steps, steady_harmonic
+      scales_t, steady_test, repeat_steps, steady_harmonic, observable_rows, n_observable_rows, &
+      observable_group_name, observable_si_factor, observable_kind_names, observable_scale_names
    ! The types Python sees are named from the modules that define them, not the facade: f90wrap
    ! reads only the wrapped modules' sources and resolves a type through its defining module.
    use tmafm_config, only: config_t
@@ -33,7 +34,7 @@ module tmafm_api
       config_text_codes, model_of_config, run_config, run_sizes, run_samples, run_switches, &
       run_counters, trajectory_energy_flow, key_count, key_entry, limit_count, limit_entry, &
       batch_t, batch_add, batch_size, batch_run, observe_states_of, steady_test_of, &
-      steady_harmonic_of, namelist_syntax
+      steady_harmonic_of, namelist_syntax, observable_count, observable_entry, observable_table_factors
 
    !> Length of the error messages returned to Python.
    integer, parameter :: api_errmsg_len = errmsg_len
@@ -342,6 +343,73 @@ contains
       name = limit_names(k)
       value = limit_values(k)
    end subroutine limit_entry
+
+   !> Number of rows of the core's observable table (observable_entry).
+   function observable_count() result(n)
+      integer :: n
+      n = n_observable_rows
+   end function observable_count
+
+   !> Row k (1 to observable_count()) of the observable table (tmafm_observable_table): its name,
+   !> group ('lockin', 'extrema', 'peak_force', 'energy' or 'always') and the group's bit (0 for
+   !> always), model unit, SI-derived unit ('' for none), scale (a scales_t component, 'one' or
+   !> ''), kind ('column', 'harmonic', 'extremum', 'modal', 'points') and index (its obs_* column
+   !> or ext_* index; 0 else), blank-padded; all blank and 0 for another k.
+   subroutine observable_entry(k, name, group, bit, unit, si_unit, scale, kind, index)
+      integer, intent(in) :: k
+      character(len=32), intent(out) :: name
+      character(len=16), intent(out) :: group
+      integer, intent(out) :: bit
+      character(len=16), intent(out) :: unit
+      character(len=8), intent(out) :: si_unit
+      character(len=16), intent(out) :: scale
+      character(len=16), intent(out) :: kind
+      integer, intent(out) :: index
+      name = ''
+      group = ''
+      bit = 0
+      unit = ''
+      si_unit = ''
+      scale = ''
+      kind = ''
+      index = 0
+      if (k < 1 .or. k > n_observable_rows) return
+      associate (row => observable_rows(k))
+         name = row%name
+         group = observable_group_name(row%bit)
+         bit = row%bit
+         unit = row%unit
+         si_unit = row%si_unit
+         scale = observable_scale_names(row%scale)
+         kind = observable_kind_names(row%kind)
+         index = row%index
+      end associate
+   end subroutine observable_entry
+
+   !> The factor from each row's model unit to its SI-derived unit for `config` (its &physical
+   !> scales; scales_t's unit defaults when it has none), 0 for a row with no SI-derived unit.
+   !> err_input when factors has not observable_count() entries.
+   subroutine observable_table_factors(config, factors, ierr, errmsg)
+      type(config_t), intent(in) :: config
+      real(dp), intent(inout) :: factors(:)
+      integer, intent(out) :: ierr
+      character(len=api_errmsg_len), intent(out) :: errmsg
+      type(scales_t) :: scales
+      integer :: k
+      ierr = ok
+      errmsg = ''
+      factors = 0
+      if (size(factors) /= n_observable_rows) then
+         ierr = err_input
+         errmsg = 'observable_table_factors: factors must have observable_count() = ' &
+                  //trim(int_text(n_observable_rows))//' entries, not '//trim(int_text(size(factors)))
+         return
+      end if
+      scales = config_scales(config)
+      do k = 1, n_observable_rows
+         factors(k) = observable_si_factor(scales, observable_rows(k)%scale)
+      end do
+   end subroutine observable_table_factors
 
    !> Append a copy of `config` (its N already chosen) to `batch`: no text is written or read.
    subroutine batch_add(batch, config)

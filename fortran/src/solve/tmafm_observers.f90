@@ -38,7 +38,7 @@ module tmafm_observers
    implicit none
    private
 
-   public :: observer_t, stop_requested, observable_names, n_observables, observable_factors
+   public :: observer_t, stop_requested, n_observables, observable_factors
    public :: group_lockin, group_extrema, group_peak_force, group_energy, group_all, group_columns
    public :: obs_amplitude, obs_phase, obs_mean_deflection, obs_min_gap, obs_peak_force, &
       obs_contact_time, obs_contacts, obs_dissipated, obs_dissipated_beam, &
@@ -57,11 +57,6 @@ module tmafm_observers
       group_all = 15
    !> Last index of observer_t%modal_extrema: mode j's max and min in contact, and free.
    integer, parameter :: ext_max_contact = 1, ext_min_contact = 2, ext_max_free = 3, ext_min_free = 4
-   !> Names of the columns, as Python reports them.
-   character(len=*), parameter :: observable_names(n_observables) = [character(len=26) :: &
-      'amplitude', 'phase', 'mean_deflection', 'min_gap', 'peak_force', 'contact_time', &
-      'contacts_per_period', 'dissipated_energy', 'dissipated_beam', 'dissipated_contact_damping', &
-      'dissipated_friction', 'drive_work', 'virial', 'contact_normal_work']
 
    !> Gauss-Legendre points per piece, and pieces per period at least (for long steps).
    integer, parameter :: gl_points = 8, pieces_per_period = 16

@@ -242,16 +242,15 @@ contains
       config%errata = errata_label(parsed)
    end subroutine read_model
 
-   subroutine read_scene(p, g, config, ierr, errmsg)
+   !> Read a group whose keys are all reals (&scene, &physical) into `values`, each key at its
+   !> place in the group's rows of the key table, checked against the table's range.
+   subroutine read_real_group(p, g, values, ierr, errmsg)
       type(place_t), intent(in) :: p
       type(nml_group_t), intent(in) :: g
-      type(config_t), intent(inout) :: config
+      real(dp), intent(inout) :: values(:)
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
-      real(dp) :: values(size(scene_names))
       integer :: k, row
-
-      values = scene_values(config%scene)
       ierr = ok
       do k = 1, g%n_entries
          if (ierr /= ok) return
@@ -265,6 +264,18 @@ contains
          end associate
       end do
       if (ierr == ok) call check_repeats(p, g, ierr, errmsg)
+   end subroutine read_real_group
+
+   subroutine read_scene(p, g, config, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_group_t), intent(in) :: g
+      type(config_t), intent(inout) :: config
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      real(dp) :: values(size(scene_names))
+
+      values = scene_values(config%scene)
+      call read_real_group(p, g, values, ierr, errmsg)
       if (ierr /= ok) return
       config%scene = scene_t(values(1), values(2), values(3), values(4), values(5), values(6), &
                              values(7), values(8), values(9), values(10), values(11), values(12), &
@@ -278,23 +289,10 @@ contains
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       real(dp) :: v(size(physical_names)), mismatch
-      integer :: k, row
       type(nml_entry_t) :: fixed
 
       v = physical_values(config%physical)
-      ierr = ok
-      do k = 1, g%n_entries
-         if (ierr /= ok) return
-         associate (e => g%entries(k))
-            row = key_row(p%group, e%key)
-            if (row == 0) then
-               call unknown_key(p, e, row, ierr, errmsg)
-            else
-               call take_real(p, e, row, v(group_index(row)), ierr, errmsg)
-            end if
-         end associate
-      end do
-      if (ierr == ok) call check_repeats(p, g, ierr, errmsg)
+      call read_real_group(p, g, v, ierr, errmsg)
       if (ierr /= ok) return
       ! tip_position lies on the beam: 0 < x0 <= L.
       if (v(15) > v(1)) then

@@ -153,7 +153,7 @@ def test_every_entry_point_refuses_a_hostile_argument_with_a_typed_error(entry_p
     slots = _slots(entry_points)
     assert len(slots) > 150, len(slots)
 
-    @hypothesis.settings(max_examples=400, deadline=None, database=None,
+    @hypothesis.settings(max_examples=400, deadline=None, database=None, derandomize=True,
                          suppress_health_check=list(hypothesis.HealthCheck))
     @hypothesis.given(st.sampled_from(slots), HOSTILE)
     def check(slot, value):
@@ -189,3 +189,11 @@ def test_analysis_refuses_sections_with_no_values(shape):
         analysis.section_distances(np.zeros(shape), 1)
     with pytest.raises(tmafm.InputError, match="has no values"):
         analysis.classify_sections(np.zeros(shape), max_period=1, window=1)
+
+
+@pytest.mark.parametrize("warn", [None, 1, "yes", np.array([True, False])])
+def test_observe_batch_warn_must_be_a_bool(warn):
+    """Found by the campaign above on the new ``warn`` argument: an array raised numpy's
+    ambiguous-truth ValueError after the runs."""
+    with pytest.raises(tmafm.InputTypeError, match="warn"):
+        tmafm.observe_batch(["fig2_n4"], max_periods=1, warn=warn)

@@ -291,6 +291,8 @@ def observe_batch(configs: Sequence, *, threads: int | None = None, max_periods:
     (Observation.unsteady_reason)."""
     opts = _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_steady)
     groups = observable_groups(observables)
+    if not isinstance(warn, (bool, np.bool_)):
+        raise InputTypeError(f"observe_batch warn = {shown(warn)}: must be True or False")
     if isinstance(configs, (str, bytes, os.PathLike, Mapping, Config)) \
             or not hasattr(configs, "__iter__"):
         raise InputTypeError(f"observe_batch takes a list of inputs, not {shown(configs)}; use "

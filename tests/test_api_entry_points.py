@@ -197,3 +197,14 @@ def test_observe_batch_warn_must_be_a_bool(warn):
     ambiguous-truth ValueError after the runs."""
     with pytest.raises(tmafm.InputTypeError, match="warn"):
         tmafm.observe_batch(["fig2_n4"], max_periods=1, warn=warn)
+
+
+@pytest.mark.parametrize("keywords", [{"scale": "x"}, {"scale": float("nan")}, {"scale": -2.0},
+                                      {"floor": "abc"}, {"floor": [1.0, 2.0]},
+                                      {"floor": float("nan")}, {"floor": -1.0}])
+def test_steady_test_refuses_a_bad_scale_or_floor(keywords):
+    """Found in review: a string scale or floor escaped as numpy's ValueError, and a NaN scale
+    or floor was taken (every comparison with NaN passes) and declared the points period 1."""
+    from tmafm.observe import steady_test
+    with pytest.raises(tmafm.InputError):
+        steady_test(np.ones((10, 2)), **keywords)

@@ -35,6 +35,7 @@ import math
 import numpy as np
 
 from ._model import POWER_NAMES, Model
+from ._checks import real_array
 from ._namelist import shown
 from ._run import Config, Result
 from .errors import InputError, InputTypeError
@@ -77,7 +78,7 @@ def _real(what: str, name: str, value, optional: bool = False, positive: bool = 
 
 def _scale(what: str, scale, sections: np.ndarray) -> np.ndarray:
     """A scale per state component: finite numbers > 0, one per column of the sections."""
-    scale = _array(what, "scale", scale, 1)
+    scale = real_array(what, "scale", scale, 1)
     if scale.shape != sections.shape[1:] or not np.all(scale > 0):
         raise InputError(f"{what}: scale must be {sections.shape[1]} numbers > 0, one per state "
                          f"component, got shape {scale.shape}")
@@ -103,22 +104,6 @@ def _count(what: str, name: str, value, optional: bool = False, low: int = 1) ->
         raise InputError(f"{what}: {name} = {shown(value)}: must be an integer from {low} to "
                          f"10000000" + (" or None" if optional else ""))
     return int(value)
-
-
-def _array(what: str, name: str, value, ndim: int) -> np.ndarray:
-    """Finite real numbers of `ndim` dimensions; InputError otherwise."""
-    try:
-        if isinstance(value, (str, bytes)):
-            raise TypeError("not numbers")
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError, OverflowError) as exc:
-        raise InputError(f"{what}: {name} must be real numbers: {shown(str(exc))[1:-1]}") from None
-    if array.ndim != ndim or not np.all(np.isfinite(array)):
-        raise InputError(f"{what}: {name} must be finite numbers of {ndim} dimension(s), got "
-                         f"shape {array.shape}")
-    if 0 in array.shape:
-        raise InputError(f"{what}: {name} has no values (shape {array.shape})")
-    return array
 
 
 def observation(result, harmonics: int = _CORE_HARMONICS):
@@ -214,7 +199,7 @@ def section_distances(sections: np.ndarray, n: int, scale: np.ndarray | None = N
     """Scaled max-norm distances between sections k and k - n, for k = n .. end (diagnostics;
     the classification itself is the core's, ``classify_sections``).
     `scale` defaults to the largest |value| of each component over the sections."""
-    sections = _array("section_distances", "sections", sections, 2)
+    sections = real_array("section_distances", "sections", sections, 2)
     n = _count("section_distances", "n", n)
     if n >= sections.shape[0]:
         raise InputError(f"section_distances: n = {n}: must be less than the {sections.shape[0]} "
@@ -244,7 +229,7 @@ def classify_sections(sections: np.ndarray, tol: float = 1e-6, max_period: int =
     over the last window + max_period sections).  Returns the evidence: for each n, the largest
     distance seen, and the core's reason when there is no period."""
     from .observe import steady_test
-    sections = _array("classify_sections", "sections", sections, 2)
+    sections = real_array("classify_sections", "sections", sections, 2)
     tol = _real("classify_sections", "tol", tol, positive=True)
     max_period = _count("classify_sections", "max_period", max_period)
     window = _count("classify_sections", "window", window, optional=True)

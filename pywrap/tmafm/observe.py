@@ -25,6 +25,7 @@ import numpy as np
 
 from ._fortran import LIMITS, OBSERVABLE_TABLE, api, batch_t, polls
 from ._namelist import shown
+from ._checks import real_array
 from ._run import Config, _for_core, _source
 from .errors import InputError, InputTypeError, SolverError, UnsteadyWarning, raise_for
 
@@ -505,24 +506,26 @@ def steady_test(points, p_max: int = 8, tol: float = 1e-6, repeats: int = 3, flo
     if isinstance(tol, (bool, np.bool_)) or not isinstance(tol, (int, float, np.floating)) \
             or not 0 < tol < 1:
         raise InputError(f"steady_test tol = {shown(tol)}: must be a number > 0 and < 1")
-    try:
-        if isinstance(points, (str, bytes)):
-            raise TypeError("not numbers")
-        points = np.asarray(points, dtype=float)
-    except (TypeError, ValueError, OverflowError) as exc:
-        raise InputError(f"steady_test points must be real numbers: {shown(str(exc))[1:-1]}") \
-            from None
+    points = real_array("steady_test", "points", points, (1, 2))
     if points.ndim == 1:
         points = points[:, None]
-    if points.ndim != 2 or not np.all(np.isfinite(points)):
-        raise InputError(f"steady_test points must be a finite (points,) or (points, values) "
-                         f"array, got shape {points.shape}")
-    floor = np.zeros(len(points)) if floor is None else np.broadcast_to(
-        np.asarray(floor, dtype=float), (len(points),)).copy()
+    if floor is None:
+        floor = np.zeros(len(points))
+    else:
+        floor = real_array("steady_test", "floor", floor, (0, 1))
+        if floor.ndim == 1 and floor.shape != (len(points),):
+            raise InputError(f"steady_test floor has {floor.size} values for {len(points)} points")
+        if np.any(floor < 0):
+            raise InputError("steady_test floor must be >= 0")
+        floor = np.broadcast_to(floor, (len(points),)).copy()
+    if scale is not None:
+        scale = float(real_array("steady_test", "scale", scale, 0))
+        if not scale > 0:
+            raise InputError(f"steady_test scale = {shown(scale)}: must be > 0")
     steps = np.zeros(int(p_max))
     period, reason, closest, lag, ierr, errmsg = api.steady_test_of(
         np.asfortranarray(points), int(p_max), float(tol), int(repeats), floor,
-        -1.0 if scale is None else float(scale), steps)
+        -1.0 if scale is None else scale, steps)
     raise_for(int(ierr), _message(errmsg))
     return {"period": int(period), "reason": _REASONS.get(int(reason), "steady"),
             "closest": float(closest), "closest_lag": int(lag),

@@ -167,12 +167,7 @@ contains
       do p = 1, p_max
          if (m < p + k) exit
          first = m - k + 1
-         if (present(scale)) then
-            size_orbit = scale
-         else
-            size_orbit = maxval(abs(points(:, first - p:m)))
-         end if
-         if (.not. (size_orbit > 0)) size_orbit = tiny(1.0_dp)
+         size_orbit = orbit_size(points, first - p, m, scale)
          threshold = tol*size_orbit
          apart = sqrt(tol)*size_orbit
          if (present(floor)) then
@@ -229,12 +224,7 @@ contains
       do p = 1, p_max
          if (m < p + k) exit
          first = m - k + 1
-         if (present(scale)) then
-            size_orbit = scale
-         else
-            size_orbit = maxval(abs(points(:, first - p:m)))
-         end if
-         if (.not. (size_orbit > 0)) size_orbit = tiny(1.0_dp)
+         size_orbit = orbit_size(points, first - p, m, scale)
          steps(p) = largest_step(points, first, m, p)/size_orbit
       end do
    end function repeat_steps
@@ -299,5 +289,20 @@ contains
          smallest_step = min(smallest_step, maxval(abs(points(:, j) - points(:, j - lag))))
       end do
    end function smallest_step
+
+   !> The size tolerances are relative to: `scale` when given, else the largest |component| of
+   !> points(:, first:last) (tiny when that is zero or NaN).
+   pure real(dp) function orbit_size(points, first, last, scale)
+      real(dp), intent(in) :: points(:, :)
+      integer, intent(in) :: first
+      integer, intent(in) :: last
+      real(dp), intent(in), optional :: scale
+      if (present(scale)) then
+         orbit_size = scale
+      else
+         orbit_size = maxval(abs(points(:, first:last)))
+      end if
+      if (.not. (orbit_size > 0)) orbit_size = tiny(1.0_dp)
+   end function orbit_size
 
 end module tmafm_steady_state

@@ -237,7 +237,7 @@ contains
             errmsg = '&scene medium_reynolds = '//real_text(medium_reynolds)//': mode '//int_text(j)// &
                      ' in the liquid has Re = '//real_text(reynolds(j))//', outside '// &
                      real_text(sader_re_min)//'..'//real_text(sader_re_max)// &
-                     ' where Sader''s hydrodynamic function holds (use fewer modes; docs/model.md §12)'
+                     ' where Sader''s hydrodynamic function holds (use fewer modes; docs/model.md section 12)'
             return
          end if
          if (.not. converged) then

@@ -170,6 +170,14 @@ def study(n_modes: int = 2) -> dict:
                 mode["q_tmafm"] = got["q"]
             entry["media"][medium_name] = {"medium_mass": d["medium_mass"],
                                            "medium_reynolds": d["medium_reynolds"], "modes": modes}
+        # How many modes Sader's fit covers in water (Re_j <= 1e4 at each mode's own frequency).
+        d = dimensionless(beam, MEDIA["water"])
+        inside = 0
+        for beta in beam_roots(30):
+            if sader_resonance(beta**4, 1.0, d["medium_mass"], d["medium_reynolds"])["reynolds"] > RE_RANGE[1]:
+                break
+            inside += 1
+        entry["modes_inside_sader_range"] = inside
         f = {m: entry["media"][m]["modes"][0]["f_hz_tmafm"] for m in MEDIA}
         entry["f1_water_over_air"] = f["water"] / f["air"]
         entry["q1_air"] = entry["media"]["air"]["modes"][0]["q_tmafm"]

@@ -277,7 +277,7 @@ contains
       values = scene_values(config%scene)
       call read_real_group(p, g, values, ierr, errmsg)
       if (ierr /= ok) return
-      ! A liquid takes both of its keys (docs/model.md §12): one alone is refused, not ignored.
+      ! A liquid takes both of its keys (docs/model.md, A liquid environment): one alone is refused, not ignored.
       call check_pair(p, g, 'medium_mass', values(14), 'medium_reynolds', values(15), ierr, errmsg)
       if (ierr /= ok) return
       config%scene = scene_t(values(1), values(2), values(3), values(4), values(5), values(6), &

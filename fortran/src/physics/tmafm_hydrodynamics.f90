@@ -1,4 +1,4 @@
-!> A beam in a viscous liquid (docs/model.md §12): the hydrodynamic function of a rectangular
+!> A beam in a viscous liquid (docs/model.md, A liquid environment): the hydrodynamic function of a rectangular
 !> beam (J. E. Sader, J. Appl. Phys. 84, 64 (1998)) and the added mass and damping it gives
 !> each Galerkin mode at that mode's own frequency in the liquid.
 !>
@@ -237,7 +237,7 @@ contains
             errmsg = '&scene medium_reynolds = '//real_text(medium_reynolds)//': mode '//int_text(j)// &
                      ' in the liquid has Re = '//real_text(reynolds(j))//', outside '// &
                      real_text(sader_re_min)//'..'//real_text(sader_re_max)// &
-                     ' where Sader''s hydrodynamic function holds (use fewer modes; docs/model.md section 12)'
+                     ' where Sader''s hydrodynamic function holds (use fewer modes; docs/model.md)'
             return
          end if
          if (.not. converged) then

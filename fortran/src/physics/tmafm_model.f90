@@ -3,7 +3,7 @@
 !>
 !> Out of contact:  M = I + alpha1 m m^T, C = alpha3 I, K = Lambda,
 !>                  F = alpha2 Omega^2 (alpha1 m + q) sin(Omega tau) - alpha2 alpha3 Omega q cos(Omega tau).
-!> In a liquid (docs/model.md §12, tmafm_hydrodynamics): M += diag(mu), C = diag(alpha3 + gamma),
+!> In a liquid (docs/model.md, A liquid environment, tmafm_hydrodynamics): M += diag(mu), C = diag(alpha3 + gamma),
 !>                  F = alpha2 Omega^2 (alpha1 m + (1 + mu) q) sin - alpha2 Omega C q cos.
 !> In contact:      C += alpha4 p p^T, K -= P2 G,
 !>                  F += F_damp + (L/d) P1 p + (g0/d) P2 r.
@@ -231,7 +231,7 @@ contains
       end do
 
       ! A liquid: each mode's added mass and damping at its frequency in the liquid, on the
-      ! diagonal (the modes stay uncoupled by the liquid; docs/model.md §12).
+      ! diagonal (the modes stay uncoupled by the liquid; docs/model.md, A liquid environment).
       allocate (model%added_mass(n), model%medium_frequency(n), model%medium_reynolds(n), source=0.0_dp)
       allocate (model%modal_damping(n), source=scene%alpha3)
       model%has_medium = scene%medium_mass > 0 .or. scene%medium_reynolds > 0
@@ -782,7 +782,7 @@ contains
          energy = 0.5_dp*energy + 0.5_dp*sum(self%eigen*a*a)
          power = 0
          if (self%has_medium) then
-            ! The liquid's load as a damper and a drive (docs/model.md §12): the same sums, C per mode.
+            ! The liquid's load as a damper and a drive (docs/model.md): the same sums, C per mode.
             power(power_drive) = 0
             power(power_beam_damping) = 0
             do k = 1, self%n_modes

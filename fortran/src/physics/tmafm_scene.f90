@@ -44,7 +44,7 @@ module tmafm_scene
       !> xi0 = x0/L: tip position along the beam.
       real(dp) :: xi0 = 1.0_dp
       !> mu0 = pi rho_f b/(4 rho h): a liquid's added mass per length over the beam's, per unit
-      !> Gamma_r (docs/model.md §12); 0 = vacuum, no liquid.
+      !> Gamma_r (docs/model.md, A liquid environment); 0 = vacuum, no liquid.
       real(dp) :: medium_mass = 0.0_dp
       !> R0 = rho_f b^2/(4 eta t0): the liquid's Reynolds number at Omega = 1 (Re = R0 omega).
       real(dp) :: medium_reynolds = 0.0_dp
@@ -211,7 +211,7 @@ contains
       scene%g0_over_d = phys%tip_length/d
       scene%delta_hat = phys%static_offset/(d*cos(phys%tilt))
       scene%xi0 = phys%tip_position/phys%length
-      ! The liquid (docs/model.md §12): mu0 = pi rho_f b/(4 rho h), R0 = rho_f b^2/(4 eta t0).
+      ! The liquid (docs/model.md, A liquid environment): mu0 = pi rho_f b/(4 rho h), R0 = rho_f b^2/(4 eta t0).
       scene%medium_mass = pi*phys%medium_density*phys%width/(4*phys%density*phys%thickness)
       if (phys%medium_viscosity > 0) then
          scene%medium_reynolds = phys%medium_density*phys%width**2/(4*phys%medium_viscosity*time_unit)

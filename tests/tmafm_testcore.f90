@@ -317,3 +317,64 @@ subroutine real_texts(values, n, fast, slow)
       slow(:, j) = [(iachar(text(k:k)), k = 1, 40)]
    end do
 end subroutine real_texts
+
+!> K0(z), K1(z) at n complex points z = z_re + i z_im, and the hydrodynamic functions of a
+!> circular and a rectangular beam at n Reynolds numbers re (tmafm_hydrodynamics).
+subroutine hydrodynamic_functions(n, z_re, z_im, k0_re, k0_im, k1_re, k1_im, converged, re, &
+                                  circ_re, circ_im, rect_re, rect_im)
+   use tmafm_kinds, only: dp
+   use tmafm_hydrodynamics, only: bessel_k01, gamma_circular, gamma_rectangular
+   implicit none
+   integer, intent(in) :: n
+   real(dp), intent(in) :: z_re(n)
+   real(dp), intent(in) :: z_im(n)
+   real(dp), intent(out) :: k0_re(n)
+   real(dp), intent(out) :: k0_im(n)
+   real(dp), intent(out) :: k1_re(n)
+   real(dp), intent(out) :: k1_im(n)
+   logical, intent(out) :: converged(n)
+   real(dp), intent(in) :: re(n)
+   real(dp), intent(out) :: circ_re(n)
+   real(dp), intent(out) :: circ_im(n)
+   real(dp), intent(out) :: rect_re(n)
+   real(dp), intent(out) :: rect_im(n)
+   complex(dp) :: k0, k1, g
+   integer :: j
+   do j = 1, n
+      call bessel_k01(cmplx(z_re(j), z_im(j), dp), k0, k1, converged(j))
+      k0_re(j) = real(k0, dp)
+      k0_im(j) = aimag(k0)
+      k1_re(j) = real(k1, dp)
+      k1_im(j) = aimag(k1)
+      g = gamma_circular(re(j))
+      circ_re(j) = real(g, dp)
+      circ_im(j) = aimag(g)
+      g = gamma_rectangular(re(j))
+      rect_re(j) = real(g, dp)
+      rect_im(j) = aimag(g)
+   end do
+end subroutine hydrodynamic_functions
+
+!> A namelist's model in a liquid: each mode's added mass, damping C_jj, frequency in the liquid
+!> and Reynolds number there (model_t; zero added mass and alpha3 damping without a liquid).
+subroutine fluid_loads(path, n_modes, added_mass, damping, frequency, reynolds, ierr, errmsg)
+   use tmafm, only: model_t, load_model, ok
+   use tmafm_kinds, only: dp
+   implicit none
+   character(len=*), intent(in) :: path
+   integer, intent(in) :: n_modes
+   real(dp), intent(out) :: added_mass(n_modes)
+   real(dp), intent(out) :: damping(n_modes)
+   real(dp), intent(out) :: frequency(n_modes)
+   real(dp), intent(out) :: reynolds(n_modes)
+   integer, intent(out) :: ierr
+   character(len=512), intent(out) :: errmsg
+   type(model_t) :: model
+   added_mass = 0; damping = 0; frequency = 0; reynolds = 0
+   call load_model(path, n_modes, model, ierr, errmsg)
+   if (ierr /= ok) return
+   added_mass = model%added_mass
+   damping = model%modal_damping
+   frequency = model%medium_frequency
+   reynolds = model%medium_reynolds
+end subroutine fluid_loads

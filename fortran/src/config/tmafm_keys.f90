@@ -117,7 +117,13 @@ module tmafm_keys
       key_t('scene', 'g0_over_d', key_real, 0, 1.0e9_dp, unit='1', meaning='tip length / gap, g0/d'), &
       key_t('scene', 'delta_hat', key_real, -1.0e3_dp, 1.0e3_dp, unit='1', &
             meaning='static tip-sample offset, delta/(d cos theta)'), &
-      key_t('scene', 'xi0', key_real, 0, 1, .false., unit='1', meaning='tip position along the beam, x0/L')]
+      key_t('scene', 'xi0', key_real, 0, 1, .false., unit='1', meaning='tip position along the beam, x0/L'), &
+      key_t('scene', 'medium_mass', key_real, 0, 1.0e3_dp, unit='1', &
+            rule='> 0 with medium_reynolds > 0 (a liquid), or both 0 (vacuum)', &
+            meaning='liquid: pi rho_f b/(4 rho h), the added mass per Gamma_r (docs/model.md); 0 = vacuum'), &
+      key_t('scene', 'medium_reynolds', key_real, 0, 1.0e12_dp, unit='1', &
+            rule='> 0 with medium_mass > 0, or both 0', &
+            meaning='liquid: rho_f b^2/(4 eta t0), the Reynolds number at Omega = 1 (Re = this times omega)')]
 
    type(key_t), parameter :: physical_rows(*) = [ &
       key_t('physical', 'length', key_real, 0, 1, .false., unit='m', meaning='beam length L'), &
@@ -151,7 +157,13 @@ module tmafm_keys
             meaning='tip-sample contact damping C1'), &
       key_t('physical', 'drive_amplitude', key_real, 0, 1, unit='m', meaning='base drive amplitude f'), &
       key_t('physical', 'drive_angular_frequency', key_real, 0, 1.0e12_dp, unit='rad/s', &
-            meaning='base drive angular frequency omega')]
+            meaning='base drive angular frequency omega'), &
+      key_t('physical', 'medium_density', key_real, 0, 1.0e5_dp, unit='kg/m^3', &
+            rule='> 0 with medium_viscosity > 0 (a liquid), or both 0 (vacuum)', &
+            meaning='mass density rho_f of the liquid around the beam (docs/model.md); 0 = vacuum'), &
+      key_t('physical', 'medium_viscosity', key_real, 0, 1.0e3_dp, unit='Pa s', &
+            rule='> 0 with medium_density > 0, or both 0', &
+            meaning='dynamic viscosity eta of the liquid around the beam; 0 = vacuum')]
 
    type(key_t), parameter :: initial_rows(*) = [ &
       key_t('initial', 'a0', key_list, -1, 1, unit='d', &

@@ -277,10 +277,37 @@ contains
       values = scene_values(config%scene)
       call read_real_group(p, g, values, ierr, errmsg)
       if (ierr /= ok) return
+      ! A liquid takes both of its keys (docs/model.md, A liquid environment): one alone is refused, not ignored.
+      call check_pair(p, g, 'medium_mass', values(14), 'medium_reynolds', values(15), ierr, errmsg)
+      if (ierr /= ok) return
       config%scene = scene_t(values(1), values(2), values(3), values(4), values(5), values(6), &
                              values(7), values(8), values(9), values(10), values(11), values(12), &
-                             values(13))
+                             values(13), values(14), values(15))
    end subroutine read_scene
+
+   !> A pair of keys that are both > 0 or both 0 (a liquid's two keys): a one-line error on the
+   !> key given > 0 without its partner.
+   subroutine check_pair(p, g, name1, value1, name2, value2, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_group_t), intent(in) :: g
+      character(len=*), intent(in) :: name1
+      real(dp), intent(in) :: value1
+      character(len=*), intent(in) :: name2
+      real(dp), intent(in) :: value2
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      type(nml_entry_t) :: fixed
+      ierr = ok
+      errmsg = ''
+      if ((value1 > 0) .eqv. (value2 > 0)) return
+      if (value1 > 0) then
+         fixed = entry_or_default(g, name1, value1)
+         call key_error(p, fixed, 'needs '//name2//' > 0 too (a liquid), or 0 (vacuum)', ierr, errmsg)
+      else
+         fixed = entry_or_default(g, name2, value2)
+         call key_error(p, fixed, 'needs '//name1//' > 0 too (a liquid), or 0 (vacuum)', ierr, errmsg)
+      end if
+   end subroutine check_pair
 
    subroutine read_physical(p, g, config, ierr, errmsg)
       type(place_t), intent(in) :: p
@@ -308,9 +335,11 @@ contains
                         real_text(v(13) + v(14)/cos(v(11))), ierr, errmsg)
          return
       end if
+      call check_pair(p, g, 'medium_density', v(21), 'medium_viscosity', v(22), ierr, errmsg)
+      if (ierr /= ok) return
       config%physical = physical_t(v(1), v(2), v(3), v(4), v(5), v(6), v(7), v(8), v(9), v(10), &
                                    v(11), v(12), v(13), v(14), v(15), v(16), v(17), v(18), v(19), &
-                                   v(20))
+                                   v(20), v(21), v(22))
       config%from_physical = .true.
       config%scene = scene_from_physical(config%physical)
    end subroutine read_physical

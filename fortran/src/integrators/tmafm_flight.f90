@@ -3,8 +3,8 @@
 !>
 !>   y(tau0 + s) = y_p(tau0 + s) + Re( V exp(Lambda s) z ),   z = V^-1 (y(tau0) - y_p(tau0)),
 !>
-!> with A = V Lambda V^-1 (LAPACK dgeev; the damping alpha3 I is not proportional to M, so
-!> the modes are complex) and the periodic particular solution y_p = u sin + v cos (dgesv).
+!> with A = V Lambda V^-1 (LAPACK dgeev; the damping alpha3 I, or a liquid's diagonal C, is not
+!> proportional to M, so the modes are complex) and the periodic particular solution y_p = u sin + v cos (dgesv).
 !> Everything LAPACK does happens once, in init: V^-1 is formed there, so a flight start is
 !> one complex matrix-vector product.  Eigenvalues come in conjugate pairs with conjugate
 !> coefficients, so only one of each pair is kept, counted twice.
@@ -187,7 +187,8 @@ contains
          a(j, n + j) = 1
       end do
       a(n + 1:m, 1:n) = -model%inv_mass_eigen
-      a(n + 1:m, n + 1:m) = -model%scene%alpha3*model%inv_mass
+      ! -M^-1 C: alpha3 I, or in a liquid alpha3 + each mode's damping (model_t%pass_v).
+      a(n + 1:m, n + 1:m) = model%pass_v(1:n, :)
 
       ! Particular solution: [A, Omega I; -Omega I, A] [u; v] = -[b_s; b_c].
       allocate (system(2*m, 2*m), rhs(2*m), ipiv(2*m))

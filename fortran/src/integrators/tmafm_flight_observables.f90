@@ -4,7 +4,7 @@
 !>
 !> Out of contact y(tau0 + s) = Re(Q e^{i Omega tau}) + sum_k mult_k Re(V_k z_k e^{lambda_k s}),
 !> Q = v - i u, so every integrand of a flight (V_T times e^{i m Omega tau}, p.a, the drive power
-!> a'.Re(g e^{i Omega tau}), the beam-damping power -alpha3 |a'|^2) is a short sum of
+!> a'.Re(g e^{i Omega tau}), the beam-damping power -alpha3 |a'|^2, -a'.C a' in a liquid) is a short sum of
 !> exponentials e^{mu s}, and
 !>
 !>   int_a^b e^{mu s} ds = (e^{mu b} - e^{mu a})/mu = e^{mu a} h phi1(mu h),  h = b - a,
@@ -131,7 +131,9 @@ contains
       type(free_flight_t), intent(in) :: flight
       !> Lock-in harmonics the integrals serve (at least 1).
       integer, intent(in) :: harmonics
-      complex(dp), allocatable :: g(:), q(:)
+      complex(dp), allocatable :: g(:), q(:), qw(:)
+      ! |a'|^2 weighted by each mode's damping (a liquid), or not (alpha3 I: alpha3 outside).
+      real(dp), allocatable :: weight(:)
       complex(dp) :: i_omega
       integer :: n, nt, k, l, m
 
@@ -144,6 +146,8 @@ contains
       self%delta_hat = model%scene%delta_hat
       self%alpha2 = model%scene%alpha2
       self%alpha3 = model%scene%alpha3
+      ! In a liquid C is diagonal, not alpha3 I: the sums of |a'|^2 carry C_jj, and beam = -sq.
+      if (model%has_medium) self%alpha3 = 1
       self%scan_points = 0
       if (allocated(self%lambda)) deallocate (self%lambda, self%mult, self%decay_rate, self%rate4, self%mu, &
                                               self%inv_mu, self%mu_pair, self%inv_pair, self%mu_herm, &
@@ -169,19 +173,39 @@ contains
       ! The drive power a'.(d_s sin + d_c cos) (model_t%energy_flow) is a'.Re(g e^{i Omega tau}).
       allocate (g(n), q(n))
       associate (s => model%scene)
-         g = cmplx(-s%alpha2*s%alpha3*s%omega*model%integral, &
-                   -s%alpha2*s%omega**2*(s%alpha1*model%mass_point + model%integral), dp)
+         if (model%has_medium) then
+            g = cmplx(-s%alpha2*s%omega*model%modal_damping*model%integral, &
+                      -s%alpha2*s%omega**2*(s%alpha1*model%mass_point + (1 + model%added_mass)*model%integral), dp)
+         else
+            g = cmplx(-s%alpha2*s%alpha3*s%omega*model%integral, &
+                      -s%alpha2*s%omega**2*(s%alpha1*model%mass_point + model%integral), dp)
+         end if
       end associate
       q = cmplx(flight%v(n + 1:2*n), -flight%u(n + 1:2*n), dp)
+      if (model%has_medium) then
+         weight = model%modal_damping
+      else
+         allocate (weight(n), source=1.0_dp)
+      end if
+      if (model%has_medium) then
+         qw = weight*q
+      else
+         qw = q
+      end if
       do k = 1, nt
          associate (vk => flight%vectors(n + 1:2*n, k))
             self%drive_plus(k) = sum(vk*g)
             self%drive_minus(k) = sum(vk*conjg(g))
-            self%part_plus(k) = sum(vk*q)
-            self%part_minus(k) = sum(vk*conjg(q))
+            self%part_plus(k) = sum(vk*qw)
+            self%part_minus(k) = sum(vk*conjg(qw))
             do l = 1, nt
-               self%gram(k, l) = sum(vk*flight%vectors(n + 1:2*n, l))
-               self%herm(k, l) = sum(vk*conjg(flight%vectors(n + 1:2*n, l)))
+               if (model%has_medium) then
+                  self%gram(k, l) = sum(vk*weight*flight%vectors(n + 1:2*n, l))
+                  self%herm(k, l) = sum(vk*weight*conjg(flight%vectors(n + 1:2*n, l)))
+               else
+                  self%gram(k, l) = sum(vk*flight%vectors(n + 1:2*n, l))
+                  self%herm(k, l) = sum(vk*conjg(flight%vectors(n + 1:2*n, l)))
+               end if
                self%mu_pair(k, l) = self%lambda(k) + self%lambda(l)
                self%mu_herm(k, l) = self%lambda(k) + conjg(self%lambda(l))
             end do
@@ -192,8 +216,13 @@ contains
       end do
       self%qg = sum(q*g)
       self%qcg = sum(q*conjg(g))
-      self%qq = sum(q*q)
-      self%q_norm2 = sum(real(q, dp)**2 + aimag(q)**2)
+      if (model%has_medium) then
+         self%qq = sum(q*qw)
+         self%q_norm2 = sum(weight*(real(q, dp)**2 + aimag(q)**2))
+      else
+         self%qq = sum(q*q)
+         self%q_norm2 = sum(real(q, dp)**2 + aimag(q)**2)
+      end if
       self%tip_part = cmplx(flight%tip_cos, -flight%tip_sin, dp)
       self%deflection_part = cmplx(flight%tip_cos, -(flight%tip_sin - self%alpha2), dp)
       self%particular_size = hypot(flight%u(1:n), flight%v(1:n))

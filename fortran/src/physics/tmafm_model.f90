@@ -3,6 +3,8 @@
 !>
 !> Out of contact:  M = I + alpha1 m m^T, C = alpha3 I, K = Lambda,
 !>                  F = alpha2 Omega^2 (alpha1 m + q) sin(Omega tau) - alpha2 alpha3 Omega q cos(Omega tau).
+!> In a liquid (docs/model.md, A liquid environment, tmafm_hydrodynamics): M += diag(mu), C = diag(alpha3 + gamma),
+!>                  F = alpha2 Omega^2 (alpha1 m + (1 + mu) q) sin - alpha2 Omega C q cos.
 !> In contact:      C += alpha4 p p^T, K -= P2 G,
 !>                  F += F_damp + (L/d) P1 p + (g0/d) P2 r.
 !> M is constant: it is factored once (LAPACK dpotrf) and M^-1 is applied to every
@@ -27,6 +29,7 @@ module tmafm_model
       contact_forces
    use tmafm_scene, only: scene_t
    use tmafm_errata, only: errata_t
+   use tmafm_hydrodynamics, only: modal_fluid_loads
    implicit none
    private
 
@@ -84,7 +87,7 @@ module tmafm_model
       real(dp), allocatable :: inv_mass_tip(:)
       !> M^-1 r.
       real(dp), allocatable :: inv_mass_moment(:)
-      !> M^-1 (alpha1 m + q): the inertial drive direction.
+      !> M^-1 (alpha1 m + q), in a liquid M^-1 (alpha1 m + (1 + mu) q): the inertial drive direction.
       real(dp), allocatable :: inv_mass_inertial(:)
       !> M^-1 q: the damping drive direction.
       real(dp), allocatable :: inv_mass_integral(:)
@@ -106,7 +109,8 @@ module tmafm_model
       real(dp), allocatable :: pass_terms(:, :)
       !> w_s = alpha2 Omega^2 M^-1 (alpha1 m + q): the drive term of a'' that goes with sin(Omega tau).
       real(dp), allocatable :: drive_sin(:)
-      !> w_c = -alpha2 alpha3 Omega M^-1 q: the drive term of a'' that goes with cos(Omega tau).
+      !> w_c = -alpha2 alpha3 Omega M^-1 q (in a liquid -alpha2 Omega M^-1 C q): the drive term of
+      !> a'' that goes with cos(Omega tau).
       real(dp), allocatable :: drive_cos(:)
       !> (g0/d) M^-1 r: the moment term of a'', times P2 (zero if the moment is off).
       real(dp), allocatable :: moment_force(:)
@@ -114,6 +118,12 @@ module tmafm_model
       real(dp) :: sin_theta = 0, cos_theta = 1
       !> The base contact-damping term is base_sin sin(Omega tau) + base_cos cos(Omega tau).
       real(dp) :: base_sin = 0, base_cos = 0
+      !> .true. in a liquid (&scene medium_mass > 0): per-mode added mass and damping.
+      logical :: has_medium = .false.
+      !> Per mode: the added mass mu_j (0 without a liquid), the damping C_jj = alpha3 + gamma_j
+      !> (alpha3 without a liquid), and in a liquid the frequency omega_j there and its Reynolds
+      !> number R0 omega_j (0 without).
+      real(dp), allocatable :: added_mass(:), modal_damping(:), medium_frequency(:), medium_reynolds(:)
    contains
       !> Time derivative (a', a'') of the state y = (a, a') in a given phase.
       procedure :: derivative => model_derivative
@@ -220,6 +230,28 @@ contains
          model%mass(j, j) = model%mass(j, j) + 1.0_dp
       end do
 
+      ! A liquid: each mode's added mass and damping at its frequency in the liquid, on the
+      ! diagonal (the modes stay uncoupled by the liquid; docs/model.md, A liquid environment).
+      allocate (model%added_mass(n), model%medium_frequency(n), model%medium_reynolds(n), source=0.0_dp)
+      allocate (model%modal_damping(n), source=scene%alpha3)
+      model%has_medium = scene%medium_mass > 0 .or. scene%medium_reynolds > 0
+      if (model%has_medium) then
+         block
+            real(dp) :: inertia(n), fluid_damping(n)
+            do j = 1, n
+               inertia(j) = model%mass(j, j)
+            end do
+            call modal_fluid_loads(model%eigen, inertia, scene%medium_mass, scene%medium_reynolds, &
+                                   model%added_mass, fluid_damping, model%medium_frequency, &
+                                   model%medium_reynolds, ierr, errmsg)
+            if (ierr /= ok) return
+            do j = 1, n
+               model%mass(j, j) = model%mass(j, j) + model%added_mass(j)
+            end do
+            model%modal_damping = scene%alpha3 + fluid_damping
+         end block
+      end if
+
       ! Columns: I | Lambda | G | p | r | alpha1 m + q | q, all solved with one factorisation.
       rhs = 0
       do j = 1, n
@@ -230,6 +262,8 @@ contains
       rhs(:, 3*n + 1) = model%tip
       rhs(:, 3*n + 2) = model%moment_shape
       rhs(:, 3*n + 3) = scene%alpha1*model%mass_point + model%integral
+      ! The liquid's added mass moves with the base too (the liquid rests in the lab frame).
+      if (model%has_medium) rhs(:, 3*n + 3) = rhs(:, 3*n + 3) + model%added_mass*model%integral
       rhs(:, 3*n + 4) = model%integral
       block
          real(dp) :: factor(n, n)
@@ -256,11 +290,21 @@ contains
                 model%pass_g(model%n_padded, n), model%pass_terms(model%n_padded, 4), source=0.0_dp)
       associate (s => scene)
          model%pass_a(1:n, :) = -model%inv_mass_eigen
-         model%pass_v(1:n, :) = -s%alpha3*model%inv_mass
+         if (model%has_medium) then
+            do j = 1, n
+               model%pass_v(1:n, j) = -model%modal_damping(j)*model%inv_mass(:, j)
+            end do
+         else
+            model%pass_v(1:n, :) = -s%alpha3*model%inv_mass
+         end if
          model%pass_g(1:n, :) = model%inv_mass_axial
          model%drive_rate = s%alpha2*s%omega
          model%drive_sin = s%alpha2*s%omega**2*model%inv_mass_inertial
-         model%drive_cos = -s%alpha2*s%alpha3*s%omega*model%inv_mass_integral
+         if (model%has_medium) then
+            model%drive_cos = -s%alpha2*s%omega*matmul(model%inv_mass, model%modal_damping*model%integral)
+         else
+            model%drive_cos = -s%alpha2*s%alpha3*s%omega*model%inv_mass_integral
+         end if
          if (model%has_moment) then
             model%moment_force = s%g0_over_d*model%inv_mass_moment
          else
@@ -691,12 +735,17 @@ contains
       damping = 0
       stiffness = 0
       do j = 1, n
-         damping(j, j) = self%scene%alpha3
+         damping(j, j) = self%modal_damping(j)
          stiffness(j, j) = self%eigen(j)
       end do
       associate (s => self%scene)
-         force = s%alpha2*s%omega**2*(s%alpha1*self%mass_point + self%integral)*sin(s%omega*tau) &
-                 - s%alpha2*s%alpha3*s%omega*self%integral*cos(s%omega*tau)
+         if (self%has_medium) then
+            force = s%alpha2*s%omega**2*(s%alpha1*self%mass_point + (1 + self%added_mass)*self%integral) &
+                    *sin(s%omega*tau) - s%alpha2*s%omega*self%modal_damping*self%integral*cos(s%omega*tau)
+         else
+            force = s%alpha2*s%omega**2*(s%alpha1*self%mass_point + self%integral)*sin(s%omega*tau) &
+                    - s%alpha2*s%alpha3*s%omega*self%integral*cos(s%omega*tau)
+         end if
          if (in_contact) then
             state = self%contact(tau, a)
             damping = damping + s%alpha4*spread(self%tip, 2, n)*spread(self%tip, 1, n)
@@ -707,7 +756,8 @@ contains
       end associate
    end subroutine model_matrices
 
-   !> Powers a'.Q of the drive (base inertia and base damping), the beam damping, the contact
+   !> Powers a'.Q of the drive (base inertia and base damping), the beam damping (in a liquid: with
+   !> the liquid's damping, and the liquid's base terms in the drive), the contact
    !> damping (with its base term), and the normal and friction parts of the contact force
    !> (P1 along p, P2 through the moment and the axial stiffness), plus the modal energy
    !> E = a'.M a'/2 + a.Lambda a/2.  dE/dtau is the sum of the powers.
@@ -731,10 +781,22 @@ contains
          end do
          energy = 0.5_dp*energy + 0.5_dp*sum(self%eigen*a*a)
          power = 0
-         power(power_drive) = dot_product(adot, &
-            s%alpha2*s%omega**2*(s%alpha1*self%mass_point + self%integral)*sin(s%omega*tau) &
-            - s%alpha2*s%alpha3*s%omega*self%integral*cos(s%omega*tau))
-         power(power_beam_damping) = -s%alpha3*dot_product(adot, adot)
+         if (self%has_medium) then
+            ! The liquid's load as a damper and a drive (docs/model.md): the same sums, C per mode.
+            power(power_drive) = 0
+            power(power_beam_damping) = 0
+            do k = 1, self%n_modes
+               power(power_drive) = power(power_drive) + adot(k)*(s%alpha2*s%omega**2 &
+                  *(s%alpha1*self%mass_point(k) + (1 + self%added_mass(k))*self%integral(k))*sin(s%omega*tau) &
+                  - s%alpha2*s%omega*self%modal_damping(k)*self%integral(k)*cos(s%omega*tau))
+               power(power_beam_damping) = power(power_beam_damping) - self%modal_damping(k)*adot(k)**2
+            end do
+         else
+            power(power_drive) = dot_product(adot, &
+               s%alpha2*s%omega**2*(s%alpha1*self%mass_point + self%integral)*sin(s%omega*tau) &
+               - s%alpha2*s%alpha3*s%omega*self%integral*cos(s%omega*tau))
+            power(power_beam_damping) = -s%alpha3*dot_product(adot, adot)
+         end if
          if (.not. in_contact) return
          tip_rate = dot_product(self%tip, adot)
          power(power_contact_damping) = tip_rate*(-s%alpha4*tip_rate + base_damping(self, tau))

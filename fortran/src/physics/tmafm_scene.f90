@@ -43,6 +43,11 @@ module tmafm_scene
       real(dp) :: delta_hat = 0.0_dp
       !> xi0 = x0/L: tip position along the beam.
       real(dp) :: xi0 = 1.0_dp
+      !> mu0 = pi rho_f b/(4 rho h): a liquid's added mass per length over the beam's, per unit
+      !> Gamma_r (docs/model.md, A liquid environment); 0 = vacuum, no liquid.
+      real(dp) :: medium_mass = 0.0_dp
+      !> R0 = rho_f b^2/(4 eta t0): the liquid's Reynolds number at Omega = 1 (Re = R0 omega).
+      real(dp) :: medium_reynolds = 0.0_dp
    end type scene_t
 
    !> Physical inputs in SI units; converted to a scene_t by Eq. (12).
@@ -87,39 +92,47 @@ module tmafm_scene
       real(dp) :: drive_amplitude = 2.5e-9_dp
       !> Base drive angular frequency omega (rad/s).
       real(dp) :: drive_angular_frequency = 143751.31743848347_dp
+      !> Mass density rho_f of the liquid around the beam (kg/m^3); 0 = vacuum.
+      real(dp) :: medium_density = 0.0_dp
+      !> Dynamic viscosity eta of the liquid around the beam (Pa s); 0 = vacuum.
+      real(dp) :: medium_viscosity = 0.0_dp
    end type physical_t
 
    !> The &scene keys, in the order of scene_values (their ranges: config/tmafm_keys.f90).
-   character(len=*), parameter :: scene_names(13) = [character(len=9) :: 'alpha1', 'alpha2', &
+   character(len=*), parameter :: scene_names(15) = [character(len=15) :: 'alpha1', 'alpha2', &
       'alpha3', 'alpha4', 'alpha5', 'alpha6', 'beta', 'omega', 'theta', 'l_over_d', 'g0_over_d', &
-      'delta_hat', 'xi0']
+      'delta_hat', 'xi0', &
+      'medium_mass', 'medium_reynolds']
    !> The &physical keys, in the order of physical_values.
-   character(len=*), parameter :: physical_names(20) = [character(len=23) :: 'length', 'width', &
+   character(len=*), parameter :: physical_names(22) = [character(len=23) :: 'length', 'width', &
       'thickness', 'density', 'youngs_modulus_tip', 'poisson_ratio_tip', 'youngs_modulus_sample', &
       'poisson_ratio_sample', 'tip_radius', 'adhesion_energy', 'tilt', 'gap', 'tip_length', &
       'static_offset', 'tip_position', 'tip_mass', 'beam_damping', 'contact_damping', &
-      'drive_amplitude', 'drive_angular_frequency']
+      'drive_amplitude', 'drive_angular_frequency', &
+      'medium_density', 'medium_viscosity']
 
 contains
 
    !> The groups of a scene as an array, in the order of scene_names.
    pure function scene_values(scene) result(values)
       type(scene_t), intent(in) :: scene
-      real(dp) :: values(13)
+      real(dp) :: values(size(scene_names))
       values = [scene%alpha1, scene%alpha2, scene%alpha3, scene%alpha4, scene%alpha5, &
                 scene%alpha6, scene%beta, scene%omega, scene%theta, scene%l_over_d, &
-                scene%g0_over_d, scene%delta_hat, scene%xi0]
+                scene%g0_over_d, scene%delta_hat, scene%xi0, &
+                scene%medium_mass, scene%medium_reynolds]
    end function scene_values
 
    !> The physical inputs as an array, in the order of physical_names.
    pure function physical_values(phys) result(values)
       type(physical_t), intent(in) :: phys
-      real(dp) :: values(20)
+      real(dp) :: values(size(physical_names))
       values = [phys%length, phys%width, phys%thickness, phys%density, phys%youngs_modulus_tip, &
                 phys%poisson_ratio_tip, phys%youngs_modulus_sample, phys%poisson_ratio_sample, &
                 phys%tip_radius, phys%adhesion_energy, phys%tilt, phys%gap, phys%tip_length, &
                 phys%static_offset, phys%tip_position, phys%tip_mass, phys%beam_damping, &
-                phys%contact_damping, phys%drive_amplitude, phys%drive_angular_frequency]
+                phys%contact_damping, phys%drive_amplitude, phys%drive_angular_frequency, &
+                phys%medium_density, phys%medium_viscosity]
    end function physical_values
 
    !> Which &physical keys (indices into physical_names) scene group k depends on by Eq. (12).
@@ -127,7 +140,8 @@ contains
       integer, intent(in) :: k
       integer, allocatable :: keys(:)
       ! 1 length, 2 width, 3 thickness, 4 density, 5 E1, 6 nu1, 7 E2, 8 nu2, 9 R, 10 gamma,
-      ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega.
+      ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega,
+      ! 21 rho_f, 22 eta.
       select case (k)
       case (1)
          keys = [16, 4, 2, 3, 1]
@@ -153,8 +167,12 @@ contains
          keys = [13, 12]
       case (12)
          keys = [14, 12, 11]
-      case default
+      case (13)
          keys = [15, 1]
+      case (14)
+         keys = [21, 4, 2, 3]
+      case default
+         keys = [22, 21, 2, 4, 3, 1, 5]
       end select
    end function scene_depends_on
 
@@ -193,6 +211,13 @@ contains
       scene%g0_over_d = phys%tip_length/d
       scene%delta_hat = phys%static_offset/(d*cos(phys%tilt))
       scene%xi0 = phys%tip_position/phys%length
+      ! The liquid (docs/model.md, A liquid environment): mu0 = pi rho_f b/(4 rho h), R0 = rho_f b^2/(4 eta t0).
+      scene%medium_mass = pi*phys%medium_density*phys%width/(4*phys%density*phys%thickness)
+      if (phys%medium_viscosity > 0) then
+         scene%medium_reynolds = phys%medium_density*phys%width**2/(4*phys%medium_viscosity*time_unit)
+      else
+         scene%medium_reynolds = 0
+      end if
    end function scene_from_physical
 
 end module tmafm_scene

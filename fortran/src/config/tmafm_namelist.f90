@@ -20,7 +20,7 @@ module tmafm_namelist
    use tmafm_scene, only: scene_t, physical_t, scene_from_physical, scene_names, scene_values, &
       physical_names, physical_values, scene_depends_on
    use tmafm_settings, only: run_settings_t, check_run_size, comparison_intervals, comparison_points, &
-      mode_digits, comparison_rtol
+      mode_digits, comparison_rtol, vdw_method_refused
    use tmafm_errata, only: errata_t, errata_for_convention, parse_errata, errata_label
    use tmafm_config, only: config_t
    use tmafm_keys, only: keys, key_groups, key_row, group_index, key_in_range, key_range_text, &
@@ -279,7 +279,7 @@ contains
       if (ierr /= ok) return
       config%scene = scene_t(values(1), values(2), values(3), values(4), values(5), values(6), &
                              values(7), values(8), values(9), values(10), values(11), values(12), &
-                             values(13))
+                             values(13), values(14), values(15))
    end subroutine read_scene
 
    subroutine read_physical(p, g, config, ierr, errmsg)
@@ -310,7 +310,7 @@ contains
       end if
       config%physical = physical_t(v(1), v(2), v(3), v(4), v(5), v(6), v(7), v(8), v(9), v(10), &
                                    v(11), v(12), v(13), v(14), v(15), v(16), v(17), v(18), v(19), &
-                                   v(20))
+                                   v(20), v(21), v(22))
       config%from_physical = .true.
       config%scene = scene_from_physical(config%physical)
    end subroutine read_physical
@@ -477,6 +477,35 @@ contains
       config%solver%sample_dtau = sample_dtau
    end subroutine read_output
 
+   !> contact_law = 'dmt_vdw' needs an attraction (vdw_adhesion > 0, from &physical hamaker > 0)
+   !> and a method that integrates the flight (docs/model-notes.md, item 17).
+   subroutine check_vdw(label, config, ierr, errmsg)
+      character(len=*), intent(in) :: label
+      type(config_t), intent(in) :: config
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      ierr = ok
+      errmsg = ''
+      if (trim(config%contact_law) /= 'dmt_vdw') return
+      if (.not. (config%scene%vdw_adhesion > 0)) then
+         ierr = err_input
+         if (config%from_physical) then
+            errmsg = label//': &physical hamaker = '//real_text(config%physical%hamaker)// &
+                     ": must be > 0 with &model contact_law = 'dmt_vdw'"
+         else
+            errmsg = label//': &scene vdw_adhesion = '//real_text(config%scene%vdw_adhesion)// &
+                     ": must be > 0 with &model contact_law = 'dmt_vdw'"
+         end if
+         return
+      end if
+      if (vdw_method_refused(config%solver%method)) then
+         ierr = err_input
+         errmsg = label//": &solver method = '"//trim(config%solver%method)// &
+                  "': does not support &model contact_law = 'dmt_vdw' (its flight is the force-free "// &
+                  "solution; use dop853, dopri5, rk4_event or rk4_paper)"
+      end if
+   end subroutine check_vdw
+
    !> Checks across groups, before any run: sample_dtau within tau_end, the scene derived from
    !> &physical inside the &scene ranges, and the size of the run (and of the automatic-N
    !> comparison runs) inside the limits.
@@ -538,6 +567,8 @@ contains
             return
          end do
       end if
+      call check_vdw(label, config, ierr, errmsg)
+      if (ierr /= ok) return
       call check_run_size(config%solver, max(config%n_modes, 1), ierr, errmsg)
       if (ierr /= ok) then
          errmsg = label//': '//trim(errmsg)

@@ -27,6 +27,7 @@ module tmafm_model
       contact_forces
    use tmafm_scene, only: scene_t
    use tmafm_errata, only: errata_t
+   use tmafm_vdw, only: law_dmt_vdw, vdw_forces, vdw_brackets
    implicit none
    private
 
@@ -42,7 +43,7 @@ module tmafm_model
    type :: model_t
       !> Number of Galerkin modes N.
       integer :: n_modes = 0
-      !> Contact law (law_hertz or law_dmt).
+      !> Contact law (law_hertz, law_dmt or law_dmt_vdw).
       integer :: law = law_hertz
       !> The dimensionless scene.
       type(scene_t) :: scene
@@ -54,6 +55,8 @@ module tmafm_model
       real(dp) :: kappa6 = 0
       !> Terms that do not vanish identically for this scene; the others are skipped.
       logical :: has_contact_damping = .true., has_axial_stiffness = .true., has_moment = .true.
+      !> 'dmt_vdw': a tip-sample force also out of contact (tmafm_vdw), so the flight is forced too.
+      logical :: long_range = .false.
       !> Mode roots beta_j.
       real(dp), allocatable :: beta(:)
       !> Lambda = beta^4, the modal stiffnesses.
@@ -133,6 +136,8 @@ module tmafm_model
       procedure :: gap_rows => model_gap_rows
       !> The contact state (angle, radius, brackets) for displacements a at time tau.
       procedure :: contact => model_contact
+      !> The same in a given phase: under 'dmt_vdw' the attraction in flight, else contact_state.
+      procedure :: forces_in_phase => model_forces_in_phase
       !> The explicit M, C, K, F of Eq. (15) at one state, for checks and analysis.
       procedure :: matrices => model_matrices
       !> The power of each generalized force on the modes, and the modal energy, at one state.
@@ -210,6 +215,7 @@ contains
       end if
 
       model%has_contact_damping = scene%alpha4 /= 0
+      model%long_range = law == law_dmt_vdw
       model%has_axial_stiffness = model%kappa5 /= 0 .or. model%kappa6 /= 0
       model%has_moment = model%has_axial_stiffness .and. scene%g0_over_d /= 0 &
                          .and. any(model%moment_shape /= 0)
@@ -404,9 +410,35 @@ contains
       vt = dot_product(self%tip, a) + self%scene%alpha2*sin(self%scene%omega*tau) &
            + self%scene%delta_hat
       scaled_slope = dot_product(self%slope, a)/self%scene%l_over_d
+      if (self%long_range) then
+         ! The phase by the sign of V_T (a run's located switches put it there).
+         state = vdw_brackets(vt <= 0, vt, scaled_slope, self%scene%theta, self%scene%beta, self%kappa5, &
+                              self%kappa6, self%errata%e7_signed_slope, self%scene%vdw_adhesion, &
+                              self%scene%vdw_range)
+         return
+      end if
       state = contact_brackets(vt, scaled_slope, self%scene%theta, self%scene%beta, self%law, &
                                self%kappa5, self%kappa6, self%errata%e7_signed_slope)
    end function model_contact
+
+   pure function model_forces_in_phase(self, tau, a, in_contact) result(state)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: a(:)
+      logical, intent(in) :: in_contact
+      type(contact_brackets_t) :: state
+      real(dp) :: vt, scaled_slope
+      if (.not. self%long_range) then
+         state = self%contact(tau, a)
+         return
+      end if
+      vt = dot_product(self%tip, a) + self%scene%alpha2*sin(self%scene%omega*tau) &
+           + self%scene%delta_hat
+      scaled_slope = dot_product(self%slope, a)/self%scene%l_over_d
+      state = vdw_brackets(in_contact, vt, scaled_slope, self%scene%theta, self%scene%beta, self%kappa5, &
+                           self%kappa6, self%errata%e7_signed_slope, self%scene%vdw_adhesion, &
+                           self%scene%vdw_range)
+   end function model_forces_in_phase
 
    !> The contact-damping base term: -alpha2 alpha4 sin(Omega tau) (printed) or E1's velocity form.
    pure function base_damping(self, tau) result(value)
@@ -479,6 +511,7 @@ contains
       real(dp) :: acc(r), stiff(r), gap(2), tip_adot, xa, xv
       real(dp) :: sin1, cos1, transverse, axial, radius, normal, friction, tip_push
       integer :: i, j, n
+      logical :: forced
 
       n = self%n_modes
       if (n > r) then
@@ -493,12 +526,14 @@ contains
             acc(i) = f(i, 3*r + 1)*sin_phase + f(i, 3*r + 2)*cos_phase
             acc(i) = acc(i) + (f(i, 1)*xa + f(i, r + 1)*xv)
          end do
-         if (in_contact .or. want_gap) then
+         ! Forces act in contact, and under 'dmt_vdw' also in flight.
+         forced = in_contact .or. self%long_range
+         if (forced .or. want_gap) then
             ! gap = (p.a, (d/L) s.a).
             gap = g(:, 1)*xa
             tip_adot = g(1, 1)*xv
          end if
-         if (in_contact) then
+         if (forced) then
             do i = 1, r
                stiff(i) = f(i, 3*r + 4) + f(i, 2*r + 1)*xa
             end do
@@ -517,11 +552,17 @@ contains
             vtdot = tip_adot + self%drive_rate*cos_phase
             call contact_angle_sin_cos(self%sin_theta, self%cos_theta, gap(2), &
                                        self%errata%e7_signed_slope, sin1, cos1)
-            call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
-                                transverse, axial, radius, normal, friction)
-            ! Everything that acts along p: P1, the contact damping and its base term.
-            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*sin_phase &
-                       + self%base_cos*cos_phase
+            if (self%long_range) then
+               call vdw_forces(in_contact, vt, sin1, cos1, s%beta, self%kappa5, self%kappa6, &
+                               s%vdw_adhesion, s%vdw_range, transverse, axial, radius, normal, friction)
+            else
+               call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
+                                   transverse, axial, radius, normal, friction)
+            end if
+            ! Everything that acts along p: P1, the contact damping and its base term (in contact).
+            tip_push = s%l_over_d*transverse
+            if (in_contact) tip_push = tip_push - s%alpha4*tip_adot + self%base_sin*sin_phase &
+                                       + self%base_cos*cos_phase
             do i = 1, r
                acc(i) = acc(i) + tip_push*f(i, 3*r + 3) + axial*stiff(i)
             end do
@@ -569,14 +610,17 @@ contains
       real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, radius, normal, friction
       real(dp) :: tip_push
       integer :: n, j
+      logical :: forced
 
       n = self%n_modes
+      ! Forces act in contact, and under 'dmt_vdw' also in flight.
+      forced = in_contact .or. self%long_range
       associate (s => self%scene)
          vt = 0
          vtdot = 0
          axial = 0
          tip_push = 0
-         if (in_contact .or. want_gap) then
+         if (forced .or. want_gap) then
             tip_a = 0
             slope_a = 0
             tip_adot = 0
@@ -588,17 +632,23 @@ contains
             vt = tip_a + s%alpha2*sin_phase + s%delta_hat
             vtdot = tip_adot + s%alpha2*s%omega*cos_phase
          end if
-         if (in_contact) then
+         if (forced) then
             call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a, &
                                        self%errata%e7_signed_slope, sin1, cos1)
-            call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
-                                transverse, axial, radius, normal, friction)
-            ! Everything that acts along p: P1, the contact damping and its base term.
-            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*sin_phase &
-                       + self%base_cos*cos_phase
+            if (self%long_range) then
+               call vdw_forces(in_contact, vt, sin1, cos1, s%beta, self%kappa5, self%kappa6, &
+                               s%vdw_adhesion, s%vdw_range, transverse, axial, radius, normal, friction)
+            else
+               call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
+                                   transverse, axial, radius, normal, friction)
+            end if
+            ! Everything that acts along p: P1, the contact damping and its base term (in contact).
+            tip_push = s%l_over_d*transverse
+            if (in_contact) tip_push = tip_push - s%alpha4*tip_adot + self%base_sin*sin_phase &
+                                       + self%base_cos*cos_phase
          end if
          call accumulate(n, self%n_padded, self%pass_terms, self%pass_a, self%pass_v, self%pass_g, y, &
-                         in_contact, sin_phase, cos_phase, tip_push, axial, dydt)
+                         forced, sin_phase, cos_phase, tip_push, axial, dydt)
       end associate
    end subroutine general_kernel
 
@@ -698,11 +748,16 @@ contains
          force = s%alpha2*s%omega**2*(s%alpha1*self%mass_point + self%integral)*sin(s%omega*tau) &
                  - s%alpha2*s%alpha3*s%omega*self%integral*cos(s%omega*tau)
          if (in_contact) then
-            state = self%contact(tau, a)
+            state = self%forces_in_phase(tau, a, .true.)
             damping = damping + s%alpha4*spread(self%tip, 2, n)*spread(self%tip, 1, n)
             stiffness = stiffness - state%axial*self%axial
             force = force + (base_damping(self, tau) + s%l_over_d*state%transverse)*self%tip &
                     + s%g0_over_d*state%axial*self%moment_shape
+         else if (self%long_range) then
+            ! 'dmt_vdw' in flight: the attraction, with no contact damping.
+            state = self%forces_in_phase(tau, a, .false.)
+            stiffness = stiffness - state%axial*self%axial
+            force = force + s%l_over_d*state%transverse*self%tip + s%g0_over_d*state%axial*self%moment_shape
          end if
       end associate
    end subroutine model_matrices
@@ -735,10 +790,11 @@ contains
             s%alpha2*s%omega**2*(s%alpha1*self%mass_point + self%integral)*sin(s%omega*tau) &
             - s%alpha2*s%alpha3*s%omega*self%integral*cos(s%omega*tau))
          power(power_beam_damping) = -s%alpha3*dot_product(adot, adot)
-         if (.not. in_contact) return
+         if (.not. (in_contact .or. self%long_range)) return
          tip_rate = dot_product(self%tip, adot)
-         power(power_contact_damping) = tip_rate*(-s%alpha4*tip_rate + base_damping(self, tau))
-         state = self%contact(tau, a)
+         ! Under 'dmt_vdw' the attraction in flight works through the normal part too.
+         if (in_contact) power(power_contact_damping) = tip_rate*(-s%alpha4*tip_rate + base_damping(self, tau))
+         state = self%forces_in_phase(tau, a, in_contact)
          call contact_angle_sin_cos(self%sin_theta, self%cos_theta, &
                                     dot_product(self%slope, a)/s%l_over_d, &
                                     self%errata%e7_signed_slope, sin1, cos1)

@@ -43,6 +43,11 @@ module tmafm_scene
       real(dp) :: delta_hat = 0.0_dp
       !> xi0 = x0/L: tip position along the beam.
       real(dp) :: xi0 = 1.0_dp
+      !> vdw_adhesion = H/(9 pi gamma a0^2): the 'dmt_vdw' adhesion H R/(6 a0^2) in units of
+      !> 1.5 pi gamma R (4/3 when gamma = H/(12 pi a0^2)).
+      real(dp) :: vdw_adhesion = 4.0_dp/3.0_dp
+      !> vdw_range = a0/d: the intermolecular distance over the gap.
+      real(dp) :: vdw_range = 3.3e-5_dp
    end type scene_t
 
    !> Physical inputs in SI units; converted to a scene_t by Eq. (12).
@@ -87,39 +92,46 @@ module tmafm_scene
       real(dp) :: drive_amplitude = 2.5e-9_dp
       !> Base drive angular frequency omega (rad/s).
       real(dp) :: drive_angular_frequency = 143751.31743848347_dp
+      !> Hamaker constant H of the tip-sample pair (J); used by contact_law = 'dmt_vdw'.  The
+      !> default, 12 pi gamma a0^2 of the default gamma and a0, gives vdw_adhesion = 4/3: the
+      !> contact adhesion H R/(6 a0^2) is then the DMT pull-off 2 pi gamma R.
+      real(dp) :: hamaker = 3.592254119747249e-20_dp
+      !> Intermolecular distance a0 (m): the separation at contact under 'dmt_vdw'.
+      real(dp) :: intermolecular_distance = 0.165e-9_dp
    end type physical_t
 
    !> The &scene keys, in the order of scene_values (their ranges: config/tmafm_keys.f90).
-   character(len=*), parameter :: scene_names(13) = [character(len=9) :: 'alpha1', 'alpha2', &
+   character(len=*), parameter :: scene_names(15) = [character(len=12) :: 'alpha1', 'alpha2', &
       'alpha3', 'alpha4', 'alpha5', 'alpha6', 'beta', 'omega', 'theta', 'l_over_d', 'g0_over_d', &
-      'delta_hat', 'xi0']
+      'delta_hat', 'xi0', 'vdw_adhesion', 'vdw_range']
    !> The &physical keys, in the order of physical_values.
-   character(len=*), parameter :: physical_names(20) = [character(len=23) :: 'length', 'width', &
+   character(len=*), parameter :: physical_names(22) = [character(len=23) :: 'length', 'width', &
       'thickness', 'density', 'youngs_modulus_tip', 'poisson_ratio_tip', 'youngs_modulus_sample', &
       'poisson_ratio_sample', 'tip_radius', 'adhesion_energy', 'tilt', 'gap', 'tip_length', &
       'static_offset', 'tip_position', 'tip_mass', 'beam_damping', 'contact_damping', &
-      'drive_amplitude', 'drive_angular_frequency']
+      'drive_amplitude', 'drive_angular_frequency', 'hamaker', 'intermolecular_distance']
 
 contains
 
    !> The groups of a scene as an array, in the order of scene_names.
    pure function scene_values(scene) result(values)
       type(scene_t), intent(in) :: scene
-      real(dp) :: values(13)
+      real(dp) :: values(15)
       values = [scene%alpha1, scene%alpha2, scene%alpha3, scene%alpha4, scene%alpha5, &
                 scene%alpha6, scene%beta, scene%omega, scene%theta, scene%l_over_d, &
-                scene%g0_over_d, scene%delta_hat, scene%xi0]
+                scene%g0_over_d, scene%delta_hat, scene%xi0, scene%vdw_adhesion, scene%vdw_range]
    end function scene_values
 
    !> The physical inputs as an array, in the order of physical_names.
    pure function physical_values(phys) result(values)
       type(physical_t), intent(in) :: phys
-      real(dp) :: values(20)
+      real(dp) :: values(22)
       values = [phys%length, phys%width, phys%thickness, phys%density, phys%youngs_modulus_tip, &
                 phys%poisson_ratio_tip, phys%youngs_modulus_sample, phys%poisson_ratio_sample, &
                 phys%tip_radius, phys%adhesion_energy, phys%tilt, phys%gap, phys%tip_length, &
                 phys%static_offset, phys%tip_position, phys%tip_mass, phys%beam_damping, &
-                phys%contact_damping, phys%drive_amplitude, phys%drive_angular_frequency]
+                phys%contact_damping, phys%drive_amplitude, phys%drive_angular_frequency, &
+                phys%hamaker, phys%intermolecular_distance]
    end function physical_values
 
    !> Which &physical keys (indices into physical_names) scene group k depends on by Eq. (12).
@@ -127,7 +139,7 @@ contains
       integer, intent(in) :: k
       integer, allocatable :: keys(:)
       ! 1 length, 2 width, 3 thickness, 4 density, 5 E1, 6 nu1, 7 E2, 8 nu2, 9 R, 10 gamma,
-      ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega.
+      ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega, 21 H, 22 a0.
       select case (k)
       case (1)
          keys = [16, 4, 2, 3, 1]
@@ -153,6 +165,10 @@ contains
          keys = [13, 12]
       case (12)
          keys = [14, 12, 11]
+      case (14)
+         keys = [21, 10, 22]
+      case (15)
+         keys = [22, 12]
       case default
          keys = [15, 1]
       end select
@@ -193,6 +209,9 @@ contains
       scene%g0_over_d = phys%tip_length/d
       scene%delta_hat = phys%static_offset/(d*cos(phys%tilt))
       scene%xi0 = phys%tip_position/phys%length
+      ! 'dmt_vdw': H R/(6 a0^2) over the force scale 1.5 pi gamma R, and a0 over the gap.
+      scene%vdw_adhesion = phys%hamaker/(9*pi*phys%adhesion_energy*phys%intermolecular_distance**2)
+      scene%vdw_range = phys%intermolecular_distance/d
    end function scene_from_physical
 
 end module tmafm_scene

@@ -34,7 +34,8 @@ Z_HIGH, Z_LOW = 1.10e-3, 0.70e-3
 
 
 def sweep(n_modes: int = 1, rtol: float = 1e-8):
-    base = tmafm.Config(str(SCENE), model={"n_modes": n_modes}, solver={"rtol": rtol})
+    base = tmafm.Config(str(SCENE), model={"n_modes": n_modes}, solver={"rtol": rtol},
+                        initial={"a0": [0.0] * n_modes})
     z = np.round(np.arange(Z_HIGH, Z_LOW - Z_STEP / 2, -Z_STEP), 12)
     start = time.process_time()
     ds = tmafm.approach(base, z, max_periods=4000, observables=["lockin", "extrema", "energy"],
@@ -49,7 +50,7 @@ def sweep(n_modes: int = 1, rtol: float = 1e-8):
         repulsive = (gap < 0) & (phase > -90)
         switches = np.flatnonzero(np.diff(attractive.astype(int)))
         curves[direction] = {
-            "z_nm": (zz * GAP_NM).tolist(),
+            "z_nm": np.round(zz * GAP_NM, 6).tolist(),
             "amplitude_nm": (s.amplitude.values * GAP_NM).tolist(),
             "phase_deg": phase.tolist(),
             "min_gap_nm": (gap * GAP_NM).tolist(),
@@ -60,7 +61,7 @@ def sweep(n_modes: int = 1, rtol: float = 1e-8):
                        for a, r in zip(attractive, repulsive)],
             # The jump lies between these two Z (nm): the last attractive point and the first
             # repulsive one below it.
-            "jump_between_nm": [float(zz[k] * GAP_NM) for k in (switches[0] + 1, switches[0])]
+            "jump_between_nm": [round(float(zz[k] * GAP_NM), 6) for k in (switches[0] + 1, switches[0])]
             if len(switches) == 1 else None,
             "switches": len(switches),
         }
@@ -71,7 +72,9 @@ def free_oscillation():
     """Amplitude and phase far from the sample (Z = 50 nm): A0 and the free phase."""
     from tmafm.observe import observe
     obs = observe(str(SCENE), max_periods=4000, observables=["lockin"], scene={"delta_hat": 5e-3})
-    return float(obs.steady["amplitude"]) * GAP_NM, float(obs.steady["phase"])
+    assert obs.steady, obs.unsteady_reason
+    values = obs.steady_values()
+    return values["amplitude"] * GAP_NM, values["phase"]
 
 
 def plot(curves: dict, a0_nm: float, path: Path) -> None:
@@ -91,8 +94,8 @@ def plot(curves: dict, a0_nm: float, path: Path) -> None:
     ax_a.set_ylabel("amplitude A (nm)")
     ax_a.legend(loc="upper left")
     ax_p.axhline(-90, color="grey", lw=0.6, ls=":")
-    ax_p.text(0.98, 0.05, "phase < -90°: attractive (non-contact)\nphase > -90°: repulsive "
-              "(intermittent contact)", transform=ax_p.transAxes, ha="right", va="bottom", fontsize=8)
+    ax_p.text(0.02, 0.3, "phase < -90°: attractive (non-contact)\nphase > -90°: repulsive "
+              "(intermittent contact)", transform=ax_p.transAxes, ha="left", va="bottom", fontsize=8)
     ax_p.set_ylabel("phase φ (deg; -90 = free resonance)")
     ax_p.set_xlabel("rest separation Z (nm)")
     fig.suptitle(f"dmt_vdw, k = 40 N/m, f0 = 309 kHz, Q = 400, R = 10 nm, H = 1e-19 J, "

@@ -244,7 +244,7 @@ def test_approach_and_retract_jump_at_different_z():
     """Warm-started approach and retract on the documented scene: the approach leaves the
     attractive branch at a smaller Z than the retract returns to it."""
     base = tmafm.Config(str(SCENE_FILE))
-    z = np.round(np.arange(9.9e-4, 8.55e-4, -1e-5), 12)
+    z = np.round(np.arange(1.01e-3, 8.55e-4, -1e-5), 12)
     ds = tmafm.approach(base, z, max_periods=3000, observables=["lockin", "extrema"], workers=1)
     branches = {}
     for direction in ("approach", "retract"):
@@ -369,3 +369,46 @@ def test_observed_energy_and_virial_carry_the_attraction():
     assert obs.steady["drive_work"][0] + obs.steady["contact_normal_work"][0] == pytest.approx(
         obs.steady["dissipated_energy"][0], rel=1e-6)
     assert abs(virial) > 1e-3 * abs(kappa5 * sc["vdw_adhesion"] * sc["delta_hat"])
+
+
+def test_docs_quote_the_study_json():
+    """docs/vdw.md's numbers are those of studies/results/vdw_attractive.json (written by
+    studies/vdw_attractive.py, the command the page gives)."""
+    import json
+    repo = Path(__file__).resolve().parents[1]
+    data = json.loads((repo / "studies" / "results" / "vdw_attractive.json").read_text())
+    text = (repo / "docs" / "vdw.md").read_text()
+
+    def num(x, digits):
+        return f"{x:.{digits}f}".replace("-", "\u2212")
+
+    curves = data["n1_rtol1e-8"]
+    app, ret = curves["approach"], curves["retract"]
+    assert f"A0 = {num(data['free_amplitude_nm'], 2)} nm" in text
+    assert f"free phase {num(data['free_phase_deg'], 2)}°" in text
+    lo, hi = sorted(app["jump_between_nm"])
+    assert f"| jump between | Z = {num(hi, 1)} and {num(lo, 1)} nm |" in text
+    lo2, hi2 = sorted(ret["jump_between_nm"])
+    assert f"| Z = {num(lo2, 1)} and {num(hi2, 1)} nm |" in text
+    assert lo < lo2  # the approach jumps lower
+    for key in ("n2_rtol1e-8", "n1_rtol1e-10"):
+        for direction in ("approach", "retract"):
+            assert sorted(data[key][direction]["jump_between_nm"]) == sorted(curves[direction]["jump_between_nm"])
+
+    def at(curve, z):
+        k = curve["z_nm"].index(z)
+        return curve["amplitude_nm"][k], curve["phase_deg"][k], curve["min_gap_nm"][k]
+
+    a, p, g = at(app, 9.0)
+    assert f"A = {num(a, 2)} nm, φ = {num(p, 1)}°, min gap +{num(g, 3)} nm" in text
+    a, p, g = at(ret, 9.0)
+    assert f"A = {num(a, 2)} nm, φ = {num(p, 1)}°, min gap {num(g, 3)} nm" in text
+    a_hi, p_hi, _ = at(app, hi)
+    a_lo, p_lo, _ = at(app, lo)
+    assert f"({num(a_hi, 2)} → {num(a_lo, 2)} nm) and the phase jumps from {num(p_hi, 1)}° to " \
+           f"{num(p_lo, 1)}°" in text
+    a_lo, p_lo, _ = at(ret, lo2)
+    a_hi, p_hi, _ = at(ret, hi2)
+    assert f"({num(a_lo, 2)} → {num(a_hi, 2)} nm) and the phase from {num(p_lo, 1)}° to {num(p_hi, 1)}°" in text
+    a, p, _ = at(app, 11.0)
+    assert f"({num(p, 1)}° at 11 nm" in text

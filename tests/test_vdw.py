@@ -140,6 +140,11 @@ def test_flight_right_hand_side_carries_the_attraction(n_modes):
     scale = np.max(np.abs(hertz.derivative(tau, y, False)))
     assert np.max(np.abs(diff - expected)) <= 1e-12 * scale
     assert np.max(np.abs(expected)) > 1e-6 * scale  # the attraction is not lost in round-off
+    # The explicit M, C, K, F of Eq. (15) in flight carry the same force, and no contact damping.
+    mass, damping, stiffness, force = vdw.matrices(tau, a, False)
+    explicit = np.linalg.solve(mass, force - damping @ adot - stiffness @ a)
+    assert np.max(np.abs(explicit - vdw.derivative(tau, y, False)[n_modes:])) <= 1e-12 * scale
+    assert np.allclose(damping, sc["alpha3"] * np.eye(n_modes), rtol=0, atol=0)
 
 
 def _drive_force(model, tau):

@@ -57,6 +57,9 @@ module tmafm_model
       logical :: has_contact_damping = .true., has_axial_stiffness = .true., has_moment = .true.
       !> 'dmt_vdw': a tip-sample force also out of contact (tmafm_vdw), so the flight is forced too.
       logical :: long_range = .false.
+      !> The right-hand side goes to general_kernel: N > rows_per_block, or long_range (whose
+      !> hooks are there only, so that the small kernel of the other laws pays nothing for them).
+      logical :: general = .false.
       !> Mode roots beta_j.
       real(dp), allocatable :: beta(:)
       !> Lambda = beta^4, the modal stiffnesses.
@@ -216,6 +219,7 @@ contains
 
       model%has_contact_damping = scene%alpha4 /= 0
       model%long_range = law == law_dmt_vdw
+      model%general = n > rows_per_block .or. model%long_range
       model%has_axial_stiffness = model%kappa5 /= 0 .or. model%kappa6 /= 0
       model%has_moment = model%has_axial_stiffness .and. scene%g0_over_d /= 0 &
                          .and. any(model%moment_shape /= 0)
@@ -490,8 +494,9 @@ contains
 
    !> The one right-hand side: (a', a'') from y = (a, a') and the drive phase, and V_T and
    !> dV_T/dtau when want_gap (always in contact, where they are needed anyway).  N > rows_per_block
-   !> goes to general_kernel.  N <= rows_per_block is done here, from small_fold and small_gap
-   !> (fixed places in the model, no array descriptors): one pass over the modes forms p.a,
+   !> and the law dmt_vdw (model_t%general) go to general_kernel.  N <= rows_per_block is done
+   !> here, from small_fold and small_gap (fixed places in the model, no array descriptors): one
+   !> pass over the modes forms p.a,
    !> (d/L) s.a, p.a' and the parts of a'' that do not depend on the contact forces (the drive,
    !> B (a, a'), M^-1 G a), all four rows at once, in loops of constant length rows_per_block
    !> that stop at N (the compiler unrolls them and keeps the rows in vector registers); then the
@@ -511,10 +516,9 @@ contains
       real(dp) :: acc(r), stiff(r), gap(2), tip_adot, xa, xv
       real(dp) :: sin1, cos1, transverse, axial, radius, normal, friction, tip_push
       integer :: i, j, n
-      logical :: forced
 
       n = self%n_modes
-      if (n > r) then
+      if (self%general) then
          call general_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
          return
       end if
@@ -526,14 +530,12 @@ contains
             acc(i) = f(i, 3*r + 1)*sin_phase + f(i, 3*r + 2)*cos_phase
             acc(i) = acc(i) + (f(i, 1)*xa + f(i, r + 1)*xv)
          end do
-         ! Forces act in contact, and under 'dmt_vdw' also in flight.
-         forced = in_contact .or. self%long_range
-         if (forced .or. want_gap) then
+         if (in_contact .or. want_gap) then
             ! gap = (p.a, (d/L) s.a).
             gap = g(:, 1)*xa
             tip_adot = g(1, 1)*xv
          end if
-         if (forced) then
+         if (in_contact) then
             do i = 1, r
                stiff(i) = f(i, 3*r + 4) + f(i, 2*r + 1)*xa
             end do
@@ -552,17 +554,11 @@ contains
             vtdot = tip_adot + self%drive_rate*cos_phase
             call contact_angle_sin_cos(self%sin_theta, self%cos_theta, gap(2), &
                                        self%errata%e7_signed_slope, sin1, cos1)
-            if (self%long_range) then
-               call vdw_forces(in_contact, vt, sin1, cos1, s%beta, self%kappa5, self%kappa6, &
-                               s%vdw_adhesion, s%vdw_range, transverse, axial, radius, normal, friction)
-            else
-               call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
-                                   transverse, axial, radius, normal, friction)
-            end if
-            ! Everything that acts along p: P1, the contact damping and its base term (in contact).
-            tip_push = s%l_over_d*transverse
-            if (in_contact) tip_push = tip_push - s%alpha4*tip_adot + self%base_sin*sin_phase &
-                                       + self%base_cos*cos_phase
+            call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
+                                transverse, axial, radius, normal, friction)
+            ! Everything that acts along p: P1, the contact damping and its base term.
+            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*sin_phase &
+                       + self%base_cos*cos_phase
             do i = 1, r
                acc(i) = acc(i) + tip_push*f(i, 3*r + 3) + axial*stiff(i)
             end do
@@ -595,8 +591,9 @@ contains
       end do
    end subroutine rhs_kernel
 
-   !> rhs_kernel for N > rows_per_block: the dot products, the contact forces (their square
-   !> roots are the longest chain), then accumulate.
+   !> rhs_kernel for N > rows_per_block, and for every N under dmt_vdw (whose force acts in flight
+   !> too): the dot products, the tip-sample forces (their square roots are the longest chain),
+   !> then accumulate.
    pure subroutine general_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
       type(model_t), intent(in) :: self
       real(dp), intent(in) :: y(2*self%n_modes)

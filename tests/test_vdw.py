@@ -417,3 +417,10 @@ def test_docs_quote_the_study_json():
     assert f"({num(a_lo, 2)} → {num(a_hi, 2)} nm) and the phase from {num(p_lo, 1)}° to {num(p_hi, 1)}°" in text
     a, p, _ = at(app, 11.0)
     assert f"({num(p, 1)}° at 11 nm" in text
+    for curve in (app, ret):
+        for branch, virial in zip(curve["branch"], curve["virial"]):
+            assert branch in ("attractive", "repulsive")
+            assert (virial > 0) == (branch == "attractive"), (branch, virial)
+    v_app, v_ret = (c["virial"][c["z_nm"].index(9.0)] for c in (app, ret))
+    assert v_app > 0 > v_ret
+    assert f"+{v_app:.2e} against \u2212{-v_ret:.2e}" in text

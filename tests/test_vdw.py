@@ -264,22 +264,27 @@ def test_approach_and_retract_jump_at_different_z():
     assert branches["approach"] < branches["retract"] - 2.5e-5, branches
 
 
-@pytest.mark.parametrize("groups, key", [
-    ({"physical": _physical(hamaker=-1e-19)}, "&physical hamaker"),
-    ({"physical": _physical(intermolecular_distance=0.0)}, "&physical intermolecular_distance"),
-    ({"physical": _physical(hamaker=0.0)}, "&physical hamaker"),
-    ({"scene": {"vdw_adhesion": 0.0}}, "&scene vdw_adhesion"),
-    ({"scene": {"vdw_adhesion": -1.0}}, "&scene vdw_adhesion"),
-    ({"scene": {"vdw_adhesion": 1.0, "vdw_range": 0.0}}, "&scene vdw_range"),
-    ({"scene": {"vdw_adhesion": 1.0}, "solver": {"method": "flight_exact"}}, "&solver method"),
+VDW_NEEDS = "must be > 0 with &model contact_law = 'dmt_vdw'"
+
+
+@pytest.mark.parametrize("groups, key, reason", [
+    ({"physical": _physical(hamaker=-1e-19)}, "&physical hamaker = -1e-19", "must be finite, >= 0"),
+    ({"physical": _physical(intermolecular_distance=0.0)}, "&physical intermolecular_distance = 0",
+     "must be finite, > 0"),
+    ({"physical": _physical(hamaker=0.0)}, "&physical hamaker = 0", VDW_NEEDS),
+    ({"scene": {"vdw_adhesion": 0.0}}, "&scene vdw_adhesion = 0", VDW_NEEDS),
+    ({"scene": {"vdw_adhesion": -1.0}}, "&scene vdw_adhesion = -1", "must be finite, >= 0"),
+    ({"scene": {"vdw_adhesion": 1.0, "vdw_range": 0.0}}, "&scene vdw_range = 0", "must be finite, > 0"),
+    ({"scene": {"vdw_adhesion": 1.0}, "solver": {"method": "flight_exact"}},
+     "&solver method = 'flight_exact'", "does not support &model contact_law = 'dmt_vdw'"),
 ])
-def test_bad_vdw_inputs_give_one_line_errors_naming_the_key(groups, key):
-    groups = {"model": {"contact_law": "dmt_vdw", "n_modes": 1}, "solver": {"method": "dopri5"}} | groups
+def test_bad_vdw_inputs_give_one_line_errors_naming_the_key(groups, key, reason):
+    groups = {"model": {"contact_law": "dmt_vdw", "n_modes": 1}} | groups
     groups["solver"] = {"method": "dopri5", "tau_end": 0.1} | groups.get("solver", {})
     with pytest.raises(tmafm.InputError) as info:
         tmafm.run(groups)
     message = str(info.value)
-    assert key in message and "\n" not in message, message
+    assert key in message and reason in message and "\n" not in message, message
 
 
 def test_hertz_and_dmt_ignore_the_vdw_keys():

@@ -22,7 +22,7 @@ module tmafm_vdw
    implicit none
    private
 
-   public :: law_dmt_vdw, vdw_forces, vdw_brackets, vdw_normal_group, vdw_potential_group
+   public :: law_dmt_vdw, vdw_forces, vdw_brackets, vdw_normal_group
 
    !> DMT contact with van der Waals attraction out of contact.
    integer, parameter :: law_dmt_vdw = 3
@@ -51,18 +51,6 @@ contains
          normal = -adhesion/(ratio*ratio)
       end if
    end function vdw_normal_group
-
-   !> The potential of the normal force out of contact, in units of 1.5 pi gamma R d:
-   !> u(V_T) = -c_H eps/(sin(theta1) (1 + V_T sin(theta1)/eps)), so that -du/dV_T = f_c sin(theta1)
-   !> at fixed theta1 (for the work-energy checks; V_T > 0, sin(theta1) > 0).
-   elemental function vdw_potential_group(vt, sin1, adhesion, range) result(potential)
-      real(dp), intent(in) :: vt
-      real(dp), intent(in) :: sin1
-      real(dp), intent(in) :: adhesion
-      real(dp), intent(in) :: range
-      real(dp) :: potential
-      potential = -adhesion*range/(sin1*(1 + vt*sin1/range))
-   end function vdw_potential_group
 
    !> The brackets of Eq. (11) under 'dmt_vdw' from the gap and sin, cos of the contact angle:
    !> in contact the Hertz force and friction with the vdW adhesion c_H; out of contact the

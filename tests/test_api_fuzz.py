@@ -27,7 +27,7 @@ CHEAP = {
 scalars = st.one_of(
     st.none(), st.booleans(), st.integers(-10**20, 10**20),
     st.floats(allow_nan=True, allow_infinity=True), st.floats(-2, 2),
-    st.text(max_size=12), st.sampled_from(["hertz", "dmt", "paper", "consistent", "dopri5",
+    st.text(max_size=12), st.sampled_from(["hertz", "dmt", "dmt_vdw", "paper", "consistent", "dopri5",
                                            "rk4_event", "flight_exact", "E1,E4", "all", "npy"]))
 values = st.one_of(scalars, st.lists(scalars, max_size=5),
                    st.lists(st.lists(st.floats(-1, 1), max_size=2), max_size=2),

@@ -46,13 +46,14 @@ REAL_KEYS = {
               "theta": (0.0, 1.2), "l_over_d": (20.0, 100.0), "g0_over_d": (0.5, 2.0),
               "delta_hat": (0.0, 0.5), "xi0": (0.5, 1.0),
               # a liquid (both > 0; one alone is refused, which the contract allows)
-              "medium_mass": (0.1, 2.0), "medium_reynolds": (1.0, 100.0)},
+              "medium_mass": (0.1, 2.0), "medium_reynolds": (1.0, 100.0),
+              "vdw_adhesion": (0.5, 2.0), "vdw_range": (1e-5, 1e-3)},
     "solver": {"dtau": (1e-3, 4e-3), "rtol": (1e-9, 1e-6), "atol": (1e-16, 1e-12), "tau_end": (0.3, 2.0),
                "blowup_limit": (0.5, 10.0)},
     "output": {"sample_dtau": (0.01, 0.1)},
 }
 INT_KEYS = {"model": {"n_modes": (1, 4)}, "solver": {"contact_refine": (1, 32)}}
-STRING_KEYS = {"model": {"contact_law": ("hertz", "dmt"), "convention": ("paper", "consistent"),
+STRING_KEYS = {"model": {"contact_law": ("hertz", "dmt", "dmt_vdw"), "convention": ("paper", "consistent"),
                          "errata": ("convention", "all", "none", "E1,E4", "E2", "E1,E3,E7")},
                "solver": {"method": ("rk4_paper", "rk4_event", "dopri5", "flight_exact")}}
 #: Keys whose size sets the cost of a run: never made huge or tiny by the generator.

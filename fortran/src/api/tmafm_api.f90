@@ -282,8 +282,8 @@ contains
       do k = 1, size(tau)
          call model%energy_flow(tau(k), a(k, :), adot(k, :), contact(k) == 1, power(k, 1:n_powers), &
                                 energy(k))
-         if (contact(k) == 1) then
-            s = model%contact(tau(k), a(k, :))
+         if (contact(k) == 1 .or. model%long_range) then
+            s = model%forces_in_phase(tau(k), a(k, :), contact(k) == 1)
             state(k, :) = [s%theta1, s%radius, s%normal, s%friction, s%transverse, s%axial]
          end if
       end do

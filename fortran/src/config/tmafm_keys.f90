@@ -42,7 +42,7 @@ module tmafm_keys
    real(dp), parameter :: half_pi = acos(-1.0_dp)/2
 
    !> The words of the string keys that take one from a fixed set.
-   character(len=*), parameter :: contact_laws(*) = [character(len=8) :: 'hertz', 'dmt']
+   character(len=*), parameter :: contact_laws(*) = [character(len=8) :: 'hertz', 'dmt', 'dmt_vdw']
    character(len=*), parameter :: conventions(*) = [character(len=10) :: 'paper', 'consistent']
    !> The values &output format accepts: 'text' (columns after '#' header lines) or 'npy'.
    character(len=*), parameter :: output_formats(*) = [character(len=8) :: 'text', 'npy']
@@ -93,8 +93,9 @@ module tmafm_keys
             "V_T range, on the search's own grid (never sample_dtau)"), &
       key_t('model', 'mode_horizon', key_real, 0, max_mode_horizon, .false., unit='tau', &
             meaning='with n_modes = 0: length of the runs that compare N and N+1'), &
-      key_t('model', 'contact_law', key_string, first_word=law_words, last_word=law_words + 1, unit='-', &
-            meaning='Hertz or DMT contact'), &
+      key_t('model', 'contact_law', key_string, first_word=law_words, last_word=law_words + 2, unit='-', &
+            meaning="Hertz or DMT contact, or 'dmt_vdw': DMT with van der Waals attraction out of contact "// &
+            "(docs/model.md 6a)"), &
       key_t('model', 'convention', key_string, first_word=convention_words, last_word=convention_words + 1, &
             unit='-', meaning="'paper' (the printed equations) or 'consistent' (errata corrected)"), &
       key_t('model', 'errata', key_string, unit='-', &
@@ -123,7 +124,12 @@ module tmafm_keys
             meaning='liquid: pi rho_f b/(4 rho h), the added mass per Gamma_r (docs/model.md); 0 = vacuum'), &
       key_t('scene', 'medium_reynolds', key_real, 0, 1.0e12_dp, unit='1', &
             rule='> 0 with medium_mass > 0, or both 0', &
-            meaning='liquid: rho_f b^2/(4 eta t0), the Reynolds number at Omega = 1 (Re = this times omega)')]
+            meaning='liquid: rho_f b^2/(4 eta t0), the Reynolds number at Omega = 1 (Re = this times omega)'), &
+      key_t('scene', 'vdw_adhesion', key_real, 0, 1.0e6_dp, unit='1', &
+            rule="> 0 with contact_law = 'dmt_vdw'", &
+            meaning="'dmt_vdw' adhesion H R/(6 a0^2) over 1.5 pi gamma R, H/(9 pi gamma a0^2)"), &
+      key_t('scene', 'vdw_range', key_real, 0, 1.0e3_dp, .false., unit='1', &
+            meaning="'dmt_vdw': intermolecular distance over gap, a0/d")]
 
    type(key_t), parameter :: physical_rows(*) = [ &
       key_t('physical', 'length', key_real, 0, 1, .false., unit='m', meaning='beam length L'), &
@@ -163,7 +169,11 @@ module tmafm_keys
             meaning='mass density rho_f of the liquid around the beam (docs/model.md); 0 = vacuum'), &
       key_t('physical', 'medium_viscosity', key_real, 0, 1.0e3_dp, unit='Pa s', &
             rule='> 0 with medium_density > 0, or both 0', &
-            meaning='dynamic viscosity eta of the liquid around the beam; 0 = vacuum')]
+            meaning='dynamic viscosity eta of the liquid around the beam; 0 = vacuum'), &
+      key_t('physical', 'hamaker', key_real, 0, 1.0e-15_dp, unit='J', rule="> 0 with contact_law = 'dmt_vdw'", &
+            meaning="Hamaker constant H of the tip-sample pair ('dmt_vdw')"), &
+      key_t('physical', 'intermolecular_distance', key_real, 0, 1.0e-6_dp, .false., unit='m', &
+            meaning="intermolecular distance a0, the separation at contact ('dmt_vdw')")]
 
    type(key_t), parameter :: initial_rows(*) = [ &
       key_t('initial', 'a0', key_list, -1, 1, unit='d', &

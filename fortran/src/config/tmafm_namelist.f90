@@ -18,9 +18,9 @@ module tmafm_namelist
    use tmafm_text, only: real_text, real_text_padded, int_text, lower, short_real_text
    use tmafm_modes, only: max_modes
    use tmafm_scene, only: scene_t, physical_t, scene_from_physical, scene_names, scene_values, &
-      physical_names, physical_values, scene_depends_on
+      physical_names, physical_values, scene_depends_on, scene_from_values, physical_from_values
    use tmafm_settings, only: run_settings_t, check_run_size, comparison_intervals, comparison_points, &
-      mode_digits, comparison_rtol
+      mode_digits, comparison_rtol, vdw_method_refused
    use tmafm_errata, only: errata_t, errata_for_convention, parse_errata, errata_label
    use tmafm_config, only: config_t
    use tmafm_keys, only: keys, key_groups, key_row, group_index, key_in_range, key_range_text, &
@@ -280,9 +280,7 @@ contains
       ! A liquid takes both of its keys (docs/model.md, A liquid environment): one alone is refused, not ignored.
       call check_pair(p, g, 'medium_mass', values(14), 'medium_reynolds', values(15), ierr, errmsg)
       if (ierr /= ok) return
-      config%scene = scene_t(values(1), values(2), values(3), values(4), values(5), values(6), &
-                             values(7), values(8), values(9), values(10), values(11), values(12), &
-                             values(13), values(14), values(15))
+      config%scene = scene_from_values(values)
    end subroutine read_scene
 
    !> A pair of keys that are both > 0 or both 0 (a liquid's two keys): a one-line error on the
@@ -337,9 +335,7 @@ contains
       end if
       call check_pair(p, g, 'medium_density', v(21), 'medium_viscosity', v(22), ierr, errmsg)
       if (ierr /= ok) return
-      config%physical = physical_t(v(1), v(2), v(3), v(4), v(5), v(6), v(7), v(8), v(9), v(10), &
-                                   v(11), v(12), v(13), v(14), v(15), v(16), v(17), v(18), v(19), &
-                                   v(20), v(21), v(22))
+      config%physical = physical_from_values(v)
       config%from_physical = .true.
       config%scene = scene_from_physical(config%physical)
    end subroutine read_physical
@@ -506,6 +502,35 @@ contains
       config%solver%sample_dtau = sample_dtau
    end subroutine read_output
 
+   !> contact_law = 'dmt_vdw' needs an attraction (vdw_adhesion > 0, from &physical hamaker > 0)
+   !> and a method that integrates the flight (docs/model-notes.md, item 17).
+   subroutine check_vdw(label, config, ierr, errmsg)
+      character(len=*), intent(in) :: label
+      type(config_t), intent(in) :: config
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      ierr = ok
+      errmsg = ''
+      if (trim(config%contact_law) /= 'dmt_vdw') return
+      if (.not. (config%scene%vdw_adhesion > 0)) then
+         ierr = err_input
+         if (config%from_physical) then
+            errmsg = label//': &physical hamaker = '//real_text(config%physical%hamaker)// &
+                     ": must be > 0 with &model contact_law = 'dmt_vdw'"
+         else
+            errmsg = label//': &scene vdw_adhesion = '//real_text(config%scene%vdw_adhesion)// &
+                     ": must be > 0 with &model contact_law = 'dmt_vdw'"
+         end if
+         return
+      end if
+      if (vdw_method_refused(config%solver%method)) then
+         ierr = err_input
+         errmsg = label//": &solver method = '"//trim(config%solver%method)// &
+                  "': does not support &model contact_law = 'dmt_vdw' (its flight is the force-free "// &
+                  "solution; use dop853, dopri5, rk4_event or rk4_paper)"
+      end if
+   end subroutine check_vdw
+
    !> Checks across groups, before any run: sample_dtau within tau_end, the scene derived from
    !> &physical inside the &scene ranges, and the size of the run (and of the automatic-N
    !> comparison runs) inside the limits.
@@ -567,6 +592,8 @@ contains
             return
          end do
       end if
+      call check_vdw(label, config, ierr, errmsg)
+      if (ierr /= ok) return
       call check_run_size(config%solver, max(config%n_modes, 1), ierr, errmsg)
       if (ierr /= ok) then
          errmsg = label//': '//trim(errmsg)

@@ -30,6 +30,7 @@ module tmafm_model
    use tmafm_scene, only: scene_t
    use tmafm_errata, only: errata_t
    use tmafm_hydrodynamics, only: modal_fluid_loads
+   use tmafm_vdw, only: law_dmt_vdw, vdw_forces, vdw_brackets
    implicit none
    private
 
@@ -45,7 +46,7 @@ module tmafm_model
    type :: model_t
       !> Number of Galerkin modes N.
       integer :: n_modes = 0
-      !> Contact law (law_hertz or law_dmt).
+      !> Contact law (law_hertz, law_dmt or law_dmt_vdw).
       integer :: law = law_hertz
       !> The dimensionless scene.
       type(scene_t) :: scene
@@ -57,6 +58,11 @@ module tmafm_model
       real(dp) :: kappa6 = 0
       !> Terms that do not vanish identically for this scene; the others are skipped.
       logical :: has_contact_damping = .true., has_axial_stiffness = .true., has_moment = .true.
+      !> 'dmt_vdw': a tip-sample force also out of contact (tmafm_vdw), so the flight is forced too.
+      logical :: long_range = .false.
+      !> The right-hand side goes to general_kernel: N > rows_per_block, or long_range (whose
+      !> hooks are there only, so that the small kernel of the other laws pays nothing for them).
+      logical :: general = .false.
       !> Mode roots beta_j.
       real(dp), allocatable :: beta(:)
       !> Lambda = beta^4, the modal stiffnesses.
@@ -143,6 +149,8 @@ module tmafm_model
       procedure :: gap_rows => model_gap_rows
       !> The contact state (angle, radius, brackets) for displacements a at time tau.
       procedure :: contact => model_contact
+      !> The same in a given phase: under 'dmt_vdw' the attraction in flight, else contact_state.
+      procedure :: forces_in_phase => model_forces_in_phase
       !> The explicit M, C, K, F of Eq. (15) at one state, for checks and analysis.
       procedure :: matrices => model_matrices
       !> The power of each generalized force on the modes, and the modal energy, at one state.
@@ -220,6 +228,8 @@ contains
       end if
 
       model%has_contact_damping = scene%alpha4 /= 0
+      model%long_range = law == law_dmt_vdw
+      model%general = n > rows_per_block .or. model%long_range
       model%has_axial_stiffness = model%kappa5 /= 0 .or. model%kappa6 /= 0
       model%has_moment = model%has_axial_stiffness .and. scene%g0_over_d /= 0 &
                          .and. any(model%moment_shape /= 0)
@@ -448,9 +458,35 @@ contains
       vt = dot_product(self%tip, a) + self%scene%alpha2*sin(self%scene%omega*tau) &
            + self%scene%delta_hat
       scaled_slope = dot_product(self%slope, a)/self%scene%l_over_d
+      if (self%long_range) then
+         ! The phase by the sign of V_T (a run's located switches put it there).
+         state = vdw_brackets(vt <= 0, vt, scaled_slope, self%scene%theta, self%scene%beta, self%kappa5, &
+                              self%kappa6, self%errata%e7_signed_slope, self%scene%vdw_adhesion, &
+                              self%scene%vdw_range)
+         return
+      end if
       state = contact_brackets(vt, scaled_slope, self%scene%theta, self%scene%beta, self%law, &
                                self%kappa5, self%kappa6, self%errata%e7_signed_slope)
    end function model_contact
+
+   pure function model_forces_in_phase(self, tau, a, in_contact) result(state)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: a(:)
+      logical, intent(in) :: in_contact
+      type(contact_brackets_t) :: state
+      real(dp) :: vt, scaled_slope
+      if (.not. self%long_range) then
+         state = self%contact(tau, a)
+         return
+      end if
+      vt = dot_product(self%tip, a) + self%scene%alpha2*sin(self%scene%omega*tau) &
+           + self%scene%delta_hat
+      scaled_slope = dot_product(self%slope, a)/self%scene%l_over_d
+      state = vdw_brackets(in_contact, vt, scaled_slope, self%scene%theta, self%scene%beta, self%kappa5, &
+                           self%kappa6, self%errata%e7_signed_slope, self%scene%vdw_adhesion, &
+                           self%scene%vdw_range)
+   end function model_forces_in_phase
 
    !> The contact-damping base term: -alpha2 alpha4 sin(Omega tau) (printed) or E1's velocity form.
    pure function base_damping(self, tau) result(value)
@@ -502,8 +538,9 @@ contains
 
    !> The one right-hand side: (a', a'') from y = (a, a') and the drive phase, and V_T and
    !> dV_T/dtau when want_gap (always in contact, where they are needed anyway).  N > rows_per_block
-   !> goes to general_kernel.  N <= rows_per_block is done here, from small_fold and small_gap
-   !> (fixed places in the model, no array descriptors): one pass over the modes forms p.a,
+   !> and the law dmt_vdw (model_t%general) go to general_kernel.  N <= rows_per_block is done
+   !> here, from small_fold and small_gap (fixed places in the model, no array descriptors): one
+   !> pass over the modes forms p.a,
    !> (d/L) s.a, p.a' and the parts of a'' that do not depend on the contact forces (the drive,
    !> B (a, a'), M^-1 G a), all four rows at once, in loops of constant length rows_per_block
    !> that stop at N (the compiler unrolls them and keeps the rows in vector registers); then the
@@ -525,7 +562,7 @@ contains
       integer :: i, j, n
 
       n = self%n_modes
-      if (n > r) then
+      if (self%general) then
          call general_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
          return
       end if
@@ -598,8 +635,9 @@ contains
       end do
    end subroutine rhs_kernel
 
-   !> rhs_kernel for N > rows_per_block: the dot products, the contact forces (their square
-   !> roots are the longest chain), then accumulate.
+   !> rhs_kernel for N > rows_per_block, and for every N under dmt_vdw (whose force acts in flight
+   !> too): the dot products, the tip-sample forces (their square roots are the longest chain),
+   !> then accumulate.
    pure subroutine general_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
       type(model_t), intent(in) :: self
       real(dp), intent(in) :: y(2*self%n_modes)
@@ -613,14 +651,17 @@ contains
       real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, radius, normal, friction
       real(dp) :: tip_push
       integer :: n, j
+      logical :: forced
 
       n = self%n_modes
+      ! Forces act in contact, and under 'dmt_vdw' also in flight.
+      forced = in_contact .or. self%long_range
       associate (s => self%scene)
          vt = 0
          vtdot = 0
          axial = 0
          tip_push = 0
-         if (in_contact .or. want_gap) then
+         if (forced .or. want_gap) then
             tip_a = 0
             slope_a = 0
             tip_adot = 0
@@ -632,17 +673,23 @@ contains
             vt = tip_a + s%alpha2*sin_phase + s%delta_hat
             vtdot = tip_adot + s%alpha2*s%omega*cos_phase
          end if
-         if (in_contact) then
+         if (forced) then
             call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a, &
                                        self%errata%e7_signed_slope, sin1, cos1)
-            call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
-                                transverse, axial, radius, normal, friction)
-            ! Everything that acts along p: P1, the contact damping and its base term.
-            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*sin_phase &
-                       + self%base_cos*cos_phase
+            if (self%long_range) then
+               call vdw_forces(in_contact, vt, sin1, cos1, s%beta, self%kappa5, self%kappa6, &
+                               s%vdw_adhesion, s%vdw_range, transverse, axial, radius, normal, friction)
+            else
+               call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
+                                   transverse, axial, radius, normal, friction)
+            end if
+            ! Everything that acts along p: P1, the contact damping and its base term (in contact).
+            tip_push = s%l_over_d*transverse
+            if (in_contact) tip_push = tip_push - s%alpha4*tip_adot + self%base_sin*sin_phase &
+                                       + self%base_cos*cos_phase
          end if
          call accumulate(n, self%n_padded, self%pass_terms, self%pass_a, self%pass_v, self%pass_g, y, &
-                         in_contact, sin_phase, cos_phase, tip_push, axial, dydt)
+                         forced, sin_phase, cos_phase, tip_push, axial, dydt)
       end associate
    end subroutine general_kernel
 
@@ -747,11 +794,16 @@ contains
                     - s%alpha2*s%alpha3*s%omega*self%integral*cos(s%omega*tau)
          end if
          if (in_contact) then
-            state = self%contact(tau, a)
+            state = self%forces_in_phase(tau, a, .true.)
             damping = damping + s%alpha4*spread(self%tip, 2, n)*spread(self%tip, 1, n)
             stiffness = stiffness - state%axial*self%axial
             force = force + (base_damping(self, tau) + s%l_over_d*state%transverse)*self%tip &
                     + s%g0_over_d*state%axial*self%moment_shape
+         else if (self%long_range) then
+            ! 'dmt_vdw' in flight: the attraction, with no contact damping.
+            state = self%forces_in_phase(tau, a, .false.)
+            stiffness = stiffness - state%axial*self%axial
+            force = force + s%l_over_d*state%transverse*self%tip + s%g0_over_d*state%axial*self%moment_shape
          end if
       end associate
    end subroutine model_matrices
@@ -797,10 +849,11 @@ contains
                - s%alpha2*s%alpha3*s%omega*self%integral*cos(s%omega*tau))
             power(power_beam_damping) = -s%alpha3*dot_product(adot, adot)
          end if
-         if (.not. in_contact) return
+         if (.not. (in_contact .or. self%long_range)) return
          tip_rate = dot_product(self%tip, adot)
-         power(power_contact_damping) = tip_rate*(-s%alpha4*tip_rate + base_damping(self, tau))
-         state = self%contact(tau, a)
+         ! Under 'dmt_vdw' the attraction in flight works through the normal part too.
+         if (in_contact) power(power_contact_damping) = tip_rate*(-s%alpha4*tip_rate + base_damping(self, tau))
+         state = self%forces_in_phase(tau, a, in_contact)
          call contact_angle_sin_cos(self%sin_theta, self%cos_theta, &
                                     dot_product(self%slope, a)/s%l_over_d, &
                                     self%errata%e7_signed_slope, sin1, cos1)

@@ -12,6 +12,7 @@ module tmafm_scene
 
    public :: scene_t, physical_t, scene_from_physical
    public :: scene_names, scene_values, physical_names, physical_values, scene_depends_on
+   public :: scene_from_values, physical_from_values
 
    real(dp), parameter :: pi = acos(-1.0_dp)
 
@@ -48,6 +49,11 @@ module tmafm_scene
       real(dp) :: medium_mass = 0.0_dp
       !> R0 = rho_f b^2/(4 eta t0): the liquid's Reynolds number at Omega = 1 (Re = R0 omega).
       real(dp) :: medium_reynolds = 0.0_dp
+      !> vdw_adhesion = H/(9 pi gamma a0^2): the 'dmt_vdw' adhesion H R/(6 a0^2) in units of
+      !> 1.5 pi gamma R (4/3 when gamma = H/(12 pi a0^2)).
+      real(dp) :: vdw_adhesion = 4.0_dp/3.0_dp
+      !> vdw_range = a0/d: the intermolecular distance over the gap.
+      real(dp) :: vdw_range = 3.3e-5_dp
    end type scene_t
 
    !> Physical inputs in SI units; converted to a scene_t by Eq. (12).
@@ -96,20 +102,26 @@ module tmafm_scene
       real(dp) :: medium_density = 0.0_dp
       !> Dynamic viscosity eta of the liquid around the beam (Pa s); 0 = vacuum.
       real(dp) :: medium_viscosity = 0.0_dp
+      !> Hamaker constant H of the tip-sample pair (J); used by contact_law = 'dmt_vdw'.  The
+      !> default, 12 pi gamma a0^2 of the default gamma and a0, gives vdw_adhesion = 4/3: the
+      !> contact adhesion H R/(6 a0^2) is then the DMT pull-off 2 pi gamma R.
+      real(dp) :: hamaker = 3.592254119747249e-20_dp
+      !> Intermolecular distance a0 (m): the separation at contact under 'dmt_vdw'.
+      real(dp) :: intermolecular_distance = 0.165e-9_dp
    end type physical_t
 
    !> The &scene keys, in the order of scene_values (their ranges: config/tmafm_keys.f90).
-   character(len=*), parameter :: scene_names(15) = [character(len=15) :: 'alpha1', 'alpha2', &
+   character(len=*), parameter :: scene_names(17) = [character(len=15) :: 'alpha1', 'alpha2', &
       'alpha3', 'alpha4', 'alpha5', 'alpha6', 'beta', 'omega', 'theta', 'l_over_d', 'g0_over_d', &
       'delta_hat', 'xi0', &
-      'medium_mass', 'medium_reynolds']
+      'medium_mass', 'medium_reynolds', 'vdw_adhesion', 'vdw_range']
    !> The &physical keys, in the order of physical_values.
-   character(len=*), parameter :: physical_names(22) = [character(len=23) :: 'length', 'width', &
+   character(len=*), parameter :: physical_names(24) = [character(len=23) :: 'length', 'width', &
       'thickness', 'density', 'youngs_modulus_tip', 'poisson_ratio_tip', 'youngs_modulus_sample', &
       'poisson_ratio_sample', 'tip_radius', 'adhesion_energy', 'tilt', 'gap', 'tip_length', &
       'static_offset', 'tip_position', 'tip_mass', 'beam_damping', 'contact_damping', &
       'drive_amplitude', 'drive_angular_frequency', &
-      'medium_density', 'medium_viscosity']
+      'medium_density', 'medium_viscosity', 'hamaker', 'intermolecular_distance']
 
 contains
 
@@ -120,7 +132,7 @@ contains
       values = [scene%alpha1, scene%alpha2, scene%alpha3, scene%alpha4, scene%alpha5, &
                 scene%alpha6, scene%beta, scene%omega, scene%theta, scene%l_over_d, &
                 scene%g0_over_d, scene%delta_hat, scene%xi0, &
-                scene%medium_mass, scene%medium_reynolds]
+                scene%medium_mass, scene%medium_reynolds, scene%vdw_adhesion, scene%vdw_range]
    end function scene_values
 
    !> The physical inputs as an array, in the order of physical_names.
@@ -132,8 +144,62 @@ contains
                 phys%tip_radius, phys%adhesion_energy, phys%tilt, phys%gap, phys%tip_length, &
                 phys%static_offset, phys%tip_position, phys%tip_mass, phys%beam_damping, &
                 phys%contact_damping, phys%drive_amplitude, phys%drive_angular_frequency, &
-                phys%medium_density, phys%medium_viscosity]
+                phys%medium_density, phys%medium_viscosity, phys%hamaker, phys%intermolecular_distance]
    end function physical_values
+
+   !> The scene whose groups are `values`, in the order of scene_names (scene_values' inverse).
+   pure function scene_from_values(values) result(scene)
+      real(dp), intent(in) :: values(size(scene_names))
+      type(scene_t) :: scene
+      scene%alpha1 = values(1)
+      scene%alpha2 = values(2)
+      scene%alpha3 = values(3)
+      scene%alpha4 = values(4)
+      scene%alpha5 = values(5)
+      scene%alpha6 = values(6)
+      scene%beta = values(7)
+      scene%omega = values(8)
+      scene%theta = values(9)
+      scene%l_over_d = values(10)
+      scene%g0_over_d = values(11)
+      scene%delta_hat = values(12)
+      scene%xi0 = values(13)
+      scene%medium_mass = values(14)
+      scene%medium_reynolds = values(15)
+      scene%vdw_adhesion = values(16)
+      scene%vdw_range = values(17)
+   end function scene_from_values
+
+   !> The physical inputs whose values are `v`, in the order of physical_names (physical_values'
+   !> inverse).
+   pure function physical_from_values(v) result(phys)
+      real(dp), intent(in) :: v(size(physical_names))
+      type(physical_t) :: phys
+      phys%length = v(1)
+      phys%width = v(2)
+      phys%thickness = v(3)
+      phys%density = v(4)
+      phys%youngs_modulus_tip = v(5)
+      phys%poisson_ratio_tip = v(6)
+      phys%youngs_modulus_sample = v(7)
+      phys%poisson_ratio_sample = v(8)
+      phys%tip_radius = v(9)
+      phys%adhesion_energy = v(10)
+      phys%tilt = v(11)
+      phys%gap = v(12)
+      phys%tip_length = v(13)
+      phys%static_offset = v(14)
+      phys%tip_position = v(15)
+      phys%tip_mass = v(16)
+      phys%beam_damping = v(17)
+      phys%contact_damping = v(18)
+      phys%drive_amplitude = v(19)
+      phys%drive_angular_frequency = v(20)
+      phys%medium_density = v(21)
+      phys%medium_viscosity = v(22)
+      phys%hamaker = v(23)
+      phys%intermolecular_distance = v(24)
+   end function physical_from_values
 
    !> Which &physical keys (indices into physical_names) scene group k depends on by Eq. (12).
    pure function scene_depends_on(k) result(keys)
@@ -141,7 +207,7 @@ contains
       integer, allocatable :: keys(:)
       ! 1 length, 2 width, 3 thickness, 4 density, 5 E1, 6 nu1, 7 E2, 8 nu2, 9 R, 10 gamma,
       ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega,
-      ! 21 rho_f, 22 eta.
+      ! 21 rho_f, 22 eta, 23 H, 24 a0.
       select case (k)
       case (1)
          keys = [16, 4, 2, 3, 1]
@@ -171,8 +237,12 @@ contains
          keys = [15, 1]
       case (14)
          keys = [21, 4, 2, 3]
-      case default
+      case (15)
          keys = [22, 21, 2, 4, 3, 1, 5]
+      case (16)
+         keys = [23, 10, 24]
+      case default
+         keys = [24, 12]
       end select
    end function scene_depends_on
 
@@ -218,6 +288,9 @@ contains
       else
          scene%medium_reynolds = 0
       end if
+      ! 'dmt_vdw': H R/(6 a0^2) over the force scale 1.5 pi gamma R, and a0 over the gap.
+      scene%vdw_adhesion = phys%hamaker/(9*pi*phys%adhesion_energy*phys%intermolecular_distance**2)
+      scene%vdw_range = phys%intermolecular_distance/d
    end function scene_from_physical
 
 end module tmafm_scene

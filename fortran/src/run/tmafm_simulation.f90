@@ -5,6 +5,7 @@ module tmafm_simulation
    use tmafm_errors, only: ok, err_input
    use tmafm_modes, only: max_modes
    use tmafm_contact, only: law_hertz, law_dmt
+   use tmafm_vdw, only: law_dmt_vdw
    use tmafm_model, only: model_t, init_model
    use tmafm_driver, only: run_trajectory
    use tmafm_trajectory, only: trajectory_t, stop_poll
@@ -29,6 +30,7 @@ contains
       integer :: law
       law = law_hertz
       if (trim(config%contact_law) == 'dmt') law = law_dmt
+      if (trim(config%contact_law) == 'dmt_vdw') law = law_dmt_vdw
       call init_model(model, config%n_modes, config%scene, law, config_errata(config), ierr, errmsg)
    end subroutine build_model
 

@@ -4,7 +4,7 @@ module tmafm_driver
    use tmafm_errors, only: ok, err_input, err_blowup
    use tmafm_model, only: model_t
    use tmafm_settings, only: run_settings_t, known_methods, method_rk4_paper, method_rk4_event, &
-      method_dopri5, method_dop853, method_flight_exact
+      method_dopri5, method_dop853, method_flight_exact, vdw_method_refused
    use tmafm_trajectory, only: trajectory_t, init_trajectory, progress_t, stop_poll
    use tmafm_method_paper, only: run_rk4_paper
    use tmafm_method_event, only: run_rk4_event
@@ -39,6 +39,14 @@ contains
       if (present(progress_unit)) progress%unit = progress_unit
       if (present(poll)) progress%poll => poll
       call init_trajectory(traj, settings, model%n_modes)
+      if (model%long_range .and. vdw_method_refused(settings%method)) then
+         ! The input check refuses this first (tmafm_namelist check_vdw); a model built otherwise too.
+         ierr = err_input
+         errmsg = "&solver method = '"//trim(settings%method)// &
+                  "': does not support &model contact_law = 'dmt_vdw' (its flight is the force-free "// &
+                  "solution; use dop853, dopri5, rk4_event or rk4_paper)"
+         return
+      end if
       select case (trim(settings%method))
       case (method_rk4_paper)
          call run_rk4_paper(model, settings, [a0, adot0], traj, ierr, errmsg, progress, observer)

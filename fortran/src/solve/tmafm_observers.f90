@@ -583,8 +583,9 @@ contains
             gap(i) = model%tip_gap(t(i), self%y)
          end if
          if (self%do_extrema) self%modal_nodes(i, :) = self%y(1:n)
-         if (in_contact .and. (self%do_force .or. self%do_energy)) then
-            state = model%contact(t(i), self%y(1:n))
+         if ((in_contact .or. model%long_range) .and. (self%do_force .or. self%do_energy)) then
+            ! The normal force: in contact, and under 'dmt_vdw' the attraction in flight too.
+            state = model%forces_in_phase(t(i), self%y(1:n), in_contact)
             force(i) = model%kappa5*state%normal
          end if
          if (i == 0 .or. i == m + 1) cycle

@@ -294,3 +294,21 @@ def test_a_dimensionless_scene_writes_no_si_column(tmp_path):
     assert "! derived:" not in text
     columns = [line for line in text.splitlines() if line.startswith("# columns:")][0].split()[2:]
     assert columns[-1] == "adot_4" and len(columns) == 12
+
+
+def test_calibration_overrides_replace_the_base_geometry():
+    """Overrides of the calibration on a geometry base drop the base's thickness, density,
+    tip_mass and beam_damping (given in the same input, they are refused)."""
+    calibration = {"spring_constant": 40.0, "resonance_frequency": 300e3, "quality_factor": 400.0,
+                   "tip_mass_ratio": 0.05, "drive_frequency": 299e3}
+    config = tmafm.Config("physical_polystyrene", physical=calibration)
+    derived = config.derived
+    assert derived["spring_constant"] == pytest.approx(40.0, rel=1e-12)
+    assert derived["resonance_frequency"] == pytest.approx(300e3, rel=1e-12)
+    written = config.to_dict()["physical"]
+    assert not {"thickness", "density", "tip_mass", "beam_damping", "drive_angular_frequency"} & set(written)
+    # The geometry overridden back on the calibrated Config drops the calibration in turn.
+    geometry = tmafm.Config(config, physical={"thickness": 3e-6, "density": 2330.0, "tip_mass": 3.1455e-12,
+                                              "beam_damping": 6.028930253369996e-3})
+    assert geometry.derived["rigidity"] == pytest.approx(130e9 * 30e-6 * (3e-6) ** 3 / 12, rel=1e-14)
+    assert "spring_constant" not in geometry.to_dict()["physical"]

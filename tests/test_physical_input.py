@@ -312,3 +312,20 @@ def test_calibration_overrides_replace_the_base_geometry():
                                               "beam_damping": 6.028930253369996e-3})
     assert geometry.derived["rigidity"] == pytest.approx(130e9 * 30e-6 * (3e-6) ** 3 / 12, rel=1e-14)
     assert "spring_constant" not in geometry.to_dict()["physical"]
+
+
+def test_the_continuum_resonance_is_the_root_of_the_tip_mass_beam_equation():
+    """The echoed continuum frequency: beta^2/(2 pi t0), beta the first root of
+    1 + cos b cosh b + alpha1 b (cos b sinh b - sin b cosh b) = 0 (scipy's brentq, unscaled);
+    the N-mode model's undamped frequency approaches it from above (docs/model.md section 4)."""
+    optimize = pytest.importorskip("scipy.optimize")
+    alpha1 = CANTILEVER["tip_mass_ratio"]
+    beta = optimize.brentq(lambda b: 1 + math.cos(b) * math.cosh(b)
+                           + alpha1 * b * (math.cos(b) * math.sinh(b) - math.sin(b) * math.cosh(b)),
+                           1.0, 1.8751, xtol=1e-15, rtol=1e-15)
+    for n in (4, 12):
+        derived = tmafm.Config({"model": {"n_modes": n}, "physical": CANTILEVER}).derived
+        continuum = beta ** 2 / (2 * math.pi * derived["time_scale"])
+        assert derived["continuum_resonance_frequency"] == pytest.approx(continuum, rel=1e-13)
+        gap = derived["undamped_resonance_frequency"] / continuum - 1
+        assert 0 < gap < (1e-4 if n == 4 else 1e-6)

@@ -162,16 +162,19 @@ def test_an_over_determined_input_is_refused_in_one_line_naming_both_keys(tmp_pa
     assert done.returncode == 2
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and all(name in lines[0] for name in names), done.stderr
+    # Refused for giving both (or one without the other), not as an unknown key.
+    assert ("not both" in lines[0] or "needs" in lines[0]) and "unknown key" not in lines[0]
     assert not (tmp_path / "out.dat").exists()
     with pytest.raises(tmafm.InputError, match=names[1]) as info:
         tmafm.Config(path)
     assert names[0] in str(info.value) and "\n" not in str(info.value)
+    assert "unknown key" not in str(info.value)
 
 
 @pytest.mark.parametrize("key", ["spring_constant", "free_amplitude"])
 def test_an_exact_conversion_needs_a_fixed_n(key):
     physical = dict(CANTILEVER) if key == "spring_constant" else {"free_amplitude": 1e-8}
-    with pytest.raises(tmafm.InputError, match=f"{key}.*n_modes"):
+    with pytest.raises(tmafm.InputError, match=f"{key}.*needs a fixed &model n_modes"):
         tmafm.Config({"model": {"n_modes": 0}, "physical": physical})
 
 

@@ -53,8 +53,9 @@ def test_a_calibrated_cantilever_has_its_k_f0_and_q_in_the_model_matrices(n_mode
     p = model.tip
     compliance = p @ np.linalg.solve(stiffness, p)
     assert derived["rigidity"] / (L ** 3 * compliance) == pytest.approx(40.0, rel=1e-9)
-    # The tip mass is the ratio's, the damping the model's alpha3.
+    # The tip mass is the ratio's (alpha1 the ratio itself), the damping the model's alpha3.
     assert derived["tip_mass"] / (derived["mass_per_length"] * L) == pytest.approx(0.05, rel=1e-12)
+    assert config.scene["alpha1"] == 0.05
     assert config.scene["alpha3"] == pytest.approx(derived["beam_damping"] * t0 / derived["mass_per_length"],
                                                    rel=1e-12)
     # The model's own values, as the header prints them, and the continuum 3 E1 I/L^3 (x0 = L).
@@ -173,6 +174,8 @@ def test_an_over_determined_input_is_refused_in_one_line_naming_both_keys(tmp_pa
 
 @pytest.mark.parametrize("key", ["spring_constant", "free_amplitude"])
 def test_an_exact_conversion_needs_a_fixed_n(key):
+    """The calibration and the free amplitude are exact for the N that runs: n_modes = 0 is
+    refused with them."""
     physical = dict(CANTILEVER) if key == "spring_constant" else {"free_amplitude": 1e-8}
     with pytest.raises(tmafm.InputError, match=f"{key}.*needs a fixed &model n_modes"):
         tmafm.Config({"model": {"n_modes": 0}, "physical": physical})
@@ -332,3 +335,10 @@ def test_the_continuum_resonance_is_the_root_of_the_tip_mass_beam_equation():
         assert derived["continuum_resonance_frequency"] == pytest.approx(continuum, rel=1e-13)
         gap = derived["undamped_resonance_frequency"] / continuum - 1
         assert 0 < gap < (1e-4 if n == 4 else 1e-6)
+
+
+def test_the_largest_tip_mass_ratio_is_taken_as_given():
+    """alpha1 is the ratio itself, not M/(m L) recomputed (which rounds past the bound 1e3)."""
+    config = tmafm.Config({"model": {"n_modes": 3}, "physical": {**CANTILEVER, "tip_mass_ratio": 1e3}})
+    assert config.scene["alpha1"] == 1e3
+    assert config.derived["resonance_frequency"] == pytest.approx(300e3, rel=1e-12)

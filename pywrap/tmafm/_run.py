@@ -19,6 +19,7 @@ import numpy as np
 
 from . import inputs as _inputs
 from ._fortran import api as _api
+from ._fortran import text as _text
 from ._fortran import config_t as _config_t
 from ._fortran import polls
 from ._namelist import KEY_TYPES, check_groups, shown, to_text
@@ -232,6 +233,19 @@ class Config:
         return dict(self._scene)
 
     @property
+    def derived(self) -> dict | None:
+        """The values the core derives from ``&physical`` ({name: value}, in the units of
+        ``tmafm.DERIVED_UNITS``), as the output header prints them: the beam (E1 I, m, C, M),
+        the gap and drive the run uses, the N-mode model's own spring constant, first resonance,
+        Q and free amplitude, the continuum 3 E1 I/x0^3 and the scales; None for an input given
+        in ``&scene`` (docs/model.md section 12)."""
+        names = list(DERIVED_UNITS)
+        values = np.zeros(len(names))
+        has_values, ierr, errmsg = _api.config_derived(self._f, values)
+        raise_for(ierr, errmsg)
+        return dict(zip(names, map(float, values))) if has_values else None
+
+    @property
     def text(self) -> str:
         """The resolved input as namelist text (every key, defaults included)."""
         if self._text is None:
@@ -286,9 +300,16 @@ class Config:
         _api.run_switches(handle, switches)
         counters = np.zeros(5, dtype=np.int64)
         _api.run_counters(handle, counters)
+        physical = None
+        if bool(self._f.from_physical):
+            # The SI series, from the core (tmafm_physical_series), as the executable writes them.
+            series = np.empty((n_samples, len(SERIES_UNITS)), order="F")
+            ierr, errmsg = _api.run_physical_series(self._f, handle, series)
+            raise_for(ierr, errmsg)
+            physical = {name: series[:, k].copy() for k, name in enumerate(SERIES_UNITS)}
         return Result(tau=tau, vt=vt, vtdot=vtdot, contact=contact.astype(np.int8), a=a,
                       adot=adot, counters=dict(zip(COUNTER_KEYS, map(int, counters))),
-                      switches=switches, config=self)
+                      switches=switches, config=self, physical=physical)
 
     def __repr__(self) -> str:
         return f"tmafm.Config({self.label!r}, n_modes={self.n_modes})"
@@ -310,13 +331,17 @@ class Result:
     methods, and the step starts where the phase changed for ``rk4_paper``.
     ``counters`` has steps, contact_steps, rejected_steps, rhs_evaluations, phase_switches.
     ``resolved`` (an f90nml Namelist) and ``scene`` are computed when first asked for.
+    ``physical``, for a scene given in ``&physical``, holds the SI series the core computes
+    (``tmafm.SERIES_UNITS``: time t_s, tip-sample distance distance_m, tip deflection
+    deflection_m, normal_force_N and friction_force_N), one value per sample; None otherwise.
     """
 
     def __init__(self, tau, vt, vtdot, contact, a, adot, resolved=None, scene=None,
                  counters=None, switches=None, *, config: Config | None = None,
-                 resolved_text: str | None = None):
+                 resolved_text: str | None = None, physical: dict | None = None):
         self.tau, self.vt, self.vtdot, self.contact, self.a, self.adot = (
             tau, vt, vtdot, contact, a, adot)
+        self.physical = physical
         self.counters = dict(counters or {})
         self.switches = np.zeros(0) if switches is None else switches
         self.config = config
@@ -367,6 +392,14 @@ class Result:
         self._scene = value
 
     @property
+    def derived(self) -> dict | None:
+        """Config.derived of the run's input (for a Result read from a file, the header's
+        ``! derived:`` lines); None for an input given in ``&scene``."""
+        if self.config is not None:
+            return self.config.derived
+        return _derived_of_text(self.resolved_text)
+
+    @property
     def mode_search(self) -> dict | None:
         """How N was chosen when ``&model n_modes = 0`` (None for a fixed N): Config.mode_search;
         for a Result read from a file, the differences as its header prints them (6 digits): its
@@ -374,6 +407,18 @@ class Result:
         if self.config is not None and self.config.mode_search is not None:
             return self.config.mode_search
         return _mode_search(self.resolved_text)
+
+    def force_distance(self) -> tuple[np.ndarray, np.ndarray]:
+        """The last drive period's (tip-sample distance in m, normal contact force in N), the
+        samples with tau >= tau_end - 2 pi/Omega, straight from ``physical`` (the core's
+        series): the force-distance curve of one tap.  InputError for a Result without SI
+        series (a scene given in &scene)."""
+        if self.physical is None:
+            raise InputError("Result.force_distance: this Result has no SI series (its scene "
+                             "was not given in &physical)")
+        period = 2 * np.pi / self.scene["omega"]
+        last = self.tau >= self.tau[-1] - period * (1 + 1e-12)
+        return self.physical["distance_m"][last], self.physical["normal_force_N"][last]
 
     def save(self, path):
         """Save as .npz in the executable's binary layout (atomically); tmafm.load reads it."""
@@ -403,6 +448,38 @@ def _mode_search(text: str, differences: dict | None = None) -> dict | None:
     horizon = _HORIZON_LINE.search(text)
     return {"n_modes": int(line[1]), "quantity": line[2], "differences": differences,
             "mode_tol": float(line[4]), "mode_horizon": float(horizon[1]) if horizon else None}
+
+
+def _derived_table() -> dict:
+    """{name: unit} of the core's derived values of a physical scene, in the core's order."""
+    table = {}
+    for k in range(1, int(_api.derived_count()) + 1):
+        name, unit, _ = (_text(field) for field in _api.derived_entry(k))
+        table[name] = unit
+    return table
+
+
+#: {name: unit} of Config.derived (the core's tmafm_calibration derived_names, derived_units).
+DERIVED_UNITS = _derived_table()
+
+
+def _series_table() -> dict:
+    """{name: unit} of the core's SI series of a physical run, in the core's order."""
+    return dict((_text(name), _text(unit)) for name, unit in
+                (_api.series_entry(k) for k in range(1, int(_api.series_count()) + 1)))
+
+
+#: {name: unit} of Result.physical (the core's tmafm_physical_series series_names, series_units).
+SERIES_UNITS = _series_table()
+
+#: A derived value in a resolved text's header: '! derived: name = value unit (meaning)'.
+_DERIVED_LINE = re.compile(r"^\s*! derived: (\w+) = (\S+) ", re.MULTILINE)
+
+
+def _derived_of_text(text: str) -> dict | None:
+    """The derived values a resolved text records (None if it records none)."""
+    found = {m[1]: float(m[2]) for m in _DERIVED_LINE.finditer(text)}
+    return found or None
 
 
 def _scene_of_text(text: str) -> dict:

@@ -22,6 +22,6 @@ module tmafm_errors
    !> The caller's poll asked the run to stop (Ctrl-C in Python); nothing is kept.
    integer, parameter :: err_interrupted = 6
    !> Length of every error message buffer.
-   integer, parameter :: errmsg_len = 512
+   integer, parameter :: errmsg_len = 1024
 
 end module tmafm_errors

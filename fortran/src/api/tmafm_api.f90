@@ -18,7 +18,8 @@ module tmafm_api
       nml_document_t, parse_namelist, int_text, observe_options_t, observe_batch, observe_states, config_scales, &
       steady_harmonics, steady_evidence, observer_t, n_observables, observable_factors, obs_amplitude, obs_phase, &
       scales_t, steady_test, repeat_steps, steady_harmonic, observable_rows, n_observable_rows, &
-      observable_group_name, observable_si_factor, observable_kind_names, observable_scale_names
+      observable_group_name, observable_si_factor, observable_kind_names, observable_scale_names, &
+      stroboscopic_map, n_orbit_stats
    ! The types Python sees are named from the modules that define them, not the facade: f90wrap
    ! reads only the wrapped modules' sources and resolves a type through its defining module.
    use tmafm_config, only: config_t
@@ -34,7 +35,8 @@ module tmafm_api
       config_text_codes, model_of_config, run_config, run_sizes, run_samples, run_switches, &
       run_counters, trajectory_energy_flow, key_count, key_entry, limit_count, limit_entry, &
       batch_t, batch_add, batch_size, batch_run, observe_states_of, steady_test_of, &
-      steady_harmonic_of, namelist_syntax, observable_count, observable_entry, observable_table_factors
+      steady_harmonic_of, namelist_syntax, observable_count, observable_entry, observable_table_factors, &
+      orbit_stat_count, periodic_map_of
 
    !> Length of the error messages returned to Python.
    integer, parameter :: api_errmsg_len = errmsg_len
@@ -838,5 +840,36 @@ contains
          codes(length) = code
       end subroutine mark
    end subroutine namelist_syntax
+
+   !> Number of the statistics periodic_map_of returns per call (tmafm_monodromy stat_*).
+   function orbit_stat_count() result(n)
+      integer :: n
+      n = n_orbit_stats
+   end function orbit_stat_count
+
+   !> The stroboscopic map over n_periods drive periods from y0 at tau = 0 and its monodromy
+   !> matrix, into arrays Python made (y_end: 2N, monodromy: 2N x 2N, stats: orbit_stat_count()),
+   !> with relative tolerance rtol in contact (tmafm_monodromy).
+   subroutine periodic_map_of(model, y0, n_periods, rtol, y_end, monodromy, stats, ierr, errmsg)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: y0(:)
+      integer, intent(in) :: n_periods
+      real(dp), intent(in) :: rtol
+      real(dp), intent(inout) :: y_end(:)
+      real(dp), intent(inout) :: monodromy(:, :)
+      real(dp), intent(inout) :: stats(:)
+      integer, intent(out) :: ierr
+      character(len=api_errmsg_len), intent(out) :: errmsg
+      integer :: m
+      ierr = ok
+      errmsg = ''
+      m = 2*model%n_modes
+      call check_shape('y0', shape(y0), [m], ierr, errmsg)
+      call check_shape('y_end', shape(y_end), [m], ierr, errmsg)
+      call check_shape('monodromy', shape(monodromy), [m, m], ierr, errmsg)
+      call check_shape('stats', shape(stats), [n_orbit_stats], ierr, errmsg)
+      if (ierr /= ok) return
+      call stroboscopic_map(model, y0, n_periods, rtol, y_end, monodromy, stats, ierr, errmsg)
+   end subroutine periodic_map_of
 
 end module tmafm_api

@@ -64,3 +64,158 @@ def test_free_orbit_multipliers_are_exp_of_the_free_system():
     got = orbit.multipliers
     for mu in expected:
         assert np.min(np.abs(got - mu)) <= 1e-12 * max(1.0, abs(mu))
+
+
+# --- Periodic orbits against brute-force runs -----------------------------------------------
+
+def _brute_force(base, key_overrides, y_start, periods=300, rtol=1e-12):
+    """The state at the last period boundary of a long flight_exact run from y_start."""
+    n = len(y_start) // 2
+    obs = tmafm.observe(base, max_periods=periods, stop_at_steady=False, steady_tol=1e-12,
+                        solver={"method": "flight_exact", "rtol": rtol, "atol": 1e-16},
+                        initial={"a0": list(y_start[:n]), "adot0": list(y_start[n:])},
+                        **key_overrides)
+    return obs.final_state, obs.poincare
+
+
+def _coarse_sweep():
+    grid = np.linspace(8e-3, 0.0, 41)
+    return grid, tmafm.approach(BISTABLE, delta_hat=grid, workers=1)
+
+
+@pytest.fixture(scope="module")
+def bistable_sweep():
+    return _coarse_sweep()
+
+
+def test_bistable_approach_fold_brackets_the_sweep_jump(bistable_sweep):
+    """From the free branch towards the sample: grazing, then the fold where the approach
+    sweep jumps, within one grid step; the stable points equal brute-force steady states."""
+    grid, sweep = bistable_sweep
+    step = grid[0] - grid[1]
+    jump = np.flatnonzero(sweep["jump"].sel(direction="approach").values)
+    assert len(jump) == 1
+    before, after = grid[jump[0] - 1], grid[jump[0]]
+    # From the approach sweep's state before the jump: the free branch (a run from rest at
+    # the same offset lands on the tapping branch).
+    y0 = sweep["final_state"].sel(direction="approach").values[jump[0] - 1]
+    ds = tmafm.continuation(BISTABLE, "scene.delta_hat", before, after, y0=y0, ds=0.05,
+                            ds_max=0.1, max_points=60)
+    labels = list(ds["label"].values)
+    assert "grazing" in labels and "fold" in labels
+    fold = float(ds["scene.delta_hat"].values[labels.index("fold")])
+    assert after - step <= fold <= before + step
+    # The fold: one multiplier at +1 to the location's tolerance.
+    k = labels.index("fold")
+    mu = ds["multiplier_re"].values[k] + 1j * ds["multiplier_im"].values[k]
+    assert np.min(np.abs(mu - 1)) < 1e-5
+    # Grazing: the orbit's minimum gap through zero (relative to the stroke).
+    g = labels.index("grazing")
+    assert abs(ds["min_gap"].values[g]) < 1e-5 * ds["amplitude"].values[g]
+    # Stable points against long brute-force runs started off the orbit (1e-3 of its size).
+    stable = np.flatnonzero(ds["stable"].values & (ds["label"].values == ""))
+    for i in stable[:: max(1, len(stable) // 2)][:2]:
+        y = ds["state"].values[i, 0]
+        value = float(ds["scene.delta_hat"].values[i])
+        final, _ = _brute_force(BISTABLE, {"scene": {"delta_hat": value}},
+                                y * (1 + 1e-3), periods=200)
+        assert np.max(np.abs(final - y)) <= 1e-8 * np.max(np.abs(y))
+
+
+def test_bistable_retract_fold_on_the_period_two_branch(bistable_sweep):
+    """Back from the sample the retract sweep runs period-2 motions and jumps at the fold of
+    the period-2 branch: the fold lies within one grid step of the jump."""
+    grid, sweep = bistable_sweep
+    step = grid[0] - grid[1]
+    retract = sweep.sel(direction="retract")
+    jump = np.flatnonzero(retract["jump"].values)
+    assert len(jump) == 1
+    # Retract runs the grid backwards: a jump flagged at i lies between grid[i + 1] and grid[i].
+    low, high = grid[jump[0] + 1], grid[jump[0]]
+    two = np.flatnonzero((retract["period"].values == 2) & (grid < low))
+    start = grid[two[0]]
+    ds = tmafm.continuation(BISTABLE, "scene.delta_hat", start, high + step, period=2,
+                            y0=retract["final_state"].values[two[0]], ds=0.05, ds_max=0.2,
+                            max_points=100, switch=False)
+    labels = list(ds["label"].values)
+    assert "fold" in labels
+    fold = float(ds["scene.delta_hat"].values[labels.index("fold")])
+    assert low - step <= fold <= high + step
+    assert ds["stable"].values[0]
+
+
+def test_period_doubling_matches_the_bifurcation_diagram():
+    """Fig. 4's scene in alpha2: the period-1 branch doubles; brute-force runs are period-1
+    just below the doubling and period-2 above it, on the period-2 branch born there."""
+    config = tmafm.Config(str(Path(BISTABLE).parents[1] / "fig4a.nml"))
+    ds = tmafm.continuation(config, "scene.alpha2", 1.05e-3, 1.5e-3, ds=0.1, ds_max=0.2,
+                            max_points=60, max_period=2, settle=300)
+    labels = ds["label"].values
+    pd = np.flatnonzero((labels == "period_doubling") & (ds["period"].values == 1))
+    assert len(pd) == 1
+    value = float(ds["scene.alpha2"].values[pd[0]])
+    mu = ds["multiplier_re"].values[pd[0]] + 1j * ds["multiplier_im"].values[pd[0]]
+    assert np.min(np.abs(mu + 1)) < 1e-6
+    assert 1.05e-3 < value < 1.5e-3
+    # The period-2 branch born there reaches alpha2 = 1.5e-3: its orbit there, refined by Newton
+    # at exactly 1.5e-3, is the attractor brute force reaches from the period-1 orbit.
+    two = np.flatnonzero(ds["period"].values == 2)
+    assert len(two) > 0
+    last = two[np.argmax(ds["scene.alpha2"].values[two])]
+    model = tmafm.Model(config, scene={"alpha2": 1.5e-3})
+    orbit = cont.periodic_orbit(model, ds["state"].values[last, :2], period=2)
+    assert orbit.stable
+    start = ds["state"].values[pd[0], 0]
+    _, poincare = _brute_force(config, {"scene": {"alpha2": 1.5e-3}}, start, periods=150,
+                               rtol=1e-11)
+    scale = np.max(np.abs(orbit.states))
+    for row in poincare[-2:]:
+        assert np.min(np.max(np.abs(orbit.states - row), axis=1)) <= 1e-7 * scale
+    # and below the doubling (the branch's start, its multipliers within 0.9: 250 periods
+    # shrink the 1e-3 start error below 1e-12), brute force reaches the period-1 orbit.
+    assert ds["stable"].values[0] and ds["period"].values[0] == 1
+    below = ds["state"].values[0, 0]
+    _, poincare = _brute_force(config, {"scene": {"alpha2": 1.05e-3}}, below * 1.001, periods=250,
+                               rtol=1e-11)
+    assert np.max(np.abs(poincare[-1] - below)) <= 1e-7 * scale
+
+
+# --- Reproducibility --------------------------------------------------------------------
+
+def test_branch_through_a_fold_is_reproducible_and_independent_of_workers():
+    """A branch through the approach fold and back, twice in this process and once with each
+    branch in its own process: the Datasets are identical to the bit."""
+    kwargs = dict(ds=0.05, ds_max=0.05, max_points=24, switch=False)
+    y0 = tmafm.continuation.periodic_orbit(
+        tmafm.Model(BISTABLE, scene={"delta_hat": 1.995e-3}), np.zeros(4)).states[0]
+    runs = [tmafm.continuation(BISTABLE, "scene.delta_hat", 1.995e-3, 1.975e-3, y0=[y0, y0 * 1.01],
+                               workers=w, **kwargs) for w in (1, 1, 2)]
+    assert "fold" in list(runs[0]["label"].values)
+    assert runs[0].identical(runs[1])
+    assert runs[0].identical(runs[2])
+
+
+# --- Bad arguments raise typed exceptions ------------------------------------------------
+
+@pytest.mark.parametrize("call, error", [
+    (lambda: tmafm.continuation(BISTABLE, "scene.nope", 0.0, 1e-3), tmafm.InputError),
+    (lambda: tmafm.continuation(BISTABLE, "scene.delta_hat", 1e-3, 1e-3), tmafm.InputError),
+    (lambda: tmafm.continuation(BISTABLE, "scene.delta_hat", "a", 1e-3), tmafm.InputTypeError),
+    (lambda: tmafm.continuation(BISTABLE, "scene.delta_hat", 0.0, 1e-3, period=0),
+     tmafm.InputTypeError),
+    (lambda: tmafm.continuation(BISTABLE, "scene.delta_hat", 0.0, 1e-3, y0=[1.0, 2.0]),
+     tmafm.InputError),
+    (lambda: tmafm.continuation(BISTABLE, "scene.delta_hat", 0.0, 1e-3, workers="x"),
+     tmafm.InputTypeError),
+    (lambda: tmafm.continuation(BISTABLE, "scene.alpha2", 0.0, -1.0), tmafm.InputError),
+    (lambda: tmafm.continuation(BISTABLE, "scene.delta_hat", 0.0, 1e-3, rtol=-1),
+     tmafm.InputError),
+    (lambda: cont.periodic_map(tmafm.Model(BISTABLE), np.zeros(4), 0), tmafm.InputTypeError),
+    (lambda: cont.periodic_map(tmafm.Model(BISTABLE), np.zeros(3)), tmafm.InputError),
+    (lambda: cont.periodic_map(tmafm.Model(BISTABLE), [np.nan] * 4), tmafm.InputError),
+    (lambda: cont.periodic_orbit(tmafm.Model(BISTABLE), np.zeros(4), period=2.5),
+     tmafm.InputTypeError),
+])
+def test_bad_arguments_raise_typed_errors(call, error):
+    with pytest.raises(error):
+        call()

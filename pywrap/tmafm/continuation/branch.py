@@ -11,7 +11,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._model import Model
-from ..errors import SolverError
+from .._run import Config
+from ..errors import InputError, SolverError
 from ..sweeps.points import _config
 from .shooting import (_jacobian, _merge_stats, _residual, floquet_multipliers, periodic_map)
 
@@ -40,6 +41,10 @@ class Problem:
     def __init__(self, base: dict, key: str, n_modes: int, period: int, rtol: float,
                  l0: float, ls: float, sx: float):
         self.base, self.key, self.period, self.rtol = base, key, period, rtol
+        # The base as a Config of this process: each value patches it (the core reads the
+        # override, as tmafm.Config(config, scene={...}) does).
+        self._config = _config(base, {})
+        self._group, self._name = key.split(".")
         self.m = 2 * n_modes
         self.l0, self.ls, self.sx = l0, ls, sx
         self._models: dict = {}
@@ -47,7 +52,7 @@ class Problem:
     def model(self, value: float) -> Model:
         model = self._models.get(value)
         if model is None:
-            model = Model(_config(self.base, {self.key: float(value)}))
+            model = Model(Config(self._config, **{self._group: {self._name: float(value)}}))
             if len(self._models) > 64:
                 self._models.clear()
             self._models[value] = model
@@ -63,18 +68,20 @@ class Problem:
         model = self.model(value)
         return [periodic_map(model, x, 1, self.rtol) for x in states]
 
-    def system(self, u: np.ndarray):
-        """Scaled residual F(u) and its Jacobian [dF/dX~, dF/dlambda~] (the lambda column by a
-        central difference of the core's map), and the maps at u."""
+    def residual(self, u: np.ndarray):
+        """The scaled residual F(u), dF/dX~ and the maps at u."""
         states, value = self.unpack(u)
         maps = self.maps(states, value)
-        res = _residual(maps, states) / self.sx
-        jx = _jacobian(maps)
+        return _residual(maps, states) / self.sx, _jacobian(maps), maps
+
+    def lambda_column(self, u: np.ndarray) -> np.ndarray:
+        """dF/dlambda~ at u, by a central difference of the core's map in the key (a step of
+        1e-6 of the parameter's scale)."""
+        states, value = self.unpack(u)
         h = 1e-6 * self.ls
         plus = _residual(self.maps(states, value + h), states)
         minus = _residual(self.maps(states, value - h), states)
-        jl = (plus - minus) / (2 * h) * self.ls / self.sx
-        return res, np.column_stack([jx, jl]), maps
+        return (plus - minus) / (2 * h) * self.ls / self.sx
 
 
 def _tangent(jac: np.ndarray, previous: np.ndarray | None) -> np.ndarray:
@@ -94,13 +101,23 @@ def _tangent(jac: np.ndarray, previous: np.ndarray | None) -> np.ndarray:
 
 def correct(problem: Problem, u_pred: np.ndarray, direction: np.ndarray, tol: float,
             max_iter: int = 12):
-    """Newton on (F(u) = 0, direction.(u - u_pred) = 0) from u_pred.  Returns (u, jac, maps,
-    iterations) or None if it does not converge."""
+    """Newton on (F(u) = 0, direction.(u - u_pred) = 0) from u_pred, with dF/dlambda taken once
+    at u_pred (a chord in that column only).  Converged when the Newton step and the residual
+    are below tol; returns (u, jacobian, maps, iterations), the Jacobian and maps those of the
+    last iterate (within tol of u), or None if it does not converge."""
     u = u_pred.copy()
+    try:
+        column = problem.lambda_column(u)
+    except (InputError, SolverError):  # the key out of its range, or the map failed
+        return None
     for it in range(1, max_iter + 1):
-        res, jac, maps = problem.system(u)
+        try:
+            res, jx, maps = problem.residual(u)
+        except (InputError, SolverError):
+            return None
         if not np.all(np.isfinite(res)):
             return None
+        jac = np.column_stack([jx, column])
         full = np.vstack([jac, direction])
         rhs = -np.concatenate([res, [direction @ (u - u_pred)]])
         try:
@@ -109,11 +126,8 @@ def correct(problem: Problem, u_pred: np.ndarray, direction: np.ndarray, tol: fl
             return None
         u = u + du
         if np.max(np.abs(du)) <= tol and np.max(np.abs(res)) <= 10 * tol:
-            res, jac, maps = problem.system(u)
-            if np.max(np.abs(res)) > 100 * tol:
-                return None
             return u, jac, maps, it
-        if np.max(np.abs(du)) > 1e3:
+        if not np.all(np.isfinite(du)) or np.max(np.abs(du)) > 1e3:
             return None
     return None
 
@@ -167,51 +181,58 @@ def detect(a: Point, b: Point) -> list[str]:
 
 def locate(problem: Problem, a: Point, b: Point, kind: str, tol: float, loc_tol: float):
     """The special point `kind` between a and b, by the Illinois method on the arclength sigma
-    from a along a's tangent (bisection for grazing, whose test is a count)."""
+    from a along a's tangent.  Grazing: on the orbit's minimum gap when the orbit starts or
+    stops touching, by bisection on the count of contacts otherwise."""
     ds_total = float(a.tangent @ (b.u - a.u))
+    counts = (a.stats["contacts"], b.stats["contacts"])
+    by_count = kind == "grazing" and min(counts) > 0
 
     def at(sigma: float) -> Point | None:
-        out = correct(problem, a.u + sigma * a.tangent, a.tangent, tol)
+        out = correct(problem, a.u + sigma * a.tangent, a.tangent, tol, max_iter=30)
         if out is None:
             return None
         return make_point(problem, *out[:3], a.tangent, a.branch)
 
     def value(p: Point) -> float:
-        t = _tests(p)[kind]
-        return t - 0.5 * (_tests(a)["grazing"] + _tests(b)["grazing"]) if kind == "grazing" else t
+        if kind == "grazing":
+            if by_count:
+                return p.stats["contacts"] - 0.5 * sum(counts)
+            return p.stats["gap_min"]
+        return _tests(p)[kind]
 
     lo, hi = 0.0, ds_total
     flo, fhi = value(a), value(b)
     best = None
     side = 0
-    for _ in range(80):
+    for _ in range(100):
         if abs(hi - lo) <= loc_tol:
             break
-        if kind == "grazing":
+        if by_count:
             mid = 0.5 * (lo + hi)
         else:
             mid = hi - fhi * (hi - lo) / (fhi - flo) if fhi != flo else 0.5 * (lo + hi)
             if not (min(lo, hi) < mid < max(lo, hi)):
                 mid = 0.5 * (lo + hi)
         p = at(mid)
-        if p is None:
-            return best
+        if p is None:  # Newton failed: try the middle of the bracket instead
+            mid = 0.5 * (lo + hi)
+            p = at(mid)
+            if p is None:
+                break
         fm = value(p)
         best = p
         if fm == 0:
             break
         if (fm < 0) == (flo < 0):
             lo, flo = mid, fm
-            if side == -1 and kind != "grazing":
+            if side == -1 and not by_count:
                 fhi /= 2
             side = -1
         else:
             hi, fhi = mid, fm
-            if side == 1 and kind != "grazing":
+            if side == 1 and not by_count:
                 flo /= 2
             side = 1
-        if kind != "grazing" and abs(fm) <= tol:
-            break
     if best is not None:
         best.label = kind
     return best
@@ -219,10 +240,15 @@ def locate(problem: Problem, a: Point, b: Point, kind: str, tol: float, loc_tol:
 
 def follow(problem: Problem, first: Point, stop_value: float, *, ds: float, ds_min: float,
            ds_max: float, max_points: int, tol: float, loc_tol: float, bounds: tuple,
-           branch: int, progress=None) -> list[Point]:
+           branch: int, progress=None, doubled: bool = False) -> list[Point]:
     """The branch from `first` along its tangent until `stop_value` is passed, the parameter
-    leaves `bounds`, or max_points points; special points are inserted where located."""
+    leaves `bounds`, or max_points points; special points are inserted where located.
+    doubled: a branch born at a period doubling, which ends where it meets its parent again
+    (the difference between its two halves, having grown past twice its size at the start,
+    comes back below it: past that lies the same orbit with its halves swapped)."""
     points = [first]
+    size0 = np.linalg.norm(halves(first)) if doubled else 0.0
+    grown = False
     current = first
     h = ds
     lo, hi = bounds
@@ -239,6 +265,12 @@ def follow(problem: Problem, first: Point, stop_value: float, *, ds: float, ds_m
         if nxt.tangent @ current.tangent < 0.8 and h > ds_min:
             h *= 0.5
             continue
+        if doubled:
+            size = np.linalg.norm(halves(nxt))
+            grown = grown or size > 2 * size0
+            if grown and size < size0:
+                current.label = current.label or "end"
+                break
         for kind in detect(current, nxt):
             special = locate(problem, current, nxt, kind, tol, loc_tol)
             if special is not None:
@@ -247,13 +279,20 @@ def follow(problem: Problem, first: Point, stop_value: float, *, ds: float, ds_m
         if progress is not None:
             progress()
         current = nxt
-        if iterations <= 3:
+        if iterations <= 4:
             h = min(h * 1.5, ds_max)
-        elif iterations >= 7:
+        elif iterations >= 9:
             h = max(h * 0.5, ds_min)
         if not (lo <= nxt.value <= hi):
             break
     return points
+
+
+def halves(p: Point) -> np.ndarray:
+    """The difference between the two halves of a period-2n orbit: zero on the doubled
+    period-n orbit."""
+    h = len(p.states) // 2
+    return np.ravel(p.states[:h] - p.states[h:])
 
 
 def start_point(problem: Problem, states: np.ndarray, value: float, tol: float, branch: int,

@@ -81,23 +81,43 @@ def _branch_task(args):
     common = dict(ds=ds, ds_min=ds * 1e-4, ds_max=options["ds_max"], tol=options["tol"],
                   loc_tol=options["loc_tol"], bounds=bounds)
     first = start_point(problem, states, start, options["tol"], branch_id, math.copysign(1.0, span))
-    todo = [(problem, first, options["max_points"])]
+    todo = [(problem, first, False)]
     records = []
+    born = []  # (period, the switched branch's points): its ends meet the parent's doublings
     branch = branch_id
     while todo:
-        prob, head, budget = todo.pop(0)
+        prob, head, doubled = todo.pop(0)
         head.branch = branch
-        points = follow(prob, head, stop, max_points=budget, branch=branch, **common)
+        points = follow(prob, head, stop, max_points=options["max_points"], branch=branch,
+                        doubled=doubled, **common)
         points[-1].label = points[-1].label or "end"
         records.extend(_record(prob, p, m) for p in points)
+        if doubled:
+            born.append((prob.period, points))
         if options["switch"] and prob.period < options["max_period"]:
             for p in points:
-                if p.label == "period_doubling":
-                    doubled, new = switch_period_doubling(prob, p, options["tol"], ds, make_problem)
+                if p.label == "period_doubling" and not _reached(born, 2 * prob.period, p, prob):
+                    doubled_problem, new = switch_period_doubling(prob, p, options["tol"], ds,
+                                                                  make_problem)
                     if new is not None:
-                        todo.append((doubled, new, options["max_points"]))
+                        todo.append((doubled_problem, new, True))
+                        born.append((2 * prob.period, [new]))
         branch += 1000
     return records
+
+
+def _reached(born: list, period: int, pd, problem) -> bool:
+    """Whether a period-`period` branch already switched to ends at the doubling pd (the
+    branch that links two doublings of its parent is followed once, from the first)."""
+    target = np.concatenate([pd.states, pd.states])
+    for n, points in born:
+        if n != period:
+            continue
+        for p in (points[0], points[-1]):
+            gap = np.max(np.abs(p.states - target)) / problem.sx
+            if abs(p.value - pd.value) <= 0.05 * problem.ls and gap <= 0.05:
+                return True
+    return False
 
 
 def _record(problem: Problem, p, m: int) -> dict:

@@ -53,8 +53,9 @@ def plot_branch(ds, path, variable="amplitude", sweep=None, sweep_variable=None,
         name = sweep_variable or variable
         y = np.asarray(sweep[name])
         x = np.asarray(sweep[key])
-        x = np.broadcast_to(x.reshape((-1,) + (1,) * (y.ndim - 1)) if y.shape[0] == x.size
-                            else x, y.shape) if y.ndim > 1 and y.shape[0] == x.size else np.broadcast_to(x, y.shape)
+        if y.ndim > 1 and y.shape[0] == x.size:  # (key, kept): a bifurcation diagram
+            x = x.reshape((-1,) + (1,) * (y.ndim - 1))
+        x = np.broadcast_to(x, y.shape)  # (direction, key): an approach or frequency sweep
         ax.plot(x.ravel(), y.ravel(), ".", color="0.6", ms=3, label=f"brute force ({name})")
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for k, b in enumerate(np.unique(ds["branch"])):

@@ -28,31 +28,42 @@ contains
       real(dp), intent(in) :: y(:)
       logical, intent(in) :: in_contact
       real(dp), intent(out) :: jac(:, :)
-      real(dp) :: vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt, sin_phase
-      integer :: n, j
-      real(dp) :: lever(model%n_modes)
+      real(dp) :: vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt, sin_phase, lever, row1, row2
+      integer :: n, i, j
 
       n = model%n_modes
       jac = 0
       do j = 1, n
          jac(j, n + j) = 1
+         do i = 1, n
+            jac(n + i, j) = -model%inv_mass_eigen(i, j)
+            jac(n + i, n + j) = -model%scene%alpha3*model%inv_mass(i, j)
+         end do
       end do
-      jac(n + 1:2*n, 1:n) = -model%inv_mass_eigen
-      jac(n + 1:2*n, n + 1:2*n) = -model%scene%alpha3*model%inv_mass
       if (.not. in_contact) return
       associate (s => model%scene)
          sin_phase = sin(s%omega*tau)
-         vt = dot_product(model%tip, y(1:n)) + s%alpha2*sin_phase + s%delta_hat
-         slope = dot_product(model%scaled_slope, y(1:n))
+         vt = s%alpha2*sin_phase + s%delta_hat
+         slope = 0
+         do j = 1, n
+            vt = vt + model%tip(j)*y(j)
+            slope = slope + model%scaled_slope(j)*y(j)
+         end do
          call contact_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
-         ! lever = (g0/d) M^-1 r + M^-1 G a: what P2 multiplies.
-         lever = model%moment_force + matmul(model%inv_mass_axial, y(1:n))
-         jac(n + 1:2*n, 1:n) = jac(n + 1:2*n, 1:n) + p2*model%inv_mass_axial &
-            + s%l_over_d*spread(model%inv_mass_tip, 2, n) &
-            *spread(dp1_dvt*model%tip + dp1_dt*model%scaled_slope, 1, n) &
-            + spread(lever, 2, n)*spread(dp2_dvt*model%tip + dp2_dt*model%scaled_slope, 1, n)
-         jac(n + 1:2*n, n + 1:2*n) = jac(n + 1:2*n, n + 1:2*n) &
-            - s%alpha4*spread(model%inv_mass_tip, 2, n)*spread(model%tip, 1, n)
+         do i = 1, n
+            ! lever = (g0/d) M^-1 r + M^-1 G a: what P2 multiplies.
+            lever = model%moment_force(i)
+            do j = 1, n
+               lever = lever + model%inv_mass_axial(i, j)*y(j)
+            end do
+            do j = 1, n
+               row1 = dp1_dvt*model%tip(j) + dp1_dt*model%scaled_slope(j)
+               row2 = dp2_dvt*model%tip(j) + dp2_dt*model%scaled_slope(j)
+               jac(n + i, j) = jac(n + i, j) + p2*model%inv_mass_axial(i, j) &
+                               + s%l_over_d*model%inv_mass_tip(i)*row1 + lever*row2
+               jac(n + i, n + j) = jac(n + i, n + j) - s%alpha4*model%inv_mass_tip(i)*model%tip(j)
+            end do
+         end do
       end associate
    end subroutine model_jacobian
 

@@ -445,12 +445,24 @@ contains
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: z(:)
       real(dp), intent(out) :: dz(:)
-      integer :: m, j
+      integer :: m, i, j, k
+      real(dp) :: acc
       m = w%m
       call model%derivative(tau, z(1:m), .true., dz(1:m))
       call model_jacobian(model, tau, z(1:m), .true., w%jac)
+      ! dPhi = J Phi, column by column (Phi(:, j) at z(m + (j - 1) m + 1:)); the top half of
+      ! J is [0 I], so the first m/2 rows are copies.
       do j = 1, m
-         dz(m + (j - 1)*m + 1:m + j*m) = matmul(w%jac, z(m + (j - 1)*m + 1:m + j*m))
+         do i = 1, m/2
+            dz(m + (j - 1)*m + i) = z(m + (j - 1)*m + m/2 + i)
+         end do
+         do i = m/2 + 1, m
+            acc = 0
+            do k = 1, m
+               acc = acc + w%jac(i, k)*z(m + (j - 1)*m + k)
+            end do
+            dz(m + (j - 1)*m + i) = acc
+         end do
       end do
       w%evaluations = w%evaluations + 1
    end subroutine augmented

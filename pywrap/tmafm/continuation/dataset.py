@@ -14,7 +14,7 @@ from ..sweeps.executors import _check_run, _dask_results, _process_pool, _progre
 from ..sweeps.points import _base_config, _base_dict, _config, _split_key
 from ..sweeps.runs import _observe_one
 from .branch import Problem, follow, start_point, switch_period_doubling
-from .shooting import DEFAULT_RTOL, _positive_int, _state, _tolerance, state_scale
+from .shooting import _positive_int, _state, _tolerance, state_scale
 
 #: Per-orbit observables (model units; lengths in gap units d, times in units of tau).
 OBSERVABLES = {
@@ -135,7 +135,7 @@ def _record(problem: Problem, p, m: int) -> dict:
 
 
 def continuation(base, key, start, stop, *, y0=None, period=1, ds=None, ds_max=None,
-                 max_points=200, rtol=DEFAULT_RTOL, tol=1e-9, loc_tol=1e-9, switch=True,
+                 max_points=200, rtol=1e-10, tol=1e-9, loc_tol=1e-9, switch=True,
                  max_period=8, settle=400, workers=None, client=None, progress=False):
     """Continue periodic orbits of `base` in `key` from `start` towards `stop`.
 

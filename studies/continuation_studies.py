@@ -49,8 +49,14 @@ def bistable():
         # between grid[i - 1] and grid[i] (approach), grid[i + 1] and grid[i] (retract).
         jumps[direction] = [[float(grid[i - 1]), float(grid[i])] if direction == "approach"
                             else [float(grid[i + 1]), float(grid[i])] for i in idx]
-    fig, ax = plots._pyplot().subplots(figsize=(6.4, 4.2))
-    plots.plot_branch(ds, None, "amplitude", sweep=sweep, ax=ax)
+    fig, axes = plots._pyplot().subplots(1, 2, figsize=(11, 4.2))
+    # The orbit's smallest V_T: the same quantity as the sweep's min_gap (docs/observables.md);
+    # the whole interval, and the bistable part enlarged.
+    for ax in axes:
+        plots.plot_branch(ds, None, "min_gap", sweep=sweep, ax=ax)
+    axes[1].set_xlim(1.8e-3, 4.3e-3)
+    axes[1].set_ylim(-8e-4, 1e-4)
+    fig.tight_layout()
     plots._save(fig, REPO / "docs" / "figures" / "continuation_bistable.png")
     return {"command": "tmafm.continuation(bistable_n2, 'scene.delta_hat', 8e-3, 0, "
                        "max_points=400) against tmafm.approach(bistable_n2, 201 points)",

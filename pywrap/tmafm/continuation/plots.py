@@ -58,6 +58,7 @@ def plot_branch(ds, path, variable="amplitude", sweep=None, sweep_variable=None,
         x = np.broadcast_to(x, y.shape)  # (direction, key): an approach or frequency sweep
         ax.plot(x.ravel(), y.ravel(), ".", color="0.6", ms=3, label=f"brute force ({name})")
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    shown = set()
     for k, b in enumerate(np.unique(ds["branch"])):
         sel = ds.where(ds["branch"] == b, drop=True)
         x = np.asarray(sel[key])
@@ -74,7 +75,8 @@ def plot_branch(ds, path, variable="amplitude", sweep=None, sweep_variable=None,
             hit = labels == lab
             if hit.any():
                 ax.plot(x[hit], ys[hit, 0], marker, mfc="none", color="k", ms=7,
-                        label=text if k == 0 else None)
+                        label=None if lab in shown else text)
+                shown.add(lab)
     ax.set_xlabel(key)
     unit = ds[variable].attrs.get("units", "")
     ax.set_ylabel(f"{variable} [{unit}]" if unit and unit != "1" else variable)

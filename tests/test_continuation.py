@@ -219,3 +219,17 @@ def test_branch_through_a_fold_is_reproducible_and_independent_of_workers():
 def test_bad_arguments_raise_typed_errors(call, error):
     with pytest.raises(error):
         call()
+
+
+def test_si_observables_of_a_physical_input():
+    """A physical key (&physical drive_amplitude) is continued like any other, and the length
+    observables come in SI-derived units too: times the gap d of the input (5 um = 5000 nm)."""
+    base = tmafm.Config("physical_polystyrene")
+    f = base.to_dict()["physical"]["drive_amplitude"]
+    gap = base.to_dict()["physical"]["gap"]
+    ds = tmafm.continuation(base, "physical.drive_amplitude", f, 1.02 * f, max_points=3,
+                            switch=False, settle=150)
+    assert ds["min_gap_si"].attrs["units"] == "nm"
+    np.testing.assert_allclose(ds["min_gap_si"].values, ds["min_gap"].values * gap * 1e9,
+                               rtol=1e-14)
+    assert np.all(np.diff(ds["physical.drive_amplitude"].values) > 0)

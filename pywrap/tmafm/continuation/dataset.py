@@ -206,6 +206,25 @@ def continuation(base, key, start, stop, *, y0=None, period=1, ds=None, ds_max=N
     return _dataset(xr, records, key, n_modes, base_config, options, start, stop)
 
 
+#: The observables that are lengths (gap units d), converted as the core's min_gap row is.
+_LENGTHS = ("amplitude", "min_gap", "max_gap", "flight_gap_min")
+
+
+def _si_factors(config) -> dict:
+    """{name: (factor, unit)} for the length observables when the input gives &physical: the
+    core's factor of its min_gap row (tmafm_api observable_table_factors: the gap d in the
+    SI-derived unit), else {}."""
+    from .._fortran import OBSERVABLE_TABLE, api
+    if "physical" not in config.to_dict():
+        return {}
+    factors = np.zeros(len(OBSERVABLE_TABLE), order="F")
+    ierr, errmsg = api.observable_table_factors(config._f, factors)
+    if ierr:
+        return {}
+    row = next(k for k, r in enumerate(OBSERVABLE_TABLE) if r["name"] == "min_gap")
+    return {name: (float(factors[row]), OBSERVABLE_TABLE[row]["si_unit"]) for name in _LENGTHS}
+
+
 def _dataset(xr, records, key, n_modes, base_config, options, start, stop):
     m = 2 * n_modes
     n = len(records)
@@ -230,6 +249,9 @@ def _dataset(xr, records, key, n_modes, base_config, options, start, stop):
     for name, (meaning, unit) in OBSERVABLES.items():
         data[name] = ("point", np.array([r[name] for r in records], dtype=float),
                       {"long_name": meaning, "units": unit})
+    for name, (factor, unit) in _si_factors(base_config).items():
+        data[f"{name}_si"] = ("point", data[name][1] * factor,
+                              {"long_name": f"{name} in SI-derived units", "units": unit})
     ds = xr.Dataset(data, coords={key: ("point", np.array([r["value"] for r in records])),
                                   "point": np.arange(n)})
     ds.attrs.update({"tmafm_kind": "continuation", "key": key, "start": start, "stop": stop,

@@ -224,7 +224,17 @@ def _check_basin(ns, seen, out):
     assert "switch chatter" in ds.attrs["first_failure"]
 
 
+def _check_continuation(ns, seen, out):
+    ds = ns["ds"]
+    one = ds.where(ds["period"] == 1, drop=True)
+    labels = list(one["label"].values)
+    assert "grazing" in labels and labels.count("fold") == 2
+    assert (ds["period"] == 2).any()
+    assert ns["orbit"].stable and ns["orbit"].stats["contacts"] == 2
+
+
 BLOCKS = {
+    ("docs/continuation.md", "import tmafm"): Block(check=_check_continuation),
     ("README.md", "import tmafm"): Block(
         setup="import numpy as np\n"
               "tau, in_contact = 1.0, False\n"

@@ -26,6 +26,9 @@ def __getattr__(name):
     if name in _SWEEPS:
         from . import sweeps
         return getattr(sweeps, name)
+    if name == "continuation":  # the package, callable as tmafm.continuation(base, key, ...)
+        import importlib
+        return importlib.import_module(".continuation", __name__)
     raise AttributeError(f"module 'tmafm' has no attribute {name!r}")
 
 try:
@@ -39,4 +42,4 @@ __all__ = ["run", "resolve", "load", "Config", "Model", "Result", "ContactState"
            "TmafmError", "InputError",
            "InputTypeError", "InputFileError", "SolverError", "BlowUpError", "TmafmWarning",
            "UnsteadyWarning", "__version__",
-           "sweep", "approach", "frequency_sweep", "bifurcation", "basin"]
+           "sweep", "approach", "frequency_sweep", "bifurcation", "basin", "continuation"]

@@ -20,7 +20,8 @@ module tmafm_api
       scales_t, steady_test, repeat_steps, steady_harmonic, observable_rows, n_observable_rows, &
       observable_group_name, observable_si_factor, observable_kind_names, observable_scale_names, &
       physical_derived, derived_names, derived_units, derived_meanings, n_derived, config_errata, &
-      physical_series, n_series, series_names, series_units
+      physical_series, n_series, series_names, series_units, &
+      stroboscopic_map, n_orbit_stats
    ! The types Python sees are named from the modules that define them, not the facade: f90wrap
    ! reads only the wrapped modules' sources and resolves a type through its defining module.
    use tmafm_config, only: config_t
@@ -37,7 +38,8 @@ module tmafm_api
       run_counters, trajectory_energy_flow, key_count, key_entry, limit_count, limit_entry, &
       batch_t, batch_add, batch_size, batch_run, observe_states_of, steady_test_of, &
       steady_harmonic_of, namelist_syntax, observable_count, observable_entry, observable_table_factors, &
-      derived_count, derived_entry, config_derived, series_count, series_entry, run_physical_series
+      derived_count, derived_entry, config_derived, series_count, series_entry, run_physical_series, &
+      orbit_stat_count, periodic_map_of
 
    !> Length of the error messages returned to Python.
    integer, parameter :: api_errmsg_len = errmsg_len
@@ -916,5 +918,36 @@ contains
          codes(length) = code
       end subroutine mark
    end subroutine namelist_syntax
+
+   !> Number of the statistics periodic_map_of returns per call (tmafm_monodromy stat_*).
+   function orbit_stat_count() result(n)
+      integer :: n
+      n = n_orbit_stats
+   end function orbit_stat_count
+
+   !> The stroboscopic map over n_periods drive periods from y0 at tau = 0 and its monodromy
+   !> matrix, into arrays Python made (y_end: 2N, monodromy: 2N x 2N, stats: orbit_stat_count()),
+   !> with relative tolerance rtol in contact (tmafm_monodromy).
+   subroutine periodic_map_of(model, y0, n_periods, rtol, y_end, monodromy, stats, ierr, errmsg)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: y0(:)
+      integer, intent(in) :: n_periods
+      real(dp), intent(in) :: rtol
+      real(dp), intent(inout) :: y_end(:)
+      real(dp), intent(inout) :: monodromy(:, :)
+      real(dp), intent(inout) :: stats(:)
+      integer, intent(out) :: ierr
+      character(len=api_errmsg_len), intent(out) :: errmsg
+      integer :: m
+      ierr = ok
+      errmsg = ''
+      m = 2*model%n_modes
+      call check_shape('y0', shape(y0), [m], ierr, errmsg)
+      call check_shape('y_end', shape(y_end), [m], ierr, errmsg)
+      call check_shape('monodromy', shape(monodromy), [m, m], ierr, errmsg)
+      call check_shape('stats', shape(stats), [n_orbit_stats], ierr, errmsg)
+      if (ierr /= ok) return
+      call stroboscopic_map(model, y0, n_periods, rtol, y_end, monodromy, stats, ierr, errmsg)
+   end subroutine periodic_map_of
 
 end module tmafm_api

@@ -1,0 +1,352 @@
+"""Pseudo-arclength continuation of periodic orbits in one scalar input key, with detection and
+location of folds, period doublings (and the switch to the doubled branch), Neimark-Sacker
+pairs and grazing (docs/continuation.md).  The orbits, their Jacobians and their multipliers
+come from the core through tmafm.continuation.shooting; this module only orchestrates."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._model import Model
+from .._run import Config
+from ..errors import InputError, SolverError
+from ..sweeps.points import _config
+from .shooting import (_jacobian, _merge_stats, _residual, floquet_multipliers, periodic_map)
+
+#: Labels of special points.
+LABELS = ("", "start", "end", "fold", "period_doubling", "neimark_sacker", "grazing")
+
+
+@dataclass
+class Point:
+    """One corrected point of a branch (scaled unknowns u = (X / sx, (lambda - l0) / ls))."""
+
+    u: np.ndarray
+    tangent: np.ndarray
+    value: float
+    states: np.ndarray
+    monodromies: list
+    stats: dict
+    multipliers: np.ndarray = field(default=None)
+    label: str = ""
+    branch: int = 0
+
+
+class Problem:
+    """The periodic orbits of period n of base with `key` free: R(X, lambda) = 0."""
+
+    def __init__(self, base: dict, key: str, n_modes: int, period: int, rtol: float,
+                 l0: float, ls: float, sx: float):
+        self.base, self.key, self.period, self.rtol = base, key, period, rtol
+        # The base as a Config of this process: each value patches it (the core reads the
+        # override, as tmafm.Config(config, scene={...}) does).
+        self._config = _config(base, {})
+        self._group, self._name = key.split(".")
+        self.m = 2 * n_modes
+        self.l0, self.ls, self.sx = l0, ls, sx
+        self._models: dict = {}
+
+    def model(self, value: float) -> Model:
+        model = self._models.get(value)
+        if model is None:
+            model = Model(Config(self._config, **{self._group: {self._name: float(value)}}))
+            if len(self._models) > 64:
+                self._models.clear()
+            self._models[value] = model
+        return model
+
+    def unpack(self, u: np.ndarray) -> tuple[np.ndarray, float]:
+        return u[:-1].reshape(self.period, self.m) * self.sx, self.l0 + u[-1] * self.ls
+
+    def pack(self, states: np.ndarray, value: float) -> np.ndarray:
+        return np.concatenate([np.ravel(states) / self.sx, [(value - self.l0) / self.ls]])
+
+    def maps(self, states: np.ndarray, value: float) -> list:
+        model = self.model(value)
+        return [periodic_map(model, x, 1, self.rtol) for x in states]
+
+    def residual(self, u: np.ndarray):
+        """The scaled residual F(u), dF/dX~ and the maps at u."""
+        states, value = self.unpack(u)
+        maps = self.maps(states, value)
+        return _residual(maps, states) / self.sx, _jacobian(maps), maps
+
+    def lambda_column(self, u: np.ndarray, maps: list) -> np.ndarray:
+        """dF/dlambda~ at u, by a forward difference of the core's map in the key (a step of
+        1e-6 of the parameter's scale; `maps` are the maps at u).  Its O(h) error slows
+        Newton's convergence only (the residual is exact), and a fold's location does not
+        depend on it (there the null vector has no lambda part)."""
+        states, value = self.unpack(u)
+        h = 1e-6 * self.ls
+        plus = _residual(self.maps(states, value + h), states)
+        return (plus - _residual(maps, states)) / h * self.ls / self.sx
+
+
+def _tangent(jac: np.ndarray, previous: np.ndarray | None) -> np.ndarray:
+    """The unit null vector of the n x (n+1) Jacobian, oriented along `previous`."""
+    if previous is None:
+        _, _, vt = np.linalg.svd(jac)
+        t = vt[-1]
+        if t[-1] < 0:
+            t = -t
+    else:
+        t = np.linalg.solve(np.vstack([jac, previous]), np.concatenate([np.zeros(len(jac)), [1.0]]))
+        t /= np.linalg.norm(t)
+        if t @ previous < 0:
+            t = -t
+    return t
+
+
+def correct(problem: Problem, u_pred: np.ndarray, direction: np.ndarray, tol: float,
+            max_iter: int = 12):
+    """Newton on (F(u) = 0, direction.(u - u_pred) = 0) from u_pred, with dF/dlambda taken once
+    at u_pred (a chord in that column only).  Converged when the Newton step and the residual
+    are below tol; returns (u, jacobian, maps, iterations), the Jacobian and maps those of the
+    last iterate (within tol of u), or None if it does not converge."""
+    u = u_pred.copy()
+    column = None
+    for it in range(1, max_iter + 1):
+        try:
+            res, jx, maps = problem.residual(u)
+            if column is None:
+                column = problem.lambda_column(u, maps)
+        except (InputError, SolverError):  # the key out of its range, or the map failed
+            return None
+        if not np.all(np.isfinite(res)):
+            return None
+        jac = np.column_stack([jx, column])
+        full = np.vstack([jac, direction])
+        rhs = -np.concatenate([res, [direction @ (u - u_pred)]])
+        try:
+            du = np.linalg.solve(full, rhs)
+        except np.linalg.LinAlgError:
+            return None
+        u = u + du
+        if np.max(np.abs(du)) <= tol and np.max(np.abs(res)) <= 10 * tol:
+            return u, jac, maps, it
+        if not np.all(np.isfinite(du)) or np.max(np.abs(du)) > 1e3:
+            return None
+    return None
+
+
+def make_point(problem: Problem, u, jac, maps, previous_tangent, branch) -> Point:
+    states, value = problem.unpack(u)
+    t = _tangent(jac, previous_tangent)
+    mono = [mp.monodromy for mp in maps]
+    return Point(u=u, tangent=t, value=value, states=states, monodromies=mono,
+                 stats=_merge_stats(maps), multipliers=floquet_multipliers(mono), branch=branch)
+
+
+# --- test functions --------------------------------------------------------------------------
+
+def _pd_test(point: Point) -> float:
+    """det(M + I) = prod(mu + 1): real; changes sign when a real multiplier passes -1."""
+    return float(np.real(np.prod(point.multipliers + 1)))
+
+
+def _ns_count(point: Point) -> int:
+    mu = point.multipliers
+    return int(np.sum((np.abs(mu.imag) > 1e-9 * np.abs(mu)) & (np.abs(mu) > 1)))
+
+
+def _ns_test(point: Point) -> float:
+    mu = point.multipliers
+    cplx = np.abs(mu.imag) > 1e-9 * np.abs(mu)
+    return float(np.max(np.abs(mu[cplx])) - 1) if cplx.any() else math.nan
+
+
+def _tests(point: Point) -> dict:
+    return {"fold": point.tangent[-1], "period_doubling": _pd_test(point),
+            "neimark_sacker": _ns_test(point), "grazing": point.stats["contacts"]}
+
+
+def detect(a: Point, b: Point) -> list[str]:
+    """The special points between two consecutive points of a branch."""
+    ta, tb = _tests(a), _tests(b)
+    found = []
+    if ta["fold"] * tb["fold"] < 0:
+        found.append("fold")
+    if ta["period_doubling"] * tb["period_doubling"] < 0:
+        found.append("period_doubling")
+    if _ns_count(a) != _ns_count(b) and not (math.isnan(ta["neimark_sacker"])
+                                            or math.isnan(tb["neimark_sacker"])):
+        found.append("neimark_sacker")
+    if ta["grazing"] != tb["grazing"]:
+        found.append("grazing")
+    return found
+
+
+def locate(problem: Problem, a: Point, b: Point, kind: str, tol: float, loc_tol: float):
+    """The special point `kind` between a and b, by the Illinois method on the arclength sigma
+    from a along a's tangent.  Grazing: on the orbit's minimum gap when the orbit starts or
+    stops touching, by bisection on the count of contacts otherwise."""
+    ds_total = float(a.tangent @ (b.u - a.u))
+    counts = (a.stats["contacts"], b.stats["contacts"])
+    by_count = kind == "grazing" and min(counts) > 0
+
+    def at(sigma: float) -> Point | None:
+        out = correct(problem, a.u + sigma * a.tangent, a.tangent, tol, max_iter=30)
+        if out is None:
+            return None
+        return make_point(problem, *out[:3], a.tangent, a.branch)
+
+    def value(p: Point) -> float:
+        if kind == "grazing":
+            if by_count:
+                return p.stats["contacts"] - 0.5 * sum(counts)
+            return p.stats["gap_min"]
+        return _tests(p)[kind]
+
+    lo, hi = 0.0, ds_total
+    flo, fhi = value(a), value(b)
+    best = None
+    side = 0
+    for _ in range(100):
+        if abs(hi - lo) <= loc_tol:
+            break
+        if by_count:
+            mid = 0.5 * (lo + hi)
+        else:
+            mid = hi - fhi * (hi - lo) / (fhi - flo) if fhi != flo else 0.5 * (lo + hi)
+            if not (min(lo, hi) < mid < max(lo, hi)):
+                mid = 0.5 * (lo + hi)
+        p = at(mid)
+        if p is None:  # Newton failed: try the middle of the bracket instead
+            mid = 0.5 * (lo + hi)
+            p = at(mid)
+            if p is None:
+                break
+        fm = value(p)
+        best = p
+        if fm == 0:
+            break
+        if (fm < 0) == (flo < 0):
+            lo, flo = mid, fm
+            if side == -1 and not by_count:
+                fhi /= 2
+            side = -1
+        else:
+            hi, fhi = mid, fm
+            if side == 1 and not by_count:
+                flo /= 2
+            side = 1
+    if best is not None:
+        best.label = kind
+    return best
+
+
+def follow(problem: Problem, first: Point, stop_value: float, *, ds: float, ds_min: float,
+           ds_max: float, max_points: int, tol: float, loc_tol: float, bounds: tuple,
+           branch: int, progress=None, doubled: bool = False) -> list[Point]:
+    """The branch from `first` along its tangent until `stop_value` is passed, the parameter
+    leaves `bounds`, or max_points points; special points are inserted where located.
+    doubled: a branch born at a period doubling, which ends where it meets its parent again
+    (the difference between its two halves, having grown past twice its size at the start,
+    comes back below it: past that lies the same orbit with its halves swapped)."""
+    points = [first]
+    size0 = np.linalg.norm(halves(first)) if doubled else 0.0
+    grown = False
+    current = first
+    h = ds
+    lo, hi = bounds
+    while len(points) < max_points:
+        out = correct(problem, current.u + h * current.tangent, current.tangent, tol)
+        if out is None:
+            h *= 0.5
+            if h < ds_min:
+                break
+            continue
+        u, jac, maps, iterations = out
+        nxt = make_point(problem, u, jac, maps, current.tangent, branch)
+        # A step that turned the branch too far back (a corner) is retried shorter.
+        if nxt.tangent @ current.tangent < 0.8 and h > ds_min:
+            h *= 0.5
+            continue
+        if doubled:
+            size = np.linalg.norm(halves(nxt))
+            grown = grown or size > 2 * size0
+            if grown and size < size0:
+                current.label = current.label or "end"
+                break
+        for kind in detect(current, nxt):
+            special = locate(problem, current, nxt, kind, tol, loc_tol)
+            if special is not None:
+                points.append(special)
+        points.append(nxt)
+        if progress is not None:
+            progress()
+        current = nxt
+        if iterations <= 4:
+            h = min(h * 1.5, ds_max)
+        elif iterations >= 9:
+            h = max(h * 0.5, ds_min)
+        if not (lo <= nxt.value <= hi):
+            break
+    return points
+
+
+def halves(p: Point) -> np.ndarray:
+    """The difference between the two halves of a period-2n orbit: zero on the doubled
+    period-n orbit."""
+    h = len(p.states) // 2
+    return np.ravel(p.states[:h] - p.states[h:])
+
+
+def start_point(problem: Problem, states: np.ndarray, value: float, tol: float, branch: int,
+                direction: float) -> Point:
+    """The first point: Newton at fixed lambda from states, then its tangent (pointing towards
+    increasing lambda~ when direction > 0)."""
+    u = problem.pack(states, value)
+    fixed = np.zeros_like(u)
+    fixed[-1] = 1.0
+    out = correct(problem, u, fixed, tol, max_iter=40)
+    if out is None:
+        raise SolverError(f"continuation: no periodic orbit of period {problem.period} found "
+                          f"from the start state at {problem.key} = {value:.9g}")
+    p = make_point(problem, *out[:3], None, branch)
+    if p.tangent[-1] * direction < 0:
+        p.tangent = -p.tangent
+    p.label = "start"
+    return p
+
+
+def switch_period_doubling(problem: Problem, pd: Point, tol: float, ds: float,
+                           make_problem) -> tuple:
+    """The period-2n branch born at a period doubling: the eigenvector v of the multiplier
+    nearest -1 gives the doubled orbit's direction (x + e v, P(x) - e M v, ...); a predictor
+    along it with the arclength constraint orthogonal to it (lambda free) lands on the new
+    branch (the doubling is a pitchfork of P^(2n))."""
+    product = pd.monodromies[0]
+    for mono in pd.monodromies[1:]:
+        product = mono @ product
+    mu, vecs = np.linalg.eig(product)
+    k = int(np.argmin(np.abs(mu + 1)))
+    v = np.real(vecs[:, k])
+    # The eigenvector carried around the orbit's segments: v_(i+1) = M_i v_i.
+    vs = [v]
+    for mono in pd.monodromies[:-1]:
+        vs.append(mono @ vs[-1])
+    doubled = make_problem(2 * problem.period)
+    states2 = np.concatenate([pd.states, pd.states])
+    w = np.concatenate([np.concatenate(vs), -np.concatenate(vs)]) / doubled.sx
+    direction = np.concatenate([w, [0.0]])
+    direction /= np.linalg.norm(direction)
+    base_u = doubled.pack(states2, pd.value)
+    for scale in (1.0, 0.3, 3.0, 0.1):
+        for sign in (1.0, -1.0):
+            out = correct(doubled, base_u + sign * scale * ds * direction, direction, tol)
+            if out is None:
+                continue
+            st, _ = doubled.unpack(out[0])
+            half = len(st) // 2
+            if np.max(np.abs(st[:half] - st[half:])) > 1e-6 * doubled.sx:
+                p = make_point(doubled, *out[:3], None, pd.branch + 1)
+                # Orient the tangent away from the doubling point.
+                if p.tangent @ (p.u - base_u) < 0:
+                    p.tangent = -p.tangent
+                p.label = "start"
+                return doubled, p
+    return doubled, None

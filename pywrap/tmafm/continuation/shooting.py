@@ -1,0 +1,206 @@
+"""Periodic orbits by shooting: the core's stroboscopic map and monodromy matrix
+(fortran/src/solve/tmafm_monodromy.f90), Newton's method on P^n(x) = x by multiple shooting (one
+drive period per segment), and the Floquet multipliers (docs/continuation.md).  No physics is
+computed here: every state and every Jacobian comes from the core."""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from .._fortran import api as _api
+from .._model import Model
+from .._namelist import shown
+from .._run import Config
+from ..errors import InputError, InputTypeError, SolverError, raise_for
+
+__all__ = ["periodic_map", "periodic_orbit", "floquet_multipliers", "MapResult", "Orbit",
+           "STAT_NAMES"]
+
+#: The statistics of one map, in the core's order (tmafm_monodromy stat_*).
+STAT_NAMES = ("contacts", "gap_min", "gap_max", "flight_gap_min", "contact_time",
+              "switch_rate_min", "contact_steps", "evaluations")
+
+#: The default relative tolerance of the contact phases (the free flights are exact).
+DEFAULT_RTOL = 1e-11
+
+
+class MapResult(NamedTuple):
+    """y = P^n(y0), its Jacobian (the monodromy matrix) and the orbit's statistics."""
+
+    y: np.ndarray
+    monodromy: np.ndarray
+    stats: dict
+
+
+class Orbit(NamedTuple):
+    """A periodic orbit: its section points (period x 2N, at tau = 0, T, ..., (n-1)T), the
+    Floquet multipliers (largest modulus first), stable, and the statistics over the n periods."""
+
+    states: np.ndarray
+    multipliers: np.ndarray
+    stable: bool
+    stats: dict
+    iterations: int
+    residual: float
+
+
+def _model(base) -> Model:
+    if isinstance(base, Model):
+        return base
+    if isinstance(base, Config):
+        return Model(base)
+    return Model(Config(base))
+
+
+def _positive_int(name: str, value, upper: int | None = None) -> int:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise InputTypeError(f"{name} = {shown(value)}: must be a positive integer")
+    if upper is not None and value > upper:
+        raise InputError(f"{name} = {value}: must be at most {upper}")
+    return int(value)
+
+
+def _tolerance(name: str, value, low: float, high: float) -> float:
+    if isinstance(value, (bool, np.bool_, str, bytes)):
+        raise InputTypeError(f"{name} = {shown(value)}: must be a number")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise InputTypeError(f"{name} = {shown(value)}: must be a number") from None
+    if not (low <= x <= high):
+        raise InputError(f"{name} = {shown(value)}: must be in [{low:g}, {high:g}]")
+    return x
+
+
+def _state(name: str, value, size: int) -> np.ndarray:
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be real numbers, got {shown(value)}") from None
+    if array.shape != (size,):
+        raise InputError(f"{name} must have shape ({size},) = (a, adot), got {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise InputError(f"{name} must be finite, got {shown(value)}")
+    return array
+
+
+def periodic_map(model, y0, n_periods: int = 1, rtol: float = DEFAULT_RTOL) -> MapResult:
+    """P^n(y0) over n_periods drive periods from tau = 0, its monodromy matrix dP^n/dy0 (from
+    the variational equations and the saltation matrices), and the orbit's statistics."""
+    model = _model(model)
+    m = 2 * model.n_modes
+    y0 = _state("y0", y0, m)
+    n_periods = _positive_int("n_periods", n_periods, 100000)
+    rtol = _tolerance("rtol", rtol, 1e-14, 1e-3)
+    y = np.zeros(m, order="F")
+    mono = np.zeros((m, m), order="F")
+    stats = np.zeros(int(_api.orbit_stat_count()), order="F")
+    ierr, errmsg = _api.periodic_map_of(model._f, np.asfortranarray(y0), n_periods, rtol, y, mono,
+                                        stats)
+    raise_for(ierr, _text(errmsg))
+    out = dict(zip(STAT_NAMES, (float(v) for v in stats)))
+    for name in ("flight_gap_min", "switch_rate_min"):
+        if out[name] >= 0.5 * np.finfo(float).max:
+            out[name] = math.nan
+    out["contacts"] = int(out["contacts"])
+    return MapResult(y.copy(), mono.copy(), out)
+
+
+def _text(errmsg) -> str:
+    if isinstance(errmsg, bytes):
+        errmsg = errmsg.decode("utf-8", "replace")
+    return str(errmsg).strip()
+
+
+def floquet_multipliers(monodromies) -> np.ndarray:
+    """The Floquet multipliers of an orbit from the monodromy matrices of its segments (in
+    order): the eigenvalues of their product M_n ... M_1, largest modulus first."""
+    product = None
+    for m in monodromies:
+        product = m if product is None else m @ product
+    mu = np.linalg.eigvals(product)
+    order = np.lexsort((-mu.imag, -np.abs(mu)))
+    return mu[order]
+
+
+def _segments(model: Model, states: np.ndarray, rtol: float) -> list[MapResult]:
+    return [periodic_map(model, x, 1, rtol) for x in states]
+
+
+def _residual(maps: list[MapResult], states: np.ndarray) -> np.ndarray:
+    n = len(states)
+    return np.concatenate([maps[i].y - states[(i + 1) % n] for i in range(n)])
+
+
+def _jacobian(maps: list[MapResult]) -> np.ndarray:
+    """dR/dX of R_i = P(x_i) - x_(i+1) (cyclic): M_i on the diagonal, -I one block right."""
+    n = len(maps)
+    m = maps[0].monodromy.shape[0]
+    jac = np.zeros((n * m, n * m))
+    for i in range(n):
+        jac[i * m:(i + 1) * m, i * m:(i + 1) * m] = maps[i].monodromy
+        j = (i + 1) % n
+        jac[i * m:(i + 1) * m, j * m:(j + 1) * m] -= np.eye(m)
+    return jac
+
+
+def _merge_stats(maps: list[MapResult]) -> dict:
+    stats = {}
+    for name in STAT_NAMES:
+        values = [mp.stats[name] for mp in maps]
+        if name in ("gap_min", "flight_gap_min", "switch_rate_min"):
+            finite = [v for v in values if not math.isnan(v)]
+            stats[name] = min(finite) if finite else math.nan
+        elif name == "gap_max":
+            stats[name] = max(values)
+        else:
+            stats[name] = sum(values)
+    stats["contacts"] = int(stats["contacts"])
+    return stats
+
+
+def state_scale(model: Model, states: np.ndarray) -> float:
+    """The size against which states are measured: the largest |component|, or the drive
+    amplitude alpha2 when that is larger."""
+    return max(float(np.max(np.abs(states))), abs(float(model.scene["alpha2"])), 1e-300)
+
+
+def periodic_orbit(base, y0, *, period: int = 1, rtol: float = DEFAULT_RTOL, tol: float = 1e-10,
+                   max_iter: int = 40) -> Orbit:
+    """Newton's method on P^period(x) = x by multiple shooting (one drive period per segment),
+    from y0: one state (the others are its images) or `period` states.  Converged when the
+    relative residual and Newton step are below tol (relative to the state's scale)."""
+    model = _model(base)
+    m = 2 * model.n_modes
+    period = _positive_int("period", period, 64)
+    rtol = _tolerance("rtol", rtol, 1e-14, 1e-3)
+    tol = _tolerance("tol", tol, 1e-14, 1e-2)
+    max_iter = _positive_int("max_iter", max_iter, 1000)
+    guess = np.asarray(y0, dtype=float)
+    if guess.ndim == 1:
+        first = _state("y0", guess, m)
+        states = [first]
+        for _ in range(period - 1):
+            states.append(periodic_map(model, states[-1], 1, rtol).y)
+        states = np.array(states)
+    else:
+        if guess.shape != (period, m):
+            raise InputError(f"y0 must have shape ({m},) or ({period}, {m}), got {guess.shape}")
+        states = np.array([_state("y0", row, m) for row in guess])
+    scale = state_scale(model, states)
+    for iteration in range(1, max_iter + 1):
+        maps = _segments(model, states, rtol)
+        res = _residual(maps, states)
+        step = np.linalg.solve(_jacobian(maps), -res)
+        states = states + step.reshape(period, m)
+        if np.max(np.abs(step)) <= tol * scale and np.max(np.abs(res)) <= 10 * tol * scale:
+            maps = _segments(model, states, rtol)
+            res = _residual(maps, states)
+            mu = floquet_multipliers([mp.monodromy for mp in maps])
+            return Orbit(states, mu, bool(np.max(np.abs(mu)) < 1), _merge_stats(maps), iteration,
+                         float(np.max(np.abs(res)) / scale))
+    raise SolverError(f"periodic_orbit: Newton did not converge in {max_iter} iterations "
+                      f"(relative residual {np.max(np.abs(res)) / scale:.3g}, period {period})")

@@ -82,6 +82,9 @@ module tmafm_keys
       character(len=8) :: unit = ''
       !> One line: what it means.
       character(len=200) :: meaning = ''
+      !> A switch of optional physics: the resolved text leaves the key out while it has its
+      !> default (off), so that a scene without it writes the text it always wrote.
+      logical :: omit_default = .false.
    end type key_t
 
    type(key_t), parameter :: model_rows(*) = [ &
@@ -117,7 +120,12 @@ module tmafm_keys
       key_t('scene', 'g0_over_d', key_real, 0, 1.0e9_dp, unit='1', meaning='tip length / gap, g0/d'), &
       key_t('scene', 'delta_hat', key_real, -1.0e3_dp, 1.0e3_dp, unit='1', &
             meaning='static tip-sample offset, delta/(d cos theta)'), &
-      key_t('scene', 'xi0', key_real, 0, 1, .false., unit='1', meaning='tip position along the beam, x0/L')]
+      key_t('scene', 'xi0', key_real, 0, 1, .false., unit='1', meaning='tip position along the beam, x0/L'), &
+      key_t('scene', 'sls_relaxation_time', key_real, 0, 1.0e12_dp, unit='tau', omit_default=.true., &
+            meaning='viscoelastic (standard linear solid) sample: stress relaxation time T of the contact; '// &
+            '0 = elastic sample (docs/model.md §12)'), &
+      key_t('scene', 'sls_modulus_ratio', key_real, 0, 1, .false., unit='1', omit_default=.true., &
+            meaning='viscoelastic sample: relaxed over instantaneous reduced modulus, E*_inf/E*_0')]
 
    type(key_t), parameter :: physical_rows(*) = [ &
       key_t('physical', 'length', key_real, 0, 1, .false., unit='m', meaning='beam length L'), &
@@ -151,7 +159,13 @@ module tmafm_keys
             meaning='tip-sample contact damping C1'), &
       key_t('physical', 'drive_amplitude', key_real, 0, 1, unit='m', meaning='base drive amplitude f'), &
       key_t('physical', 'drive_angular_frequency', key_real, 0, 1.0e12_dp, unit='rad/s', &
-            meaning='base drive angular frequency omega')]
+            meaning='base drive angular frequency omega'), &
+      key_t('physical', 'sample_relaxation_time', key_real, 0, 1.0e3_dp, unit='s', omit_default=.true., &
+            meaning='viscoelastic (standard linear solid) sample: its stress relaxation time T2; '// &
+            '0 = elastic sample (docs/model.md §12)'), &
+      key_t('physical', 'sample_modulus_relaxed', key_real, 0, 1.0e13_dp, unit='Pa', omit_default=.true., &
+            rule='0 (= youngs_modulus_sample) or <= youngs_modulus_sample', &
+            meaning="viscoelastic sample: its relaxed Young's modulus E2_inf")]
 
    type(key_t), parameter :: initial_rows(*) = [ &
       key_t('initial', 'a0', key_list, -1, 1, unit='d', &

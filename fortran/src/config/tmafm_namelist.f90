@@ -279,7 +279,7 @@ contains
       if (ierr /= ok) return
       config%scene = scene_t(values(1), values(2), values(3), values(4), values(5), values(6), &
                              values(7), values(8), values(9), values(10), values(11), values(12), &
-                             values(13))
+                             values(13), values(14), values(15))
    end subroutine read_scene
 
    subroutine read_physical(p, g, config, ierr, errmsg)
@@ -308,9 +308,15 @@ contains
                         real_text(v(13) + v(14)/cos(v(11))), ierr, errmsg)
          return
       end if
+      ! A viscoelastic sample relaxes to a modulus no higher than its instantaneous one.
+      if (v(22) > v(7)) then
+         fixed = entry_or_default(g, 'sample_modulus_relaxed', v(22))
+         call key_error(p, fixed, 'must be 0 or <= youngs_modulus_sample = '//real_text(v(7)), ierr, errmsg)
+         return
+      end if
       config%physical = physical_t(v(1), v(2), v(3), v(4), v(5), v(6), v(7), v(8), v(9), v(10), &
                                    v(11), v(12), v(13), v(14), v(15), v(16), v(17), v(18), v(19), &
-                                   v(20))
+                                   v(20), v(21), v(22))
       config%from_physical = .true.
       config%scene = scene_from_physical(config%physical)
    end subroutine read_physical
@@ -964,8 +970,9 @@ contains
    subroutine config_text(config, text)
       type(config_t), intent(in) :: config
       character(len=:), allocatable, intent(out) :: text
-      character(len=:), allocatable :: c, value, group
+      character(len=:), allocatable :: c, value, group, default_value
       character, parameter :: nl = new_line('a')
+      type(config_t) :: defaults
       integer :: g, row
 
       text = ''
@@ -989,6 +996,11 @@ contains
          do row = 1, size(keys)
             if (keys(row)%group /= name) cycle
             call key_value_text(config, row, value)
+            if (keys(row)%omit_default) then
+               ! An optional physics switch that is off (at its default) is left out.
+               call key_value_text(defaults, row, default_value)
+               if (value == default_value) cycle
+            end if
             call line('    '//trim(keys(row)%name)//' = '//value)
             ! Keep the request of an automatic N, and record the choice as a comment.
             if (keys(row)%name == 'n_modes' .and. config%auto_modes) call choice_note()

@@ -51,6 +51,11 @@ module tmafm_error_scale
       real(dp), allocatable :: weight(:)
       !> Inverse weight of the V_T component.
       real(dp) :: tip_weight = 0
+      !> A viscoelastic sample's dashpot coordinate w = y(2N + 1) (tmafm_viscoelastic), when the
+      !> state has it: its running size (at least 1, the Hertz variable at A = 1) and its weight
+      !> 1/(rtol size).
+      logical :: has_dashpot = .false.
+      real(dp) :: dashpot_amplitude = 1, dashpot_weight = 0
    contains
       !> Set up for a model and tolerances, with the amplitudes of the initial state y0.
       procedure :: init => scale_init
@@ -81,6 +86,9 @@ contains
       self%tip = model%tip
       self%amplitude = 0
       self%tip_amplitude = abs(model%scene%alpha2)
+      self%has_dashpot = size(y0) > 2*n
+      self%dashpot_amplitude = 1
+      self%dashpot_weight = 1/max(rtol, tiny(1.0_dp))
       call self%update(y0)
       ! Whether or not y0 moved an amplitude.
       call refresh_weights(self)
@@ -94,6 +102,12 @@ contains
       logical :: grew
       call grow_amplitudes(self%n_modes, self%tip, self%omega, y, self%tip_amplitude, self%amplitude, grew)
       if (grew) call refresh_weights(self)
+      if (self%has_dashpot) then
+         if (abs(y(2*self%n_modes + 1)) > self%dashpot_amplitude) then
+            self%dashpot_amplitude = abs(y(2*self%n_modes + 1))
+            self%dashpot_weight = 1/(self%rtol*self%dashpot_amplitude)
+         end if
+      end if
    end subroutine scale_update
 
    !> The running amplitudes grown with a state y (explicit shapes: no descriptors); grew tells
@@ -147,7 +161,8 @@ contains
       real(dp) :: total
       integer :: n
       n = self%n_modes
-      total = sum((self%weight*e)**2) + (self%tip_weight*dot_product(self%tip, e(1:n)))**2
+      total = sum((self%weight*e(1:2*n))**2) + (self%tip_weight*dot_product(self%tip, e(1:n)))**2
+      if (self%has_dashpot) total = total + (self%dashpot_weight*e(2*n + 1))**2
    end function scale_sum_of_squares
 
    !> Both sums in one pass over the weights; each is summed in the order of
@@ -159,6 +174,10 @@ contains
       real(dp), intent(out) :: total1
       real(dp), intent(out) :: total2
       call pair_sums(self%n_modes, self%weight, self%tip, self%tip_weight, e1, e2, total1, total2)
+      if (self%has_dashpot) then
+         total1 = total1 + (self%dashpot_weight*e1(2*self%n_modes + 1))**2
+         total2 = total2 + (self%dashpot_weight*e2(2*self%n_modes + 1))**2
+      end if
    end subroutine scale_sums_of_squares
 
    !> scale_sums_of_squares on explicit-shape arrays (no descriptors, unit strides).

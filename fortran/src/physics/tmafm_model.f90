@@ -23,8 +23,9 @@ module tmafm_model
    use tmafm_modes, only: beam_roots, mode_shape, max_modes
    use tmafm_galerkin, only: mode_integrals_closed_form, axial_matrix_closed_form, &
       axial_matrix_quadrature, quadrature_panels
-   use tmafm_contact, only: contact_brackets_t, contact_brackets, law_hertz, contact_angle_sin_cos, &
-      contact_forces
+   use tmafm_contact, only: contact_brackets_t, contact_brackets, law_hertz, law_dmt, dmt_adhesion, &
+      contact_angle_sin_cos, contact_forces
+   use tmafm_viscoelastic, only: sls_t, sls_force_group, sls_rate, sls_viscoelastic_part
    use tmafm_scene, only: scene_t
    use tmafm_errata, only: errata_t
    implicit none
@@ -42,6 +43,11 @@ module tmafm_model
    type :: model_t
       !> Number of Galerkin modes N.
       integer :: n_modes = 0
+      !> Length of the state y: 2N, or 2N + 1 with a viscoelastic sample (y(2N + 1) = w, the
+      !> dashpot coordinate of tmafm_viscoelastic).
+      integer :: n_state = 0
+      !> The viscoelastic sample (off: the elastic contact of docs/model.md §6).
+      type(sls_t) :: sls
       !> Contact law (law_hertz or law_dmt).
       integer :: law = law_hertz
       !> The dimensionless scene.
@@ -133,6 +139,8 @@ module tmafm_model
       procedure :: gap_rows => model_gap_rows
       !> The contact state (angle, radius, brackets) for displacements a at time tau.
       procedure :: contact => model_contact
+      !> The normal contact force kappa5 f at a contact state y (a, a'[, w]) and time tau.
+      procedure :: normal_force => model_normal_force
       !> The explicit M, C, K, F of Eq. (15) at one state, for checks and analysis.
       procedure :: matrices => model_matrices
       !> The power of each generalized force on the modes, and the modal energy, at one state.
@@ -142,7 +150,8 @@ module tmafm_model
 
    !> Indices of the powers returned by energy_flow.
    integer, parameter, public :: power_drive = 1, power_beam_damping = 2, &
-      power_contact_damping = 3, power_contact_normal = 4, power_contact_friction = 5, n_powers = 5
+      power_contact_damping = 3, power_contact_normal = 4, power_contact_friction = 5, &
+      power_contact_viscoelastic = 6, n_powers = 6
 
 contains
 
@@ -167,6 +176,9 @@ contains
       end if
       n = n_modes
       model%n_modes = n
+      model%sls = sls_t(scene%sls_relaxation_time, scene%sls_modulus_ratio)
+      model%n_state = 2*n
+      if (model%sls%on) model%n_state = 2*n + 1
       model%law = law
       model%scene = scene
       model%errata = errata
@@ -408,6 +420,22 @@ contains
                                self%kappa5, self%kappa6, self%errata%e7_signed_slope)
    end function model_contact
 
+   !> kappa5 f: the normal force group of the elastic law (§6), or with a viscoelastic sample
+   !> and y = (a, a', w) the sample's (tmafm_viscoelastic), in the units of the brackets.
+   pure function model_normal_force(self, tau, y) result(force)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: y(:)
+      real(dp) :: force
+      type(contact_brackets_t) :: state
+      integer :: n
+      n = self%n_modes
+      state = self%contact(tau, y(1:n))
+      force = self%kappa5*state%normal
+      if (self%sls%on .and. size(y) > 2*n) &
+         force = force + self%kappa5*sls_viscoelastic_part(self%sls, state%radius**3, y(2*n + 1))
+   end function model_normal_force
+
    !> The contact-damping base term: -alpha2 alpha4 sin(Omega tau) (printed) or E1's velocity form.
    pure function base_damping(self, tau) result(value)
       class(model_t), intent(in) :: self
@@ -481,6 +509,10 @@ contains
       integer :: i, j, n
 
       n = self%n_modes
+      if (self%sls%on) then
+         call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
+         return
+      end if
       if (n > r) then
          call general_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
          return
@@ -602,6 +634,57 @@ contains
       end associate
    end subroutine general_kernel
 
+   !> rhs_kernel with a viscoelastic sample: y = (a, a', w), dydt = (a', a'', w').  The normal
+   !> force group is the SLS's (tmafm_viscoelastic) on the Hertz variable X = A^3, DMT's pull-off
+   !> added; the rest as general_kernel.  V_T and its rate are always returned.
+   pure subroutine sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in) :: y(2*self%n_modes + 1)
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      real(dp), intent(out) :: dydt(2*self%n_modes + 1)
+      real(dp), intent(out) :: vt
+      real(dp), intent(out) :: vtdot
+      real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, radius, hertz, friction
+      real(dp) :: tip_push, w, normal
+      integer :: n, j
+
+      n = self%n_modes
+      w = y(2*n + 1)
+      associate (s => self%scene)
+         tip_a = 0
+         slope_a = 0
+         tip_adot = 0
+         do j = 1, n
+            tip_a = tip_a + self%tip(j)*y(j)
+            slope_a = slope_a + self%scaled_slope(j)*y(j)
+            tip_adot = tip_adot + self%tip(j)*y(n + j)
+         end do
+         vt = tip_a + s%alpha2*sin_phase + s%delta_hat
+         vtdot = tip_adot + s%alpha2*s%omega*cos_phase
+         axial = 0
+         tip_push = 0
+         hertz = 0
+         if (in_contact) then
+            call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a, &
+                                       self%errata%e7_signed_slope, sin1, cos1)
+            ! The friction brackets alone (kappa5 = 0), and X = A^3 from the Hertz law.
+            call contact_forces(vt, sin1, cos1, s%beta, law_hertz, 0.0_dp, self%kappa6, &
+                                transverse, axial, radius, hertz, friction)
+            normal = sls_force_group(self%sls, hertz, w)
+            if (self%law == law_dmt) normal = normal - dmt_adhesion
+            transverse = transverse + self%kappa5*normal*sin1
+            axial = axial - self%kappa5*normal*cos1
+            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*sin_phase &
+                       + self%base_cos*cos_phase
+         end if
+         call accumulate(n, self%n_padded, self%pass_terms, self%pass_a, self%pass_v, self%pass_g, y, &
+                         in_contact, sin_phase, cos_phase, tip_push, axial, dydt)
+         dydt(2*n + 1) = sls_rate(self%sls, hertz, w)
+      end associate
+   end subroutine sls_kernel
+
    !> dydt = (a', a'') from the folded terms: the drive and the columns of B, which do not
    !> depend on the contact forces (so that they overlap with the contact's square roots),
    !> then, in contact, tip_push M^-1 p + P2 ((g0/d) M^-1 r + M^-1 G a), for general_kernel
@@ -710,8 +793,10 @@ contains
    !> Powers a'.Q of the drive (base inertia and base damping), the beam damping, the contact
    !> damping (with its base term), and the normal and friction parts of the contact force
    !> (P1 along p, P2 through the moment and the axial stiffness), plus the modal energy
-   !> E = a'.M a'/2 + a.Lambda a/2.  dE/dtau is the sum of the powers.
-   pure subroutine model_energy_flow(self, tau, a, adot, in_contact, power, energy)
+   !> E = a'.M a'/2 + a.Lambda a/2.  dE/dtau is the sum of the powers.  With a viscoelastic
+   !> sample and its dashpot coordinate w (absent: 0), the normal force's part f - X that the
+   !> sample's delay takes off the elastic X = A^3 is the separate viscoelastic power.
+   pure subroutine model_energy_flow(self, tau, a, adot, in_contact, power, energy, w)
       class(model_t), intent(in) :: self
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: a(:)
@@ -719,9 +804,11 @@ contains
       logical, intent(in) :: in_contact
       real(dp), intent(out) :: power(n_powers)
       real(dp), intent(out) :: energy
+      !> The dashpot coordinate of a viscoelastic sample (tmafm_viscoelastic).
+      real(dp), intent(in), optional :: w
       type(contact_brackets_t) :: state
-      real(dp) :: sin1, cos1, tip_rate, p1, p2, axial_work, moment_rate
-      integer :: k
+      real(dp) :: sin1, cos1, tip_rate, p1, p2, axial_work, moment_rate, delayed
+      integer :: k, last
 
       associate (s => self%scene)
          ! Explicit sums: no array temporaries (observers call this inside the step loop).
@@ -747,17 +834,27 @@ contains
          do k = 1, self%n_modes
             axial_work = axial_work + a(k)*dot_product(adot, self%axial(:, k))
          end do
-         do k = 1, 2
-            ! k = 1: the normal part (kappa5 f_c); k = 2: the friction part (kappa6 h).
+         last = 2
+         delayed = 0
+         if (self%sls%on) then
+            last = 3
+            if (present(w)) delayed = sls_viscoelastic_part(self%sls, state%radius**3, w)
+         end if
+         do k = 1, last
+            ! k = 1: the normal part (kappa5 f_c); k = 2: the friction part (kappa6 h);
+            ! k = 3: the viscoelastic part of the normal force (kappa5 (f - X)).
             if (k == 1) then
                p1 = self%kappa5*state%normal*sin1
                p2 = -self%kappa5*state%normal*cos1
-            else
+            else if (k == 2) then
                p1 = self%kappa6*state%friction*cos1
                p2 = self%kappa6*state%friction*sin1
+            else
+               p1 = self%kappa5*delayed*sin1
+               p2 = -self%kappa5*delayed*cos1
             end if
-            power(power_contact_normal + k - 1) = s%l_over_d*p1*tip_rate &
-               + s%g0_over_d*p2*moment_rate + p2*axial_work
+            power(merge(power_contact_viscoelastic, power_contact_normal + k - 1, k == 3)) = &
+               s%l_over_d*p1*tip_rate + s%g0_over_d*p2*moment_rate + p2*axial_work
          end do
       end associate
    end subroutine model_energy_flow

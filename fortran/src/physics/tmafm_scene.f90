@@ -43,6 +43,11 @@ module tmafm_scene
       real(dp) :: delta_hat = 0.0_dp
       !> xi0 = x0/L: tip position along the beam.
       real(dp) :: xi0 = 1.0_dp
+      !> The viscoelastic sample (tmafm_viscoelastic, docs/model.md §12): the contact's stress
+      !> relaxation time T in units of tau (0: an elastic sample, the default).
+      real(dp) :: sls_relaxation_time = 0.0_dp
+      !> The relaxed over the instantaneous reduced modulus, E*_inf/E*_0, in (0, 1].
+      real(dp) :: sls_modulus_ratio = 1.0_dp
    end type scene_t
 
    !> Physical inputs in SI units; converted to a scene_t by Eq. (12).
@@ -87,39 +92,46 @@ module tmafm_scene
       real(dp) :: drive_amplitude = 2.5e-9_dp
       !> Base drive angular frequency omega (rad/s).
       real(dp) :: drive_angular_frequency = 143751.31743848347_dp
+      !> The sample's stress relaxation time T2 (s) at fixed strain; 0: an elastic sample.
+      real(dp) :: sample_relaxation_time = 0.0_dp
+      !> The sample's relaxed Young's modulus E2_inf (Pa); 0: equal to youngs_modulus_sample.
+      real(dp) :: sample_modulus_relaxed = 0.0_dp
    end type physical_t
 
    !> The &scene keys, in the order of scene_values (their ranges: config/tmafm_keys.f90).
-   character(len=*), parameter :: scene_names(13) = [character(len=9) :: 'alpha1', 'alpha2', &
+   character(len=*), parameter :: scene_names(15) = [character(len=19) :: 'alpha1', 'alpha2', &
       'alpha3', 'alpha4', 'alpha5', 'alpha6', 'beta', 'omega', 'theta', 'l_over_d', 'g0_over_d', &
-      'delta_hat', 'xi0']
+      'delta_hat', 'xi0', 'sls_relaxation_time', 'sls_modulus_ratio']
    !> The &physical keys, in the order of physical_values.
-   character(len=*), parameter :: physical_names(20) = [character(len=23) :: 'length', 'width', &
+   character(len=*), parameter :: physical_names(22) = [character(len=23) :: 'length', 'width', &
       'thickness', 'density', 'youngs_modulus_tip', 'poisson_ratio_tip', 'youngs_modulus_sample', &
       'poisson_ratio_sample', 'tip_radius', 'adhesion_energy', 'tilt', 'gap', 'tip_length', &
       'static_offset', 'tip_position', 'tip_mass', 'beam_damping', 'contact_damping', &
-      'drive_amplitude', 'drive_angular_frequency']
+      'drive_amplitude', 'drive_angular_frequency', 'sample_relaxation_time', &
+      'sample_modulus_relaxed']
 
 contains
 
    !> The groups of a scene as an array, in the order of scene_names.
    pure function scene_values(scene) result(values)
       type(scene_t), intent(in) :: scene
-      real(dp) :: values(13)
+      real(dp) :: values(15)
       values = [scene%alpha1, scene%alpha2, scene%alpha3, scene%alpha4, scene%alpha5, &
                 scene%alpha6, scene%beta, scene%omega, scene%theta, scene%l_over_d, &
-                scene%g0_over_d, scene%delta_hat, scene%xi0]
+                scene%g0_over_d, scene%delta_hat, scene%xi0, scene%sls_relaxation_time, &
+                scene%sls_modulus_ratio]
    end function scene_values
 
    !> The physical inputs as an array, in the order of physical_names.
    pure function physical_values(phys) result(values)
       type(physical_t), intent(in) :: phys
-      real(dp) :: values(20)
+      real(dp) :: values(22)
       values = [phys%length, phys%width, phys%thickness, phys%density, phys%youngs_modulus_tip, &
                 phys%poisson_ratio_tip, phys%youngs_modulus_sample, phys%poisson_ratio_sample, &
                 phys%tip_radius, phys%adhesion_energy, phys%tilt, phys%gap, phys%tip_length, &
                 phys%static_offset, phys%tip_position, phys%tip_mass, phys%beam_damping, &
-                phys%contact_damping, phys%drive_amplitude, phys%drive_angular_frequency]
+                phys%contact_damping, phys%drive_amplitude, phys%drive_angular_frequency, &
+                phys%sample_relaxation_time, phys%sample_modulus_relaxed]
    end function physical_values
 
    !> Which &physical keys (indices into physical_names) scene group k depends on by Eq. (12).
@@ -127,7 +139,8 @@ contains
       integer, intent(in) :: k
       integer, allocatable :: keys(:)
       ! 1 length, 2 width, 3 thickness, 4 density, 5 E1, 6 nu1, 7 E2, 8 nu2, 9 R, 10 gamma,
-      ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega.
+      ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega,
+      ! 21 T2, 22 E2_inf.
       select case (k)
       case (1)
          keys = [16, 4, 2, 3, 1]
@@ -153,6 +166,10 @@ contains
          keys = [13, 12]
       case (12)
          keys = [14, 12, 11]
+      case (14)
+         keys = [21, 22, 7, 5, 6, 8, 4, 2, 3, 1]
+      case (15)
+         keys = [22, 7, 5, 6, 8]
       case default
          keys = [15, 1]
       end select
@@ -163,7 +180,7 @@ contains
       type(physical_t), intent(in) :: phys
       type(scene_t) :: scene
       real(dp) :: inertia, mass_per_length, rigidity, e_star, g_tip, g_sample, g_star
-      real(dp) :: damping_scale, time_unit, d
+      real(dp) :: damping_scale, time_unit, d, e_star_relaxed, sample_relaxed
 
       d = phys%gap
       inertia = phys%width*phys%thickness**3/12
@@ -193,6 +210,16 @@ contains
       scene%g0_over_d = phys%tip_length/d
       scene%delta_hat = phys%static_offset/(d*cos(phys%tilt))
       scene%xi0 = phys%tip_position/phys%length
+      ! The viscoelastic sample (docs/model.md §12): the tip's compliance in series with the
+      ! sample's SLS is an SLS with the sample's retardation time T2 E2/E2_inf, reduced moduli
+      ! E*_0 = e_star and E*_inf, and the relaxation time (T2 E2/E2_inf) E*_inf/E*_0.
+      sample_relaxed = phys%sample_modulus_relaxed
+      if (sample_relaxed == 0) sample_relaxed = phys%youngs_modulus_sample
+      e_star_relaxed = 1.0_dp/((1 - phys%poisson_ratio_tip**2)/phys%youngs_modulus_tip &
+                               + (1 - phys%poisson_ratio_sample**2)/sample_relaxed)
+      scene%sls_modulus_ratio = e_star_relaxed/e_star
+      scene%sls_relaxation_time = phys%sample_relaxation_time*(phys%youngs_modulus_sample/sample_relaxed) &
+                                  *scene%sls_modulus_ratio/time_unit
    end function scene_from_physical
 
 end module tmafm_scene

@@ -25,7 +25,7 @@
 module tmafm_observers
    use tmafm_kinds, only: dp
    use tmafm_model, only: model_t, n_powers, power_drive, power_beam_damping, &
-      power_contact_damping, power_contact_normal, power_contact_friction
+      power_contact_damping, power_contact_normal, power_contact_friction, power_contact_viscoelastic
    use tmafm_contact, only: contact_brackets_t
    use tmafm_embedded_pair, only: embedded_pair_t
    use tmafm_flight, only: free_flight_t
@@ -43,13 +43,15 @@ module tmafm_observers
    public :: obs_amplitude, obs_phase, obs_mean_deflection, obs_min_gap, obs_peak_force, &
       obs_contact_time, obs_contacts, obs_dissipated, obs_dissipated_beam, &
       obs_dissipated_contact_damping, obs_dissipated_friction, obs_drive_work, obs_virial, &
-      obs_contact_normal_work, ext_max_contact, ext_min_contact, ext_max_free, ext_min_free
+      obs_contact_normal_work, obs_dissipated_viscoelastic, ext_max_contact, ext_min_contact, ext_max_free, &
+      ext_min_free
 
    !> Columns of observer_t%values.
    integer, parameter :: obs_amplitude = 1, obs_phase = 2, obs_mean_deflection = 3, obs_min_gap = 4, &
       obs_peak_force = 5, obs_contact_time = 6, obs_contacts = 7, obs_dissipated = 8, &
       obs_dissipated_beam = 9, obs_dissipated_contact_damping = 10, obs_dissipated_friction = 11, &
-      obs_drive_work = 12, obs_virial = 13, obs_contact_normal_work = 14, n_observables = 14
+      obs_drive_work = 12, obs_virial = 13, obs_contact_normal_work = 14, &
+      obs_dissipated_viscoelastic = 15, n_observables = 15
    !> Observable groups, bits of observer_t%groups: V_T's harmonics, phase and mean deflection;
    !> the located extrema (min_gap, max V_T, modal extrema); the peak force; the energies and
    !> the virial.  contact_time, contacts_per_period and the Poincare points are always computed.
@@ -444,8 +446,7 @@ contains
       else if (kind == 1) then
          value = sign*model%tip_gap(t, y)
       else
-         state = model%contact(t, y(1:model%n_modes))
-         value = -sign*model%kappa5*state%normal
+         value = -sign*model%normal_force(t, y)
       end if
    end subroutine target
 
@@ -584,8 +585,7 @@ contains
          end if
          if (self%do_extrema) self%modal_nodes(i, :) = self%y(1:n)
          if (in_contact .and. (self%do_force .or. self%do_energy)) then
-            state = model%contact(t(i), self%y(1:n))
-            force(i) = model%kappa5*state%normal
+            force(i) = model%normal_force(t(i), self%y)
          end if
          if (i == 0 .or. i == m + 1) cycle
          weight = gl_weight(i)
@@ -606,7 +606,13 @@ contains
             self%acc_deflection = self%acc_deflection + weight*(tip_u - model%scene%alpha2*s1)
          end if
          if (self%do_energy) then
-            call model%energy_flow(t(i), self%y(1:n), self%y(n + 1:2*n), in_contact, power, energy)
+            if (self%n_state > 2*n) then
+               ! A viscoelastic sample: its dashpot w sets the viscoelastic power.
+               call model%energy_flow(t(i), self%y(1:n), self%y(n + 1:2*n), in_contact, power, energy, &
+                                      self%y(2*n + 1))
+            else
+               call model%energy_flow(t(i), self%y(1:n), self%y(n + 1:2*n), in_contact, power, energy)
+            end if
             self%acc_powers = self%acc_powers + weight*power
             self%acc_virial = self%acc_virial + weight*force(i)*tip_u
          end if
@@ -731,8 +737,9 @@ contains
          v(obs_dissipated_beam) = -self%acc_powers(power_beam_damping)
          v(obs_dissipated_contact_damping) = -self%acc_powers(power_contact_damping)
          v(obs_dissipated_friction) = -self%acc_powers(power_contact_friction)
+         v(obs_dissipated_viscoelastic) = -self%acc_powers(power_contact_viscoelastic)
          v(obs_dissipated) = v(obs_dissipated_beam) + v(obs_dissipated_contact_damping) &
-                             + v(obs_dissipated_friction)
+                             + v(obs_dissipated_friction) + v(obs_dissipated_viscoelastic)
          v(obs_drive_work) = self%acc_powers(power_drive)
          v(obs_virial) = self%acc_virial/period
          v(obs_contact_normal_work) = self%acc_powers(power_contact_normal)

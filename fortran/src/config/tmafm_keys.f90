@@ -123,7 +123,7 @@ module tmafm_keys
       key_t('scene', 'xi0', key_real, 0, 1, .false., unit='1', meaning='tip position along the beam, x0/L'), &
       key_t('scene', 'sls_relaxation_time', key_real, 0, 1.0e12_dp, unit='tau', omit_default=.true., &
             meaning='viscoelastic (standard linear solid) sample: stress relaxation time T of the contact; '// &
-            '0 = elastic sample (docs/model.md §12)'), &
+            '0 = elastic sample (docs/model.md, section 12)'), &
       key_t('scene', 'sls_modulus_ratio', key_real, 0, 1, .false., unit='1', omit_default=.true., &
             meaning='viscoelastic sample: relaxed over instantaneous reduced modulus, E*_inf/E*_0')]
 
@@ -162,7 +162,7 @@ module tmafm_keys
             meaning='base drive angular frequency omega'), &
       key_t('physical', 'sample_relaxation_time', key_real, 0, 1.0e3_dp, unit='s', omit_default=.true., &
             meaning='viscoelastic (standard linear solid) sample: its stress relaxation time T2; '// &
-            '0 = elastic sample (docs/model.md §12)'), &
+            '0 = elastic sample (docs/model.md, section 12)'), &
       key_t('physical', 'sample_modulus_relaxed', key_real, 0, 1.0e13_dp, unit='Pa', omit_default=.true., &
             rule='0 (= youngs_modulus_sample) or <= youngs_modulus_sample', &
             meaning="viscoelastic sample: its relaxed Young's modulus E2_inf")]

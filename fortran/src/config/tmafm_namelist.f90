@@ -272,11 +272,20 @@ contains
       type(config_t), intent(inout) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      !> The shortest nonzero &scene sls_relaxation_time.
+      real(dp), parameter :: min_relaxation_time = 1.0e-12_dp
       real(dp) :: values(size(scene_names))
 
       values = scene_values(config%scene)
       call read_real_group(p, g, values, ierr, errmsg)
       if (ierr /= ok) return
+      ! A viscoelastic sample: T = 0 (off) or long enough that 1/T is a normal number; a shorter
+      ! one is the relaxed elastic law (docs/model.md, section 12).
+      if (values(14) > 0 .and. values(14) < min_relaxation_time) then
+         call key_error(p, entry_or_default(g, 'sls_relaxation_time', values(14)), &
+                        'must be 0 (an elastic sample) or >= '//real_text(min_relaxation_time), ierr, errmsg)
+         return
+      end if
       config%scene = scene_t(values(1), values(2), values(3), values(4), values(5), values(6), &
                              values(7), values(8), values(9), values(10), values(11), values(12), &
                              values(13), values(14), values(15))

@@ -436,6 +436,28 @@ contains
          force = force + self%kappa5*sls_viscoelastic_part(self%sls, state%radius**3, y(2*n + 1))
    end function model_normal_force
 
+   !> d(delta_n)/dtau for the normal indentation delta_n = -V_T sin(theta1) (§6), given sin and
+   !> cos of theta1: -V_T' sin(theta1) - V_T cos(theta1) theta1', theta1' from the slope's rate
+   !> (Eq. 3, or E7's signed form).
+   pure function normal_indentation_rate(self, tau, a, adot, sin1, cos1) result(rate)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: a(:)
+      real(dp), intent(in) :: adot(:)
+      real(dp), intent(in) :: sin1
+      real(dp), intent(in) :: cos1
+      real(dp) :: rate, vt, vt_rate, slope, slope_rate, angle_rate
+      associate (s => self%scene)
+         vt = dot_product(self%tip, a) + s%alpha2*sin(s%omega*tau) + s%delta_hat
+         vt_rate = dot_product(self%tip, adot) + s%alpha2*s%omega*cos(s%omega*tau)
+         slope = dot_product(self%slope, a)/s%l_over_d
+         slope_rate = dot_product(self%slope, adot)/s%l_over_d
+      end associate
+      angle_rate = slope_rate/(1 + slope*slope)
+      if (.not. self%errata%e7_signed_slope) angle_rate = -sign(1.0_dp, slope)*angle_rate
+      rate = -vt_rate*sin1 - vt*cos1*angle_rate
+   end function normal_indentation_rate
+
    !> The contact-damping base term: -alpha2 alpha4 sin(Omega tau) (printed) or E1's velocity form.
    pure function base_damping(self, tau) result(value)
       class(model_t), intent(in) :: self
@@ -853,9 +875,20 @@ contains
                p1 = self%kappa5*delayed*sin1
                p2 = -self%kappa5*delayed*cos1
             end if
-            power(merge(power_contact_viscoelastic, power_contact_normal + k - 1, k == 3)) = &
-               s%l_over_d*p1*tip_rate + s%g0_over_d*p2*moment_rate + p2*axial_work
+            power(power_contact_normal + k - 1) = s%l_over_d*p1*tip_rate + s%g0_over_d*p2*moment_rate &
+                                                  + p2*axial_work
          end do
+         if (last == 3) then
+            ! The sample's own loss: the delayed force kappa5 (f - X) on the normal indentation
+            ! delta_n = -V_T sin(theta1), (L/d) kappa5 (f - X) d(delta_n)/dtau (the elastic X,
+            ! a function of delta_n alone, closes its loop with no work).  The normal power
+            ! keeps the rest of the delayed force's work on the modes, so the powers still sum
+            ! to dE/dtau.
+            power(power_contact_normal) = power(power_contact_normal) + power(power_contact_viscoelastic)
+            power(power_contact_viscoelastic) = -s%l_over_d*self%kappa5*delayed &
+                                                *normal_indentation_rate(self, tau, a, adot, sin1, cos1)
+            power(power_contact_normal) = power(power_contact_normal) - power(power_contact_viscoelastic)
+         end if
       end associate
    end subroutine model_energy_flow
 

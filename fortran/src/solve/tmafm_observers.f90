@@ -185,7 +185,8 @@ contains
       if (iand(groups, group_peak_force) /= 0) computed(obs_peak_force) = .true.
       if (iand(groups, group_energy) /= 0) computed([obs_dissipated, obs_dissipated_beam, &
                                                       obs_dissipated_contact_damping, obs_dissipated_friction, &
-                                                      obs_drive_work, obs_virial, obs_contact_normal_work]) = .true.
+                                                      obs_drive_work, obs_virial, obs_contact_normal_work, &
+                                                      obs_dissipated_viscoelastic]) = .true.
    end function group_columns
 
    subroutine observer_init(self, model, max_periods, harmonics, p_max, tol, repeats, &

@@ -11,12 +11,15 @@ Oracles, each computed here and independent of the code under test:
 
 import math
 import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import tmafm
 
+REPO = Path(__file__).resolve().parent.parent
 SCENE = "fig2_n4"
 TIGHT = {"method": "flight_exact", "rtol": 1e-10, "atol": 1e-14}
 RATIO = 0.4
@@ -201,3 +204,9 @@ def test_physical_inputs_give_the_contact_sls_of_eq12():
     psi_hat = e_inf / s + (e0 - e_inf) / (s + 1 / relax)
     j_hat = 1 / (e0 * s) + (1 / e_inf - 1 / e0) * (1 / s - 1 / (s + 1 / retardation))
     assert psi_hat * j_hat == pytest.approx(1 / s ** 2, rel=1e-12)
+
+
+def test_docs_example_numbers_are_computed_by_the_study():
+    done = subprocess.run([sys.executable, str(REPO / "studies" / "sls_example.py"), "--check"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout + done.stderr

@@ -137,10 +137,10 @@ class Model:
 
     def derivative(self, tau: float, y, in_contact: bool) -> np.ndarray:
         """dy/dtau of the state y = (a, a') in a phase: (a', a''), length 2N.  With a viscoelastic
-        sample (scene sls_relaxation_time > 0) y = (a, a', w) and dy/dtau = (a', a'', w'), length
-        2N + 1 (docs/model.md, section 12)."""
+        sample (scene sls_relaxation_time > 0) y = (a, a', w, 0) and dy/dtau = (a', a'', w', 0),
+        length 2N + 2 (docs/model.md, section 12)."""
         n = self.n_modes
-        size = 2 * n + (1 if self.scene.get("sls_relaxation_time", 0.0) > 0 else 0)
+        size = 2 * n + (2 if self.scene.get("sls_relaxation_time", 0.0) > 0 else 0)
         y = _vector("y", y, size)
         rate = np.zeros(size)
         self._f.derivative(_time(tau), y, _phase(in_contact), rate)

@@ -23,7 +23,7 @@ module tmafm_dop853
 
    public :: dop853_pair_t
 
-   !> Rows of the stage registers k: the longest state (2 max_modes), whatever the run's.  With
+   !> Rows of the stage registers k: the longest state (2 max_modes + 2), whatever the run's.  With
    !> a leading dimension fixed at compile time the column k(:, j) is at a constant offset, and
    !> the stage sums need no address arithmetic per stage (docs/performance.md, "A dop853
    !> contact step besides its right-hand sides"); the rows past the state are never read.
@@ -139,7 +139,8 @@ contains
       self%shrink_limit = 0.333_dp
       self%grow_limit = 6.0_dp
       if (allocated(self%k)) return
-      ! The state is (a, a'[, w]) of a model: n_state <= 2 n_modes + 1 <= lead (tmafm_model's limit).
+      ! The state is (a, a') of a model, or (a, a', w, 0) with a viscoelastic sample:
+      ! n_state <= 2 n_modes + 2 <= lead (tmafm_model's limit).
       allocate (self%k(lead, 2:16), self%stage(n_state), self%err5(n_state), &
                 self%err3(n_state), self%y0(n_state), self%r(n_state, 0:6))
    end subroutine dop853_init
@@ -154,7 +155,7 @@ contains
       real(dp), intent(out), contiguous :: y_new(:)
       real(dp), intent(out), contiguous :: f_new(:)
       self%map = map
-      call dop853_stages(model, size(y), map, y, in_contact, f0, self%k, self%stage, y_new, f_new, &
+      call dop853_stages(model, size(y)/2, map, y, in_contact, f0, self%k, self%stage, y_new, f_new, &
                          self%err5, self%err3, self%sin_end, self%cos_end, self%vt_end, self%rate_end)
    end subroutine dop853_step
 
@@ -164,20 +165,20 @@ contains
    !> estimates (in the pass that forms the new state: they weigh the same stages) and the
    !> drive phase, V_T and dV_T/dtau at the step end.  On a warped step each stage derivative
    !> is scaled by its dtau/dsigma as soon as it is formed.
-   pure subroutine dop853_stages(model, n_state, map, y, in_contact, f0, k, stage, y_new, f_new, &
+   pure subroutine dop853_stages(model, n_modes, map, y, in_contact, f0, k, stage, y_new, f_new, &
                                  err5, err3, sin_end, cos_end, vt_end, rate_end)
       type(model_t), intent(in) :: model
-      integer, intent(in) :: n_state
+      integer, intent(in) :: n_modes
       type(time_map_t), intent(in) :: map
-      real(dp), intent(in) :: y(n_state)
+      real(dp), intent(in) :: y(2*n_modes)
       logical, intent(in) :: in_contact
-      real(dp), intent(in) :: f0(n_state)
+      real(dp), intent(in) :: f0(2*n_modes)
       real(dp), intent(inout) :: k(lead, 2:16)
-      real(dp), intent(inout) :: stage(n_state)
-      real(dp), intent(out) :: y_new(n_state)
-      real(dp), intent(out) :: f_new(n_state)
-      real(dp), intent(out) :: err5(n_state)
-      real(dp), intent(out) :: err3(n_state)
+      real(dp), intent(inout) :: stage(2*n_modes)
+      real(dp), intent(out) :: y_new(2*n_modes)
+      real(dp), intent(out) :: f_new(2*n_modes)
+      real(dp), intent(out) :: err5(2*n_modes)
+      real(dp), intent(out) :: err3(2*n_modes)
       real(dp), intent(out) :: sin_end
       real(dp), intent(out) :: cos_end
       real(dp), intent(out) :: vt_end
@@ -187,7 +188,7 @@ contains
       integer :: n
       integer :: i
 
-      n = n_state
+      n = 2*n_modes
       h = map%h
       call stage_clock(model, map, step_nodes, sin_phase, cos_phase, factor)
       sin_end = sin_phase(11)
@@ -274,31 +275,31 @@ contains
       logical, intent(in) :: in_contact
       real(dp), intent(in), contiguous :: f0(:)
       real(dp), intent(in), contiguous :: f_new(:)
-      call dop853_dense_stages(model, size(y), self%map, y, y_new, in_contact, f0, f_new, self%k, &
+      call dop853_dense_stages(model, size(y)/2, self%map, y, y_new, in_contact, f0, f_new, self%k, &
                                self%stage, self%y0, self%r)
    end subroutine dop853_prepare_dense
 
    !> Stages 14-16 and the dense-output coefficients r(:, 0:6) of dop853_prepare_dense on
    !> explicit-shape registers, as dop853_stages: the stage sums and the rows of r are
    !> whole-array expressions the compiler vectorises without array descriptors.
-   pure subroutine dop853_dense_stages(model, n_state, map, y, y_new, in_contact, f0, f_new, k, stage, y0, r)
+   pure subroutine dop853_dense_stages(model, n_modes, map, y, y_new, in_contact, f0, f_new, k, stage, y0, r)
       type(model_t), intent(in) :: model
-      integer, intent(in) :: n_state
+      integer, intent(in) :: n_modes
       type(time_map_t), intent(in) :: map
-      real(dp), intent(in) :: y(n_state)
-      real(dp), intent(in) :: y_new(n_state)
+      real(dp), intent(in) :: y(2*n_modes)
+      real(dp), intent(in) :: y_new(2*n_modes)
       logical, intent(in) :: in_contact
-      real(dp), intent(in) :: f0(n_state)
-      real(dp), intent(in) :: f_new(n_state)
+      real(dp), intent(in) :: f0(2*n_modes)
+      real(dp), intent(in) :: f_new(2*n_modes)
       real(dp), intent(inout) :: k(lead, 2:16)
-      real(dp), intent(inout) :: stage(n_state)
-      real(dp), intent(out) :: y0(n_state)
-      real(dp), intent(out) :: r(n_state, 0:6)
+      real(dp), intent(inout) :: stage(2*n_modes)
+      real(dp), intent(out) :: y0(2*n_modes)
+      real(dp), intent(out) :: r(2*n_modes, 0:6)
       real(dp) :: sin_phase(size(dense_nodes)), cos_phase(size(dense_nodes)), factor(size(dense_nodes))
       real(dp) :: h
       integer :: n
 
-      n = n_state
+      n = 2*n_modes
       h = map%h
       call stage_clock(model, map, dense_nodes, sin_phase, cos_phase, factor)
       stage = y + h*(a14_1*f0 + a14_7*k(:n, 7) + a14_8*k(:n, 8) + a14_9*k(:n, 9) + a14_10*k(:n, 10) &
@@ -335,16 +336,16 @@ contains
       class(dop853_pair_t), intent(in) :: self
       real(dp), intent(in) :: theta
       real(dp), intent(out), contiguous :: y(:)
-      call dense_sum(size(y), theta, self%y0, self%r, y)
+      call dense_sum(size(y)/2, theta, self%y0, self%r, y)
    end subroutine dop853_dense
 
    !> The dense-output sum of dop853_dense on explicit-shape registers.
-   pure subroutine dense_sum(n_state, theta, y0, r, y)
-      integer, intent(in) :: n_state
+   pure subroutine dense_sum(n_modes, theta, y0, r, y)
+      integer, intent(in) :: n_modes
       real(dp), intent(in) :: theta
-      real(dp), intent(in) :: y0(n_state)
-      real(dp), intent(in) :: r(n_state, 0:6)
-      real(dp), intent(out) :: y(n_state)
+      real(dp), intent(in) :: y0(2*n_modes)
+      real(dp), intent(in) :: r(2*n_modes, 0:6)
+      real(dp), intent(out) :: y(2*n_modes)
       real(dp) :: rest
       rest = 1 - theta
       y = y0 + theta*(r(:, 0) + rest*(r(:, 1) + theta*(r(:, 2) + rest*(r(:, 3) &

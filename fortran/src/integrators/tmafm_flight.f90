@@ -625,7 +625,10 @@ contains
                                                 - aimag(self%vectors(i, k))*aimag(w))
          end do
       end do
-      if (size(y) > self%n_state) y(self%n_state + 1) = sls_free_relaxation(model%sls, self%dashpot0, s)
+      if (size(y) > self%n_state) then
+         y(self%n_state + 1) = sls_free_relaxation(model%sls, self%dashpot0, s)
+         y(self%n_state + 2:) = 0
+      end if
    end subroutine flight_state
 
    pure subroutine flight_gap(self, model, s, vt, vtdot)

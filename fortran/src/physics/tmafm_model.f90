@@ -43,8 +43,9 @@ module tmafm_model
    type :: model_t
       !> Number of Galerkin modes N.
       integer :: n_modes = 0
-      !> Length of the state y: 2N, or 2N + 1 with a viscoelastic sample (y(2N + 1) = w, the
-      !> dashpot coordinate of tmafm_viscoelastic).
+      !> Length of the state y: 2N, or 2N + 2 with a viscoelastic sample: y(2N + 1) = w, the
+      !> dashpot coordinate of tmafm_viscoelastic, and y(2N + 2) = 0 (a pad: the integrators'
+      !> registers keep an even length, which their vector loops rely on).
       integer :: n_state = 0
       !> The viscoelastic sample (off: the elastic contact of docs/model.md §6).
       type(sls_t) :: sls
@@ -96,6 +97,9 @@ module tmafm_model
       real(dp), allocatable :: inv_mass_integral(:)
       !> N rounded up to a whole number of the kernel's row blocks (rows_per_block).
       integer :: n_padded = 0
+      !> The largest N the small kernel takes: rows_per_block, or 0 with a viscoelastic sample
+      !> (whose kernel, sls_kernel, general_kernel calls).
+      integer :: small_modes = rows_per_block
       !> For N <= rows_per_block (small_kernel): the folded terms at fixed places in the model,
       !> zero below row N and past column N of each part: B's halves and M^-1 G (columns 1-4,
       !> 5-8, 9-12), then w_s, w_c, M^-1 p and the moment term (columns 13-16).
@@ -178,7 +182,11 @@ contains
       model%n_modes = n
       model%sls = sls_t(scene%sls_relaxation_time, scene%sls_modulus_ratio)
       model%n_state = 2*n
-      if (model%sls%on) model%n_state = 2*n + 1
+      model%small_modes = rows_per_block
+      if (model%sls%on) then
+         model%n_state = 2*n + 2
+         model%small_modes = 0
+      end if
       model%law = law
       model%scene = scene
       model%errata = errata
@@ -531,11 +539,8 @@ contains
       integer :: i, j, n
 
       n = self%n_modes
-      if (self%sls%on) then
-         call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
-         return
-      end if
-      if (n > r) then
+      if (n > self%small_modes) then
+         ! N > rows_per_block, or a viscoelastic sample (small_modes = 0).
          call general_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
          return
       end if
@@ -624,6 +629,10 @@ contains
       real(dp) :: tip_push
       integer :: n, j
 
+      if (self%sls%on) then
+         call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
+         return
+      end if
       n = self%n_modes
       associate (s => self%scene)
          vt = 0
@@ -656,16 +665,16 @@ contains
       end associate
    end subroutine general_kernel
 
-   !> rhs_kernel with a viscoelastic sample: y = (a, a', w), dydt = (a', a'', w').  The normal
+   !> rhs_kernel with a viscoelastic sample: y = (a, a', w, 0), dydt = (a', a'', w', 0).  The normal
    !> force group is the SLS's (tmafm_viscoelastic) on the Hertz variable X = A^3, DMT's pull-off
    !> added; the rest as general_kernel.  V_T and its rate are always returned.
    pure subroutine sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
       type(model_t), intent(in) :: self
-      real(dp), intent(in) :: y(2*self%n_modes + 1)
+      real(dp), intent(in) :: y(2*self%n_modes + 2)
       logical, intent(in) :: in_contact
       real(dp), intent(in) :: sin_phase
       real(dp), intent(in) :: cos_phase
-      real(dp), intent(out) :: dydt(2*self%n_modes + 1)
+      real(dp), intent(out) :: dydt(2*self%n_modes + 2)
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: vtdot
       real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, radius, hertz, friction
@@ -704,6 +713,7 @@ contains
          call accumulate(n, self%n_padded, self%pass_terms, self%pass_a, self%pass_v, self%pass_g, y, &
                          in_contact, sin_phase, cos_phase, tip_push, axial, dydt)
          dydt(2*n + 1) = sls_rate(self%sls, hertz, w)
+         dydt(2*n + 2) = 0
       end associate
    end subroutine sls_kernel
 

@@ -347,13 +347,13 @@ contains
                call observer%pair_step(model, pair, tau, step_taken, self%in_contact)
             end if
             tau = tau_end
-            call copy_state(size(y), y_new, y)
+            call copy_state(size(y)/2, y_new, y)
             call self%scale%update(y)
             call progress%update(tau, settings%tau_end, ierr, errmsg)
             if (ierr /= ok) return
             if (status == no_event) then
                ! The step end is the next start: carry f, V_T, its rate and the margin.
-               call copy_state(size(y), f_new, f0)
+               call copy_state(size(y)/2, f_new, f0)
                vt0 = vt1
                rate0 = rate1
                margin0 = margin1
@@ -625,14 +625,14 @@ contains
       if (stored <= 0 .or. new > learn_band*stored .or. new*learn_band < stored) stored = new
    end subroutine learn
 
-   !> to = from for a state of n_state components ((a, a'), and w with a viscoelastic sample):
-   !> an explicit-shape copy, a few vector moves, where the assignment of the registers'
-   !> allocatable components went through a generic strided loop (about 50 instructions a copy
-   !> for N = 3).
-   pure subroutine copy_state(n_state, from, to)
-      integer, intent(in) :: n_state
-      real(dp), intent(in) :: from(n_state)
-      real(dp), intent(out) :: to(n_state)
+   !> to = from for a state (a, a') of n_modes modes (or (a, a', w, 0) of n_modes - 1 modes
+   !> with a viscoelastic sample): an explicit-shape copy of even length,
+   !> a few vector moves, where the assignment of the registers' allocatable components went
+   !> through a generic strided loop (about 50 instructions a copy for N = 3).
+   pure subroutine copy_state(n_modes, from, to)
+      integer, intent(in) :: n_modes
+      real(dp), intent(in) :: from(2*n_modes)
+      real(dp), intent(out) :: to(2*n_modes)
       to = from
    end subroutine copy_state
 

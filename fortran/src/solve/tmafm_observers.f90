@@ -77,8 +77,10 @@ module tmafm_observers
 
    !> The observer of one run: settings, the current period's accumulators, and the results.
    type :: observer_t
-      !> Number of state components 2N.
+      !> Number of state components: 2N, or 2N + 2 with a viscoelastic sample (tmafm_model).
       integer :: n_state = 0
+      !> Number of modes N.
+      integer :: n_modes = 0
       !> Harmonics 1..harmonics of V_T reported.
       integer :: harmonics = 3
       !> Periods to integrate at most.
@@ -217,6 +219,7 @@ contains
       self%match_distance = huge(1.0_dp)
       self%attractor = 0
       self%n_state = size(y0)
+      self%n_modes = model%n_modes
       self%max_periods = max_periods
       self%harmonics = harmonics
       self%p_max = p_max
@@ -242,10 +245,10 @@ contains
       if (allocated(self%acc_sin)) deallocate (self%acc_sin, self%acc_cos)
       if (allocated(self%acc_modal)) deallocate (self%acc_modal, self%modal_nodes, self%modal_rates)
       if (allocated(self%max_gap_values)) deallocate (self%max_gap_values, self%modal_extrema)
-      allocate (self%acc_modal(self%n_state/2, 4), self%modal_nodes(0:gl_points + 1, self%n_state/2), &
-                self%modal_rates(0:1, self%n_state/2))
+      allocate (self%acc_modal(self%n_modes, 4), self%modal_nodes(0:gl_points + 1, self%n_modes), &
+                self%modal_rates(0:1, self%n_modes))
       allocate (self%max_gap_values(max_periods), &
-                self%modal_extrema(max_periods, self%n_state/2, 4))
+                self%modal_extrema(max_periods, self%n_modes, 4))
       self%max_gap_values = 0
       self%modal_extrema = 0
       if (allocated(self%values)) deallocate (self%values, self%harmonic_amplitude, &
@@ -371,7 +374,7 @@ contains
       if (.not. self%do_extrema) return
       call self%exact%extremum(flight, channel_gap, -1.0_dp, a, b, self%min_gap)
       call self%exact%extremum(flight, channel_gap, 1.0_dp, a, b, self%max_gap)
-      do j = 1, self%n_state/2
+      do j = 1, self%n_modes
          call self%exact%extremum(flight, j, 1.0_dp, a, b, self%acc_modal(j, ext_max_free))
          call self%exact%extremum(flight, j, -1.0_dp, a, b, self%acc_modal(j, ext_min_free))
       end do
@@ -543,7 +546,7 @@ contains
       type(contact_brackets_t) :: state
       integer :: i, k, n, i_best, m
 
-      n = self%n_state/2
+      n = self%n_modes
       half = (b - a)/2
       mid = (a + b)/2
       ! A fixed step's cubic needs fewer points than the pairs' higher-degree dense output.

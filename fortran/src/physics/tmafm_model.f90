@@ -97,9 +97,6 @@ module tmafm_model
       real(dp), allocatable :: inv_mass_integral(:)
       !> N rounded up to a whole number of the kernel's row blocks (rows_per_block).
       integer :: n_padded = 0
-      !> The largest N the small kernel takes: rows_per_block, or 0 with a viscoelastic sample
-      !> (whose kernel, sls_kernel, general_kernel calls).
-      integer :: small_modes = rows_per_block
       !> For N <= rows_per_block (small_kernel): the folded terms at fixed places in the model,
       !> zero below row N and past column N of each part: B's halves and M^-1 G (columns 1-4,
       !> 5-8, 9-12), then w_s, w_c, M^-1 p and the moment term (columns 13-16).
@@ -182,11 +179,7 @@ contains
       model%n_modes = n
       model%sls = sls_t(scene%sls_relaxation_time, scene%sls_modulus_ratio)
       model%n_state = 2*n
-      model%small_modes = rows_per_block
-      if (model%sls%on) then
-         model%n_state = 2*n + 2
-         model%small_modes = 0
-      end if
+      if (model%sls%on) model%n_state = 2*n + 2
       model%law = law
       model%scene = scene
       model%errata = errata
@@ -488,7 +481,11 @@ contains
       real(dp), intent(out), contiguous :: dydt(:)
       real(dp) :: sin_phase, cos_phase, vt, vtdot
       call model_phase(self, tau, sin_phase, cos_phase)
-      call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+      if (self%sls%on) then
+         call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
+      else
+         call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+      end if
    end subroutine model_derivative
 
    pure subroutine model_derivative_at_phase(self, y, in_contact, sin_phase, cos_phase, dydt)
@@ -499,7 +496,11 @@ contains
       real(dp), intent(in) :: cos_phase
       real(dp), intent(out), contiguous :: dydt(:)
       real(dp) :: vt, vtdot
-      call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+      if (self%sls%on) then
+         call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
+      else
+         call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+      end if
    end subroutine model_derivative_at_phase
 
    pure subroutine model_derivative_and_gap(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
@@ -511,7 +512,11 @@ contains
       real(dp), intent(out), contiguous :: dydt(:)
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: vtdot
-      call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
+      if (self%sls%on) then
+         call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
+      else
+         call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
+      end if
    end subroutine model_derivative_and_gap
 
    !> The one right-hand side: (a', a'') from y = (a, a') and the drive phase, and V_T and
@@ -539,8 +544,7 @@ contains
       integer :: i, j, n
 
       n = self%n_modes
-      if (n > self%small_modes) then
-         ! N > rows_per_block, or a viscoelastic sample (small_modes = 0).
+      if (n > r) then
          call general_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
          return
       end if
@@ -629,10 +633,6 @@ contains
       real(dp) :: tip_push
       integer :: n, j
 
-      if (self%sls%on) then
-         call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
-         return
-      end if
       n = self%n_modes
       associate (s => self%scene)
          vt = 0
@@ -678,8 +678,8 @@ contains
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: vtdot
       real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, radius, hertz, friction
-      real(dp) :: tip_push, w, normal
-      integer :: n, j
+      real(dp) :: tip_push, w, normal, acc, stiff
+      integer :: n, i, j
 
       n = self%n_modes
       w = y(2*n + 1)
@@ -710,8 +710,19 @@ contains
             tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*sin_phase &
                        + self%base_cos*cos_phase
          end if
-         call accumulate(n, self%n_padded, self%pass_terms, self%pass_a, self%pass_v, self%pass_g, y, &
-                         in_contact, sin_phase, cos_phase, tip_push, axial, dydt)
+         ! a'' from the folded terms (as accumulate, in plain loops: accumulate keeps one caller,
+         ! so that the compiler lays out the elastic kernels as it did before this one existed).
+         do i = 1, n
+            acc = self%pass_terms(i, 1)*sin_phase + self%pass_terms(i, 2)*cos_phase
+            stiff = self%pass_terms(i, 4)
+            do j = 1, n
+               acc = acc + (self%pass_a(i, j)*y(j) + self%pass_v(i, j)*y(n + j))
+               stiff = stiff + self%pass_g(i, j)*y(j)
+            end do
+            if (in_contact) acc = acc + tip_push*self%pass_terms(i, 3) + axial*stiff
+            dydt(i) = y(n + i)
+            dydt(n + i) = acc
+         end do
          dydt(2*n + 1) = sls_rate(self%sls, hertz, w)
          dydt(2*n + 2) = 0
       end associate

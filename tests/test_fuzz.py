@@ -47,7 +47,8 @@ REAL_KEYS = {
               "delta_hat": (0.0, 0.5), "xi0": (0.5, 1.0),
               # a liquid (both > 0; one alone is refused, which the contract allows)
               "medium_mass": (0.1, 2.0), "medium_reynolds": (1.0, 100.0),
-              "vdw_adhesion": (0.5, 2.0), "vdw_range": (1e-5, 1e-3)},
+              "vdw_adhesion": (0.5, 2.0), "vdw_range": (1e-5, 1e-3),
+              "sls_relaxation_time": (0.05, 2.0), "sls_modulus_ratio": (0.1, 1.0)},
     "solver": {"dtau": (1e-3, 4e-3), "rtol": (1e-9, 1e-6), "atol": (1e-16, 1e-12), "tau_end": (0.3, 2.0),
                "blowup_limit": (0.5, 10.0)},
     "output": {"sample_dtau": (0.01, 0.1)},

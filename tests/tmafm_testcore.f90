@@ -378,3 +378,58 @@ subroutine fluid_loads(path, n_modes, added_mass, damping, frequency, reynolds, 
    frequency = model%medium_frequency
    reynolds = model%medium_reynolds
 end subroutine fluid_loads
+!> A viscoelastic sample's dashpot coordinate w at the first max_switches switches V_T = 0 of
+!> an adaptive run (pair 1 dopri5, 2 dop853) of a namelist's model from rest: switch k at
+!> tau(k) with w(k), entering contact when entering(k) = 1.  The pair integrates w in flight
+!> as in contact (the model's ODE), so that a test can check the flight against the closed form.
+subroutine sls_switches(path, n_modes, pair, max_switches, tau, w, entering, n_switches, ierr, errmsg)
+   use tmafm, only: model_t, config_t, read_config, build_model, ok, err_input
+   use tmafm_kinds, only: dp
+   use tmafm_trajectory, only: trajectory_t, init_trajectory, progress_t
+   use tmafm_method_adaptive, only: adaptive_state_t
+   implicit none
+   character(len=*), intent(in) :: path
+   integer, intent(in) :: n_modes
+   integer, intent(in) :: pair
+   integer, intent(in) :: max_switches
+   real(dp), intent(out) :: tau(max_switches)
+   real(dp), intent(out) :: w(max_switches)
+   integer, intent(out) :: entering(max_switches)
+   integer, intent(out) :: n_switches
+   integer, intent(out) :: ierr
+   character(len=512), intent(out) :: errmsg
+   type(config_t) :: config
+   type(model_t) :: model
+   type(trajectory_t) :: traj
+   type(progress_t) :: progress
+   type(adaptive_state_t) :: state
+   real(dp), allocatable :: y0(:)
+
+   tau = 0; w = 0; entering = 0; n_switches = 0
+   call read_config(path, config, ierr, errmsg)
+   if (ierr /= ok) return
+   if (config%n_modes /= n_modes) then
+      ierr = err_input
+      errmsg = 'n_modes of the call does not match the namelist'
+      return
+   end if
+   call build_model(config, model, ierr, errmsg)
+   if (ierr /= ok) return
+   if (.not. model%sls%on) then
+      ierr = err_input
+      errmsg = 'the namelist has no viscoelastic sample'
+      return
+   end if
+   allocate (y0(model%n_state), source=0.0_dp)
+   call init_trajectory(traj, config%solver, n_modes)
+   call state%init(pair, model, config%solver, 0.0_dp, y0)
+   do while (n_switches < max_switches .and. .not. traj%complete())
+      call state%advance(model, config%solver, traj, .true., ierr, errmsg, progress)
+      if (ierr /= ok) return
+      if (traj%complete()) exit
+      n_switches = n_switches + 1
+      tau(n_switches) = state%tau
+      w(n_switches) = state%y(2*n_modes + 1)
+      entering(n_switches) = merge(1, 0, state%in_contact)
+   end do
+end subroutine sls_switches

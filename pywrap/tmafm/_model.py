@@ -19,7 +19,8 @@ from .errors import InputError, raise_for
 __all__ = ["Model", "ContactState", "POWER_NAMES"]
 
 #: The powers of Model.energy_flow, in the core's order (tmafm_model power_* indices).
-POWER_NAMES = ("drive", "beam_damping", "contact_damping", "contact_normal", "contact_friction")
+POWER_NAMES = ("drive", "beam_damping", "contact_damping", "contact_normal", "contact_friction",
+               "contact_viscoelastic")
 
 
 class ContactState(NamedTuple):
@@ -135,10 +136,13 @@ class Model:
                       doc="(kappa5, kappa6): the force scales of the brackets.")
 
     def derivative(self, tau: float, y, in_contact: bool) -> np.ndarray:
-        """dy/dtau of the state y = (a, a') in a phase: (a', a''), length 2N."""
+        """dy/dtau of the state y = (a, a') in a phase: (a', a''), length 2N.  With a viscoelastic
+        sample (scene sls_relaxation_time > 0) y = (a, a', w, 0) and dy/dtau = (a', a'', w', 0),
+        length 2N + 2 (docs/model.md, section 14)."""
         n = self.n_modes
-        y = _vector("y", y, 2 * n)
-        rate = np.zeros(2 * n)
+        size = 2 * n + (2 if self.scene.get("sls_relaxation_time", 0.0) > 0 else 0)
+        y = _vector("y", y, size)
+        rate = np.zeros(size)
         self._f.derivative(_time(tau), y, _phase(in_contact), rate)
         _finite_result("derivative", {"y": y}, rate=rate)
         return rate

@@ -653,7 +653,8 @@ contains
          end if
          associate (o => observers(k))
             m = o%n_periods
-            s = o%n_state
+            ! The modal state (a, a'); a viscoelastic sample's w is not copied out.
+            s = 2*o%n_modes
             n_periods(k) = m
             period(k) = o%found_period
             values(k, 1:m, :) = o%values(1:m, :)
@@ -791,7 +792,7 @@ contains
             reason(k) = o%reason
             jitter(k) = o%jitter_floor(m)
             kept = min(p_max, m + 1)
-            orbit(k, p_max - kept + 1:p_max, :) = transpose(o%poincare(:, m - kept + 1:m))
+            orbit(k, p_max - kept + 1:p_max, :) = transpose(o%poincare(1:2*o%n_modes, m - kept + 1:m))
          end associate
       end do
       scales = config_scales(chosen)

@@ -82,6 +82,9 @@ module tmafm_keys
       character(len=8) :: unit = ''
       !> One line: what it means.
       character(len=200) :: meaning = ''
+      !> A switch of optional physics: the resolved text leaves the key out while it has its
+      !> default (off), so that a scene without it writes the text it always wrote.
+      logical :: omit_default = .false.
    end type key_t
 
    type(key_t), parameter :: model_rows(*) = [ &
@@ -119,17 +122,22 @@ module tmafm_keys
       key_t('scene', 'delta_hat', key_real, -1.0e3_dp, 1.0e3_dp, unit='1', &
             meaning='static tip-sample offset, delta/(d cos theta)'), &
       key_t('scene', 'xi0', key_real, 0, 1, .false., unit='1', meaning='tip position along the beam, x0/L'), &
-      key_t('scene', 'medium_mass', key_real, 0, 1.0e3_dp, unit='1', &
+      key_t('scene', 'medium_mass', key_real, 0, 1.0e3_dp, unit='1', omit_default=.true., &
             rule='> 0 with medium_reynolds > 0 (a liquid), or both 0 (vacuum)', &
             meaning='liquid: pi rho_f b/(4 rho h), the added mass per Gamma_r (docs/model.md); 0 = vacuum'), &
-      key_t('scene', 'medium_reynolds', key_real, 0, 1.0e12_dp, unit='1', &
+      key_t('scene', 'medium_reynolds', key_real, 0, 1.0e12_dp, unit='1', omit_default=.true., &
             rule='> 0 with medium_mass > 0, or both 0', &
             meaning='liquid: rho_f b^2/(4 eta t0), the Reynolds number at Omega = 1 (Re = this times omega)'), &
-      key_t('scene', 'vdw_adhesion', key_real, 0, 1.0e6_dp, unit='1', &
+      key_t('scene', 'vdw_adhesion', key_real, 0, 1.0e6_dp, unit='1', omit_default=.true., &
             rule="> 0 with contact_law = 'dmt_vdw'", &
             meaning="'dmt_vdw' adhesion H R/(6 a0^2) over 1.5 pi gamma R, H/(9 pi gamma a0^2)"), &
-      key_t('scene', 'vdw_range', key_real, 0, 1.0e3_dp, .false., unit='1', &
-            meaning="'dmt_vdw': intermolecular distance over gap, a0/d")]
+      key_t('scene', 'vdw_range', key_real, 0, 1.0e3_dp, .false., unit='1', omit_default=.true., &
+            meaning="'dmt_vdw': intermolecular distance over gap, a0/d"), &
+      key_t('scene', 'sls_relaxation_time', key_real, 0, 1.0e12_dp, unit='tau', omit_default=.true., &
+            meaning='viscoelastic (standard linear solid) sample: stress relaxation time T of the contact; '// &
+            '0 = elastic sample (docs/model.md, section 14)'), &
+      key_t('scene', 'sls_modulus_ratio', key_real, 0, 1, .false., unit='1', omit_default=.true., &
+            meaning='viscoelastic sample: relaxed over instantaneous reduced modulus, E*_inf/E*_0')]
 
    type(key_t), parameter :: physical_rows(*) = [ &
       key_t('physical', 'length', key_real, 0, 1, .false., unit='m', meaning='beam length L'), &
@@ -184,16 +192,23 @@ module tmafm_keys
       key_t('physical', 'tip_sample_distance', key_real, -1, 1, unit='m', &
             rule='instead of gap and static_offset', &
             meaning='tip-sample rest distance Z: static_offset = Z, gap = tip_length + Z/cos(tilt)'), &
-      key_t('physical', 'medium_density', key_real, 0, 1.0e5_dp, unit='kg/m^3', &
+      key_t('physical', 'medium_density', key_real, 0, 1.0e5_dp, unit='kg/m^3', omit_default=.true., &
             rule='> 0 with medium_viscosity > 0 (a liquid), or both 0 (vacuum)', &
             meaning='mass density rho_f of the liquid around the beam (docs/model.md); 0 = vacuum'), &
-      key_t('physical', 'medium_viscosity', key_real, 0, 1.0e3_dp, unit='Pa s', &
+      key_t('physical', 'medium_viscosity', key_real, 0, 1.0e3_dp, unit='Pa s', omit_default=.true., &
             rule='> 0 with medium_density > 0, or both 0', &
             meaning='dynamic viscosity eta of the liquid around the beam; 0 = vacuum'), &
-      key_t('physical', 'hamaker', key_real, 0, 1.0e-15_dp, unit='J', rule="> 0 with contact_law = 'dmt_vdw'", &
+      key_t('physical', 'hamaker', key_real, 0, 1.0e-15_dp, unit='J', omit_default=.true., &
+            rule="> 0 with contact_law = 'dmt_vdw'", &
             meaning="Hamaker constant H of the tip-sample pair ('dmt_vdw')"), &
-      key_t('physical', 'intermolecular_distance', key_real, 0, 1.0e-6_dp, .false., unit='m', &
-            meaning="intermolecular distance a0, the separation at contact ('dmt_vdw')")]
+      key_t('physical', 'intermolecular_distance', key_real, 0, 1.0e-6_dp, .false., unit='m', omit_default=.true., &
+            meaning="intermolecular distance a0, the separation at contact ('dmt_vdw')"), &
+      key_t('physical', 'sample_relaxation_time', key_real, 0, 1.0e3_dp, unit='s', omit_default=.true., &
+            meaning='viscoelastic (standard linear solid) sample: its stress relaxation time T2; '// &
+            '0 = elastic sample (docs/model.md, section 14)'), &
+      key_t('physical', 'sample_modulus_relaxed', key_real, 0, 1.0e13_dp, unit='Pa', omit_default=.true., &
+            rule='0 (= youngs_modulus_sample) or <= youngs_modulus_sample', &
+            meaning="viscoelastic sample: its relaxed Young's modulus E2_inf")]
 
    type(key_t), parameter :: initial_rows(*) = [ &
       key_t('initial', 'a0', key_list, -1, 1, unit='d', &

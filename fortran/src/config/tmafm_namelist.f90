@@ -285,6 +285,8 @@ contains
       type(config_t), intent(inout) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      !> The shortest nonzero &scene sls_relaxation_time.
+      real(dp), parameter :: min_relaxation_time = 1.0e-12_dp
       real(dp) :: values(size(scene_names))
 
       values = scene_values(config%scene)
@@ -293,6 +295,13 @@ contains
       ! A liquid takes both of its keys (docs/model.md, A liquid environment): one alone is refused, not ignored.
       call check_pair(p, g, 'medium_mass', values(14), 'medium_reynolds', values(15), ierr, errmsg)
       if (ierr /= ok) return
+      ! A viscoelastic sample: T = 0 (off) or long enough that 1/T is a normal number; a shorter
+      ! one is the relaxed elastic law (docs/model.md, section 14).
+      if (values(18) > 0 .and. values(18) < min_relaxation_time) then
+         call key_error(p, entry_or_default(g, 'sls_relaxation_time', values(18)), &
+                        'must be 0 (an elastic sample) or >= '//real_text(min_relaxation_time), ierr, errmsg)
+         return
+      end if
       config%scene = scene_from_values(values)
    end subroutine read_scene
 
@@ -409,6 +418,12 @@ contains
       end if
       call check_pair(p, g, 'medium_density', v(28), 'medium_viscosity', v(29), ierr, errmsg)
       if (ierr /= ok) return
+      ! A viscoelastic sample relaxes to a modulus no higher than its instantaneous one.
+      if (v(33) > v(7)) then
+         fixed = entry_or_default(g, 'sample_modulus_relaxed', v(33))
+         call key_error(p, fixed, 'must be 0 or <= youngs_modulus_sample = '//real_text(v(7)), ierr, errmsg)
+         return
+      end if
       if (given(25)) v(20) = 2*acos(-1.0_dp)*v(25)
       phys = physical_from_values(v)
       phys%by_calibration = given(21)
@@ -668,6 +683,13 @@ contains
             errmsg = label//': &scene vdw_adhesion = '//real_text(config%scene%vdw_adhesion)// &
                      ": must be > 0 with &model contact_law = 'dmt_vdw'"
          end if
+         return
+      end if
+      if (config%scene%sls_relaxation_time > 0) then
+         ierr = err_input
+         errmsg = label//': &scene sls_relaxation_time = '//real_text(config%scene%sls_relaxation_time)// &
+                  ": a viscoelastic sample is not combined with &model contact_law = 'dmt_vdw' (its "// &
+                  "relaxation acts on the contact force only); use 'hertz' or 'dmt'"
          return
       end if
       if (vdw_method_refused(config%solver%method)) then
@@ -1167,8 +1189,9 @@ contains
    subroutine config_text(config, text)
       type(config_t), intent(in) :: config
       character(len=:), allocatable, intent(out) :: text
-      character(len=:), allocatable :: c, value, group
+      character(len=:), allocatable :: c, value, group, default_value
       character, parameter :: nl = new_line('a')
+      type(config_t) :: defaults
       integer :: g, row
 
       text = ''
@@ -1196,6 +1219,11 @@ contains
                if (.not. physical_key_given(config%physical, group_index(row))) cycle
             end if
             call key_value_text(config, row, value)
+            if (keys(row)%omit_default) then
+               ! An optional physics switch that is off (at its default) is left out.
+               call key_value_text(defaults, row, default_value)
+               if (value == default_value) cycle
+            end if
             call line('    '//trim(keys(row)%name)//' = '//value)
             ! Keep the request of an automatic N, and record the choice as a comment.
             if (keys(row)%name == 'n_modes' .and. config%auto_modes) call choice_note()

@@ -23,11 +23,11 @@ module tmafm_dop853
 
    public :: dop853_pair_t
 
-   !> Rows of the stage registers k: the longest state (2 max_modes), whatever the run's.  With
+   !> Rows of the stage registers k: the longest state (2 max_modes + 2), whatever the run's.  With
    !> a leading dimension fixed at compile time the column k(:, j) is at a constant offset, and
    !> the stage sums need no address arithmetic per stage (docs/performance.md, "A dop853
    !> contact step besides its right-hand sides"); the rows past the state are never read.
-   integer, parameter :: lead = 2*max_modes
+   integer, parameter :: lead = 2*max_modes + 2
 
    ! Nodes c_i of stages 2-12 and of the dense-output stages 14-16.
    real(dp), parameter :: c2 = 0.05260015195876773_dp, c3 = 0.0789002279381516_dp, &
@@ -139,7 +139,8 @@ contains
       self%shrink_limit = 0.333_dp
       self%grow_limit = 6.0_dp
       if (allocated(self%k)) return
-      ! The state is (a, a') of a model: n_state = 2 n_modes <= lead (tmafm_model's limit).
+      ! The state is (a, a') of a model, or (a, a', w, 0) with a viscoelastic sample:
+      ! n_state <= 2 n_modes + 2 <= lead (tmafm_model's limit).
       allocate (self%k(lead, 2:16), self%stage(n_state), self%err5(n_state), &
                 self%err3(n_state), self%y0(n_state), self%r(n_state, 0:6))
    end subroutine dop853_init

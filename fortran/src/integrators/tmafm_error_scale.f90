@@ -51,6 +51,14 @@ module tmafm_error_scale
       real(dp), allocatable :: weight(:)
       !> Inverse weight of the V_T component.
       real(dp) :: tip_weight = 0
+      !> A viscoelastic sample's dashpot coordinate w = y(2N + 1) (tmafm_viscoelastic), when the
+      !> state (a, a', w, 0) has it: its running size (at least 1, the Hertz variable at A = 1),
+      !> weighed 1/(rtol size) as weight(2N + 1) (weight(2N + 2) = 0 for the pad).
+      logical :: has_dashpot = .false.
+      real(dp) :: dashpot_amplitude = 1
+      !> Half the state's length: N, or N + 1 with the dashpot (the sums run over 2 n_half
+      !> components, and over tip(1:n_half), zero past N).
+      integer :: n_half = 0
    contains
       !> Set up for a model and tolerances, with the amplitudes of the initial state y0.
       procedure :: init => scale_init
@@ -75,10 +83,15 @@ contains
       self%n_modes = n
       self%rtol = rtol
       self%atol = atol
+      self%has_dashpot = size(y0) > 2*n
+      self%n_half = size(y0)/2
       if (allocated(self%omega)) deallocate (self%omega, self%tip, self%amplitude, self%weight)
-      allocate (self%omega(n), self%tip(n), self%amplitude(n), self%weight(2*n))
+      allocate (self%omega(n), self%tip(self%n_half), self%amplitude(n), self%weight(2*self%n_half))
       self%omega = model%beta**2
-      self%tip = model%tip
+      self%tip = 0
+      self%tip(1:n) = model%tip
+      self%weight = 0
+      self%dashpot_amplitude = 1
       self%amplitude = 0
       self%tip_amplitude = abs(model%scene%alpha2)
       call self%update(y0)
@@ -94,6 +107,12 @@ contains
       logical :: grew
       call grow_amplitudes(self%n_modes, self%tip, self%omega, y, self%tip_amplitude, self%amplitude, grew)
       if (grew) call refresh_weights(self)
+      if (self%has_dashpot) then
+         if (abs(y(2*self%n_modes + 1)) > self%dashpot_amplitude) then
+            self%dashpot_amplitude = abs(y(2*self%n_modes + 1))
+            call refresh_weights(self)
+         end if
+      end if
    end subroutine scale_update
 
    !> The running amplitudes grown with a state y (explicit shapes: no descriptors); grew tells
@@ -139,6 +158,7 @@ contains
          self%weight(j) = 1/tolerance
          self%weight(n + j) = 1/(self%omega(j)*tolerance)
       end do
+      if (self%has_dashpot) self%weight(2*n + 1) = 1/max(self%rtol*self%dashpot_amplitude, tiny(1.0_dp))
    end subroutine refresh_weights
 
    pure function scale_sum_of_squares(self, e) result(total)
@@ -146,7 +166,7 @@ contains
       real(dp), intent(in) :: e(:)
       real(dp) :: total
       integer :: n
-      n = self%n_modes
+      n = self%n_half
       total = sum((self%weight*e)**2) + (self%tip_weight*dot_product(self%tip, e(1:n)))**2
    end function scale_sum_of_squares
 
@@ -158,7 +178,7 @@ contains
       real(dp), intent(in), contiguous :: e2(:)
       real(dp), intent(out) :: total1
       real(dp), intent(out) :: total2
-      call pair_sums(self%n_modes, self%weight, self%tip, self%tip_weight, e1, e2, total1, total2)
+      call pair_sums(self%n_half, self%weight, self%tip, self%tip_weight, e1, e2, total1, total2)
    end subroutine scale_sums_of_squares
 
    !> scale_sums_of_squares on explicit-shape arrays (no descriptors, unit strides).

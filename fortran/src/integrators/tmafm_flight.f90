@@ -38,6 +38,7 @@ module tmafm_flight
    use tmafm_kinds, only: dp, i8
    use tmafm_errors, only: ok, err_input, err_runtime
    use tmafm_model, only: model_t
+   use tmafm_viscoelastic, only: sls_free_relaxation
    use tmafm_events, only: hermite_minimum, switch_margin
    use tmafm_roots, only: bracketed_root_t
    implicit none
@@ -69,6 +70,9 @@ module tmafm_flight
       real(dp) :: harmonic_bound = 0
       !> Start of the flight under way.
       real(dp) :: tau0 = 0
+      !> A viscoelastic sample's dashpot coordinate w at tau0 (tmafm_viscoelastic): in flight it
+      !> relaxes in closed form, w exp(-r s/T), written after the modes when y has room for it.
+      real(dp) :: dashpot0 = 0
       !> Modal coefficients z of the flight, and z times p^T V (each term's share of V_T).
       complex(dp), allocatable :: z(:), tip_weight(:)
       !> multiplicity |tip_weight| |lambda|^4: each term's share of |d^4 V_T/ds^4| at s = 0.
@@ -365,6 +369,7 @@ contains
       real(dp) :: phase, sin_phase, cos_phase
 
       self%tau0 = tau
+      if (size(y) > self%n_state) self%dashpot0 = y(self%n_state + 1)
       phase = model%scene%omega*tau
       sin_phase = sin(phase)
       cos_phase = cos(phase)
@@ -621,6 +626,10 @@ contains
                                                 - aimag(self%vectors(i, k))*aimag(w))
          end do
       end do
+      if (size(y) > self%n_state) then
+         y(self%n_state + 1) = sls_free_relaxation(model%sls, self%dashpot0, s)
+         y(self%n_state + 2:) = 0
+      end if
    end subroutine flight_state
 
    pure subroutine flight_gap(self, model, s, vt, vtdot)

@@ -25,8 +25,9 @@ module tmafm_model
    use tmafm_modes, only: beam_roots, mode_shape, max_modes
    use tmafm_galerkin, only: mode_integrals_closed_form, axial_matrix_closed_form, &
       axial_matrix_quadrature, quadrature_panels
-   use tmafm_contact, only: contact_brackets_t, contact_brackets, law_hertz, contact_angle_sin_cos, &
-      contact_forces
+   use tmafm_contact, only: contact_brackets_t, contact_brackets, law_hertz, law_dmt, dmt_adhesion, &
+      contact_angle_sin_cos, contact_forces
+   use tmafm_viscoelastic, only: sls_t, sls_force_group, sls_rate, sls_viscoelastic_part
    use tmafm_scene, only: scene_t
    use tmafm_errata, only: errata_t
    use tmafm_hydrodynamics, only: modal_fluid_loads
@@ -46,6 +47,12 @@ module tmafm_model
    type :: model_t
       !> Number of Galerkin modes N.
       integer :: n_modes = 0
+      !> Length of the state y: 2N, or 2N + 2 with a viscoelastic sample: y(2N + 1) = w, the
+      !> dashpot coordinate of tmafm_viscoelastic, and y(2N + 2) = 0 (a pad: the integrators'
+      !> registers keep an even length, which their vector loops rely on).
+      integer :: n_state = 0
+      !> The viscoelastic sample (off: the elastic contact of docs/model.md §6).
+      type(sls_t) :: sls
       !> Contact law (law_hertz, law_dmt or law_dmt_vdw).
       integer :: law = law_hertz
       !> The dimensionless scene.
@@ -151,6 +158,8 @@ module tmafm_model
       procedure :: contact => model_contact
       !> The same in a given phase: under 'dmt_vdw' the attraction in flight, else contact_state.
       procedure :: forces_in_phase => model_forces_in_phase
+      !> The normal contact force kappa5 f at a contact state y (a, a'[, w]) and time tau.
+      procedure :: normal_force => model_normal_force
       !> The explicit M, C, K, F of Eq. (15) at one state, for checks and analysis.
       procedure :: matrices => model_matrices
       !> The power of each generalized force on the modes, and the modal energy, at one state.
@@ -160,7 +169,8 @@ module tmafm_model
 
    !> Indices of the powers returned by energy_flow.
    integer, parameter, public :: power_drive = 1, power_beam_damping = 2, &
-      power_contact_damping = 3, power_contact_normal = 4, power_contact_friction = 5, n_powers = 5
+      power_contact_damping = 3, power_contact_normal = 4, power_contact_friction = 5, &
+      power_contact_viscoelastic = 6, n_powers = 6
 
 contains
 
@@ -185,6 +195,9 @@ contains
       end if
       n = n_modes
       model%n_modes = n
+      model%sls = sls_t(scene%sls_relaxation_time, scene%sls_modulus_ratio)
+      model%n_state = 2*n
+      if (model%sls%on) model%n_state = 2*n + 2
       model%law = law
       model%scene = scene
       model%errata = errata
@@ -487,6 +500,43 @@ contains
                            self%kappa6, self%errata%e7_signed_slope, self%scene%vdw_adhesion, &
                            self%scene%vdw_range)
    end function model_forces_in_phase
+   !> kappa5 f: the normal force group of the elastic law (§6), or with a viscoelastic sample
+   !> and y = (a, a', w) the sample's (tmafm_viscoelastic), in the units of the brackets.
+   pure function model_normal_force(self, tau, y) result(force)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: y(:)
+      real(dp) :: force
+      type(contact_brackets_t) :: state
+      integer :: n
+      n = self%n_modes
+      state = self%contact(tau, y(1:n))
+      force = self%kappa5*state%normal
+      if (self%sls%on .and. size(y) > 2*n) &
+         force = force + self%kappa5*sls_viscoelastic_part(self%sls, state%radius**3, y(2*n + 1))
+   end function model_normal_force
+
+   !> d(delta_n)/dtau for the normal indentation delta_n = -V_T sin(theta1) (§6), given sin and
+   !> cos of theta1: -V_T' sin(theta1) - V_T cos(theta1) theta1', theta1' from the slope's rate
+   !> (Eq. 3, or E7's signed form).
+   pure function normal_indentation_rate(self, tau, a, adot, sin1, cos1) result(rate)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: a(:)
+      real(dp), intent(in) :: adot(:)
+      real(dp), intent(in) :: sin1
+      real(dp), intent(in) :: cos1
+      real(dp) :: rate, vt, vt_rate, slope, slope_rate, angle_rate
+      associate (s => self%scene)
+         vt = dot_product(self%tip, a) + s%alpha2*sin(s%omega*tau) + s%delta_hat
+         vt_rate = dot_product(self%tip, adot) + s%alpha2*s%omega*cos(s%omega*tau)
+         slope = dot_product(self%slope, a)/s%l_over_d
+         slope_rate = dot_product(self%slope, adot)/s%l_over_d
+      end associate
+      angle_rate = slope_rate/(1 + slope*slope)
+      if (.not. self%errata%e7_signed_slope) angle_rate = -sign(1.0_dp, slope)*angle_rate
+      rate = -vt_rate*sin1 - vt*cos1*angle_rate
+   end function normal_indentation_rate
 
    !> The contact-damping base term: -alpha2 alpha4 sin(Omega tau) (printed) or E1's velocity form.
    pure function base_damping(self, tau) result(value)
@@ -510,7 +560,11 @@ contains
       real(dp), intent(out), contiguous :: dydt(:)
       real(dp) :: sin_phase, cos_phase, vt, vtdot
       call model_phase(self, tau, sin_phase, cos_phase)
-      call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+      if (self%sls%on) then
+         call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
+      else
+         call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+      end if
    end subroutine model_derivative
 
    pure subroutine model_derivative_at_phase(self, y, in_contact, sin_phase, cos_phase, dydt)
@@ -521,7 +575,11 @@ contains
       real(dp), intent(in) :: cos_phase
       real(dp), intent(out), contiguous :: dydt(:)
       real(dp) :: vt, vtdot
-      call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+      if (self%sls%on) then
+         call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
+      else
+         call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+      end if
    end subroutine model_derivative_at_phase
 
    pure subroutine model_derivative_and_gap(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
@@ -533,7 +591,11 @@ contains
       real(dp), intent(out), contiguous :: dydt(:)
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: vtdot
-      call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
+      if (self%sls%on) then
+         call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
+      else
+         call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
+      end if
    end subroutine model_derivative_and_gap
 
    !> The one right-hand side: (a', a'') from y = (a, a') and the drive phase, and V_T and
@@ -693,6 +755,69 @@ contains
       end associate
    end subroutine general_kernel
 
+   !> rhs_kernel with a viscoelastic sample: y = (a, a', w, 0), dydt = (a', a'', w', 0).  The normal
+   !> force group is the SLS's (tmafm_viscoelastic) on the Hertz variable X = A^3, DMT's pull-off
+   !> added; the rest as general_kernel.  V_T and its rate are always returned.
+   pure subroutine sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in) :: y(2*self%n_modes + 2)
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      real(dp), intent(out) :: dydt(2*self%n_modes + 2)
+      real(dp), intent(out) :: vt
+      real(dp), intent(out) :: vtdot
+      real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, radius, hertz, friction
+      real(dp) :: tip_push, w, normal, acc, stiff
+      integer :: n, i, j
+
+      n = self%n_modes
+      w = y(2*n + 1)
+      associate (s => self%scene)
+         tip_a = 0
+         slope_a = 0
+         tip_adot = 0
+         do j = 1, n
+            tip_a = tip_a + self%tip(j)*y(j)
+            slope_a = slope_a + self%scaled_slope(j)*y(j)
+            tip_adot = tip_adot + self%tip(j)*y(n + j)
+         end do
+         vt = tip_a + s%alpha2*sin_phase + s%delta_hat
+         vtdot = tip_adot + s%alpha2*s%omega*cos_phase
+         axial = 0
+         tip_push = 0
+         hertz = 0
+         if (in_contact) then
+            call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a, &
+                                       self%errata%e7_signed_slope, sin1, cos1)
+            ! The friction brackets alone (kappa5 = 0), and X = A^3 from the Hertz law.
+            call contact_forces(vt, sin1, cos1, s%beta, law_hertz, 0.0_dp, self%kappa6, &
+                                transverse, axial, radius, hertz, friction)
+            normal = sls_force_group(self%sls, hertz, w)
+            if (self%law == law_dmt) normal = normal - dmt_adhesion
+            transverse = transverse + self%kappa5*normal*sin1
+            axial = axial - self%kappa5*normal*cos1
+            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*sin_phase &
+                       + self%base_cos*cos_phase
+         end if
+         ! a'' from the folded terms (as accumulate, in plain loops: accumulate keeps one caller,
+         ! so that the compiler lays out the elastic kernels as it did before this one existed).
+         do i = 1, n
+            acc = self%pass_terms(i, 1)*sin_phase + self%pass_terms(i, 2)*cos_phase
+            stiff = self%pass_terms(i, 4)
+            do j = 1, n
+               acc = acc + (self%pass_a(i, j)*y(j) + self%pass_v(i, j)*y(n + j))
+               stiff = stiff + self%pass_g(i, j)*y(j)
+            end do
+            if (in_contact) acc = acc + tip_push*self%pass_terms(i, 3) + axial*stiff
+            dydt(i) = y(n + i)
+            dydt(n + i) = acc
+         end do
+         dydt(2*n + 1) = sls_rate(self%sls, hertz, w)
+         dydt(2*n + 2) = 0
+      end associate
+   end subroutine sls_kernel
+
    !> dydt = (a', a'') from the folded terms: the drive and the columns of B, which do not
    !> depend on the contact forces (so that they overlap with the contact's square roots),
    !> then, in contact, tip_push M^-1 p + P2 ((g0/d) M^-1 r + M^-1 G a), for general_kernel
@@ -812,8 +937,10 @@ contains
    !> the liquid's damping, and the liquid's base terms in the drive), the contact
    !> damping (with its base term), and the normal and friction parts of the contact force
    !> (P1 along p, P2 through the moment and the axial stiffness), plus the modal energy
-   !> E = a'.M a'/2 + a.Lambda a/2.  dE/dtau is the sum of the powers.
-   pure subroutine model_energy_flow(self, tau, a, adot, in_contact, power, energy)
+   !> E = a'.M a'/2 + a.Lambda a/2.  dE/dtau is the sum of the powers.  With a viscoelastic
+   !> sample and its dashpot coordinate w (absent: 0), the normal force's part f - X that the
+   !> sample's delay takes off the elastic X = A^3 is the separate viscoelastic power.
+   pure subroutine model_energy_flow(self, tau, a, adot, in_contact, power, energy, w)
       class(model_t), intent(in) :: self
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: a(:)
@@ -821,9 +948,11 @@ contains
       logical, intent(in) :: in_contact
       real(dp), intent(out) :: power(n_powers)
       real(dp), intent(out) :: energy
+      !> The dashpot coordinate of a viscoelastic sample (tmafm_viscoelastic).
+      real(dp), intent(in), optional :: w
       type(contact_brackets_t) :: state
-      real(dp) :: sin1, cos1, tip_rate, p1, p2, axial_work, moment_rate
-      integer :: k
+      real(dp) :: sin1, cos1, tip_rate, p1, p2, axial_work, moment_rate, delayed
+      integer :: k, last
 
       associate (s => self%scene)
          ! Explicit sums: no array temporaries (observers call this inside the step loop).
@@ -862,18 +991,39 @@ contains
          do k = 1, self%n_modes
             axial_work = axial_work + a(k)*dot_product(adot, self%axial(:, k))
          end do
-         do k = 1, 2
-            ! k = 1: the normal part (kappa5 f_c); k = 2: the friction part (kappa6 h).
+         last = 2
+         delayed = 0
+         if (self%sls%on) then
+            last = 3
+            if (present(w)) delayed = sls_viscoelastic_part(self%sls, state%radius**3, w)
+         end if
+         do k = 1, last
+            ! k = 1: the normal part (kappa5 f_c); k = 2: the friction part (kappa6 h);
+            ! k = 3: the viscoelastic part of the normal force (kappa5 (f - X)).
             if (k == 1) then
                p1 = self%kappa5*state%normal*sin1
                p2 = -self%kappa5*state%normal*cos1
-            else
+            else if (k == 2) then
                p1 = self%kappa6*state%friction*cos1
                p2 = self%kappa6*state%friction*sin1
+            else
+               p1 = self%kappa5*delayed*sin1
+               p2 = -self%kappa5*delayed*cos1
             end if
-            power(power_contact_normal + k - 1) = s%l_over_d*p1*tip_rate &
-               + s%g0_over_d*p2*moment_rate + p2*axial_work
+            power(power_contact_normal + k - 1) = s%l_over_d*p1*tip_rate + s%g0_over_d*p2*moment_rate &
+                                                  + p2*axial_work
          end do
+         if (last == 3) then
+            ! The sample's own loss: the delayed force kappa5 (f - X) on the normal indentation
+            ! delta_n = -V_T sin(theta1), (L/d) kappa5 (f - X) d(delta_n)/dtau (the elastic X,
+            ! a function of delta_n alone, closes its loop with no work).  The normal power
+            ! keeps the rest of the delayed force's work on the modes, so the powers still sum
+            ! to dE/dtau.
+            power(power_contact_normal) = power(power_contact_normal) + power(power_contact_viscoelastic)
+            power(power_contact_viscoelastic) = -s%l_over_d*self%kappa5*delayed &
+                                                *normal_indentation_rate(self, tau, a, adot, sin1, cos1)
+            power(power_contact_normal) = power(power_contact_normal) - power(power_contact_viscoelastic)
+         end if
       end associate
    end subroutine model_energy_flow
 

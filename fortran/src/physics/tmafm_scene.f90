@@ -55,6 +55,11 @@ module tmafm_scene
       real(dp) :: vdw_adhesion = 4.0_dp/3.0_dp
       !> vdw_range = a0/d: the intermolecular distance over the gap.
       real(dp) :: vdw_range = 3.3e-5_dp
+      !> The viscoelastic sample (tmafm_viscoelastic, docs/model.md §14): the contact's stress
+      !> relaxation time T in units of tau (0: an elastic sample, the default).
+      real(dp) :: sls_relaxation_time = 0.0_dp
+      !> The relaxed over the instantaneous reduced modulus, E*_inf/E*_0, in (0, 1].
+      real(dp) :: sls_modulus_ratio = 1.0_dp
    end type scene_t
 
    !> Physical inputs in SI units; converted to a scene_t by Eq. (12).
@@ -138,22 +143,28 @@ module tmafm_scene
       real(dp) :: rigidity = 0
       !> Mass per length m derived by the calibration (kg/m); 0 with the geometry route.
       real(dp) :: mass_per_length = 0
+      !> The sample's stress relaxation time T2 (s) at fixed strain; 0: an elastic sample.
+      real(dp) :: sample_relaxation_time = 0.0_dp
+      !> The sample's relaxed Young's modulus E2_inf (Pa); 0: equal to youngs_modulus_sample.
+      real(dp) :: sample_modulus_relaxed = 0.0_dp
    end type physical_t
 
    !> The &scene keys, in the order of scene_values (their ranges: config/tmafm_keys.f90).
-   character(len=*), parameter :: scene_names(17) = [character(len=15) :: 'alpha1', 'alpha2', &
+   character(len=*), parameter :: scene_names(19) = [character(len=19) :: 'alpha1', 'alpha2', &
       'alpha3', 'alpha4', 'alpha5', 'alpha6', 'beta', 'omega', 'theta', 'l_over_d', 'g0_over_d', &
       'delta_hat', 'xi0', &
-      'medium_mass', 'medium_reynolds', 'vdw_adhesion', 'vdw_range']
+      'medium_mass', 'medium_reynolds', 'vdw_adhesion', 'vdw_range', 'sls_relaxation_time', &
+      'sls_modulus_ratio']
    !> The &physical keys, in the order of physical_values.
-   character(len=*), parameter :: physical_names(31) = [character(len=23) :: 'length', 'width', &
+   character(len=*), parameter :: physical_names(33) = [character(len=23) :: 'length', 'width', &
       'thickness', 'density', 'youngs_modulus_tip', 'poisson_ratio_tip', 'youngs_modulus_sample', &
       'poisson_ratio_sample', 'tip_radius', 'adhesion_energy', 'tilt', 'gap', 'tip_length', &
       'static_offset', 'tip_position', 'tip_mass', 'beam_damping', 'contact_damping', &
       'drive_amplitude', 'drive_angular_frequency', &
       'spring_constant', 'resonance_frequency', 'quality_factor', 'tip_mass_ratio', &
       'drive_frequency', 'free_amplitude', 'tip_sample_distance', &
-      'medium_density', 'medium_viscosity', 'hamaker', 'intermolecular_distance']
+      'medium_density', 'medium_viscosity', 'hamaker', 'intermolecular_distance', &
+      'sample_relaxation_time', 'sample_modulus_relaxed']
 
 contains
 
@@ -164,7 +175,8 @@ contains
       values = [scene%alpha1, scene%alpha2, scene%alpha3, scene%alpha4, scene%alpha5, &
                 scene%alpha6, scene%beta, scene%omega, scene%theta, scene%l_over_d, &
                 scene%g0_over_d, scene%delta_hat, scene%xi0, &
-                scene%medium_mass, scene%medium_reynolds, scene%vdw_adhesion, scene%vdw_range]
+                scene%medium_mass, scene%medium_reynolds, scene%vdw_adhesion, scene%vdw_range, &
+                scene%sls_relaxation_time, scene%sls_modulus_ratio]
    end function scene_values
 
    !> The physical inputs as an array, in the order of physical_names.
@@ -178,7 +190,8 @@ contains
                 phys%contact_damping, phys%drive_amplitude, phys%drive_angular_frequency, &
                 phys%spring_constant, phys%resonance_frequency, phys%quality_factor, &
                 phys%tip_mass_ratio, phys%drive_frequency, phys%free_amplitude, phys%tip_sample_distance, &
-                phys%medium_density, phys%medium_viscosity, phys%hamaker, phys%intermolecular_distance]
+                phys%medium_density, phys%medium_viscosity, phys%hamaker, phys%intermolecular_distance, &
+                phys%sample_relaxation_time, phys%sample_modulus_relaxed]
    end function physical_values
 
    !> The scene whose groups are `values`, in the order of scene_names (scene_values' inverse).
@@ -202,6 +215,8 @@ contains
       scene%medium_reynolds = values(15)
       scene%vdw_adhesion = values(16)
       scene%vdw_range = values(17)
+      scene%sls_relaxation_time = values(18)
+      scene%sls_modulus_ratio = values(19)
    end function scene_from_values
 
    !> The physical inputs whose values are `v`, in the order of physical_names (physical_values'
@@ -240,6 +255,8 @@ contains
       phys%medium_viscosity = v(29)
       phys%hamaker = v(30)
       phys%intermolecular_distance = v(31)
+      phys%sample_relaxation_time = v(32)
+      phys%sample_modulus_relaxed = v(33)
    end function physical_from_values
 
    !> Which &physical keys (indices into physical_names) scene group k depends on by Eq. (12).
@@ -248,7 +265,8 @@ contains
       integer, allocatable :: keys(:)
       ! 1 length, 2 width, 3 thickness, 4 density, 5 E1, 6 nu1, 7 E2, 8 nu2, 9 R, 10 gamma,
       ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega,
-      ! 21 k, 22 f0, 23 Q, 24 M/(m L), 25 omega/(2 pi), 26 A0, 27 Z, 28 rho_f, 29 eta, 30 H, 31 a0.
+      ! 21 k, 22 f0, 23 Q, 24 M/(m L), 25 omega/(2 pi), 26 A0, 27 Z, 28 rho_f, 29 eta, 30 H, 31 a0,
+      ! 32 T2, 33 E2_inf.
       select case (k)
       case (1)
          keys = [16, 4, 2, 3, 1, 24]
@@ -282,8 +300,12 @@ contains
          keys = [29, 28, 2, 4, 3, 1, 5, 21, 22]
       case (16)
          keys = [30, 10, 31]
-      case default
+      case (17)
          keys = [31, 12, 27]
+      case (18)
+         keys = [32, 33, 7, 5, 6, 8, 4, 2, 3, 1, 21, 22]
+      case default
+         keys = [33, 7, 5, 6, 8]
       end select
    end function scene_depends_on
 
@@ -313,7 +335,7 @@ contains
       type(physical_t), intent(in) :: phys
       type(scene_t) :: scene
       real(dp) :: mass_per_length, rigidity, e_star, g_tip, g_sample, g_star
-      real(dp) :: damping_scale, time_unit, d
+      real(dp) :: damping_scale, time_unit, d, e_star_relaxed, sample_relaxed
 
       d = phys%gap
       mass_per_length = beam_mass_per_length(phys)
@@ -354,6 +376,16 @@ contains
       ! 'dmt_vdw': H R/(6 a0^2) over the force scale 1.5 pi gamma R, and a0 over the gap.
       scene%vdw_adhesion = phys%hamaker/(9*pi*phys%adhesion_energy*phys%intermolecular_distance**2)
       scene%vdw_range = phys%intermolecular_distance/d
+      ! The viscoelastic sample (docs/model.md §14): the tip's compliance in series with the
+      ! sample's SLS is an SLS with the sample's retardation time T2 E2/E2_inf, reduced moduli
+      ! E*_0 = e_star and E*_inf, and the relaxation time (T2 E2/E2_inf) E*_inf/E*_0.
+      sample_relaxed = phys%sample_modulus_relaxed
+      if (sample_relaxed == 0) sample_relaxed = phys%youngs_modulus_sample
+      e_star_relaxed = 1.0_dp/((1 - phys%poisson_ratio_tip**2)/phys%youngs_modulus_tip &
+                               + (1 - phys%poisson_ratio_sample**2)/sample_relaxed)
+      scene%sls_modulus_ratio = e_star_relaxed/e_star
+      scene%sls_relaxation_time = phys%sample_relaxation_time*(phys%youngs_modulus_sample/sample_relaxed) &
+                                  *scene%sls_modulus_ratio/time_unit
    end function scene_from_physical
 
 end module tmafm_scene

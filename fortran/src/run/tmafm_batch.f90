@@ -196,14 +196,18 @@ contains
       type(trajectory_t) :: traj
       type(jitter_t) :: jitter
       real(dp) :: tol
+      ! The run's state: y0, and a viscoelastic sample's dashpot at rest (run_trajectory).
+      real(dp) :: y_run(model%n_state)
       integer :: n
 
       n = size(y0)/2
       ierr = ok
       errmsg = ''
+      y_run = 0
+      y_run(1:2*n) = y0(1:2*n)
       call steady_tolerance(model, settings, options%tol, tol, jitter)
       call observer%init(model, options%max_periods, options%harmonics, options%p_max, tol, &
-                         options%repeats, options%stop_at_steady, y0, options%groups, jitter)
+                         options%repeats, options%stop_at_steady, y_run, options%groups, jitter)
       if (allocated(options%attractor_first)) then
          if (size(options%attractor_first) >= 2) then
             if (size(options%attractor_points, 1) /= 2*n) then

@@ -35,7 +35,18 @@ contains
       !> whether to stop: the run then ends with err_interrupted.
       procedure(stop_poll), optional :: poll
       type(progress_t) :: progress
+      real(dp) :: y0(model%n_state)
 
+      ! The state: (a, a'), and with a viscoelastic sample its dashpot at rest, w = 0.
+      y0 = 0
+      y0(1:size(a0)) = a0
+      y0(size(a0) + 1:size(a0) + size(adot0)) = adot0
+      if (model%sls%on .and. (settings%method == method_rk4_paper .or. settings%method == method_rk4_event)) then
+         ierr = err_input
+         errmsg = '&solver method = '''//trim(settings%method)//''': a viscoelastic sample (&scene '// &
+                  'sls_relaxation_time > 0) needs dopri5, dop853 or flight_exact'
+         return
+      end if
       if (present(progress_unit)) progress%unit = progress_unit
       if (present(poll)) progress%poll => poll
       call init_trajectory(traj, settings, model%n_modes)
@@ -49,17 +60,17 @@ contains
       end if
       select case (trim(settings%method))
       case (method_rk4_paper)
-         call run_rk4_paper(model, settings, [a0, adot0], traj, ierr, errmsg, progress, observer)
+         call run_rk4_paper(model, settings, y0, traj, ierr, errmsg, progress, observer)
       case (method_rk4_event)
-         call run_rk4_event(model, settings, [a0, adot0], traj, ierr, errmsg, progress)
+         call run_rk4_event(model, settings, y0, traj, ierr, errmsg, progress)
       case (method_dopri5)
-         call run_adaptive(pair_dopri5, model, settings, [a0, adot0], traj, ierr, errmsg, progress, &
+         call run_adaptive(pair_dopri5, model, settings, y0, traj, ierr, errmsg, progress, &
                            observer)
       case (method_dop853)
-         call run_adaptive(pair_dop853, model, settings, [a0, adot0], traj, ierr, errmsg, progress, &
+         call run_adaptive(pair_dop853, model, settings, y0, traj, ierr, errmsg, progress, &
                            observer)
       case (method_flight_exact)
-         call run_flight_exact(model, settings, [a0, adot0], traj, ierr, errmsg, progress, observer)
+         call run_flight_exact(model, settings, y0, traj, ierr, errmsg, progress, observer)
       case default
          ierr = err_input
          errmsg = '&solver method = '''//trim(settings%method)//''': must be one of '//known_methods

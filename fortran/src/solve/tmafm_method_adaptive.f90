@@ -625,7 +625,8 @@ contains
       if (stored <= 0 .or. new > learn_band*stored .or. new*learn_band < stored) stored = new
    end subroutine learn
 
-   !> to = from for a state (a, a') of n_modes modes: an explicit-shape copy of even length,
+   !> to = from for a state (a, a') of n_modes modes (or (a, a', w, 0) of n_modes - 1 modes
+   !> with a viscoelastic sample): an explicit-shape copy of even length,
    !> a few vector moves, where the assignment of the registers' allocatable components went
    !> through a generic strided loop (about 50 instructions a copy for N = 3).
    pure subroutine copy_state(n_modes, from, to)

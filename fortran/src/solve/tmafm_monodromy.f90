@@ -107,6 +107,12 @@ contains
                   'Jacobian and saltation matrix are derived)'
          return
       end if
+      if (model%sls%on) then
+         ierr = err_input
+         errmsg = 'stroboscopic map: &scene sls_relaxation_time > 0: the viscoelastic sample''s '// &
+                  'state is not in the map (its Jacobian and saltation matrix are not derived)'
+         return
+      end if
       if (n_periods < 1) then
          ierr = err_input
          write (errmsg, '(a,i0,a)') 'stroboscopic map: n_periods = ', n_periods, ': must be >= 1'

@@ -10,7 +10,8 @@ module tmafm_observable_table
    use tmafm_observers, only: n_observables, group_lockin, group_extrema, group_peak_force, group_energy, &
       obs_amplitude, obs_phase, obs_mean_deflection, obs_min_gap, obs_peak_force, obs_contact_time, &
       obs_contacts, obs_dissipated, obs_dissipated_beam, obs_dissipated_contact_damping, &
-      obs_dissipated_friction, obs_drive_work, obs_virial, obs_contact_normal_work, ext_max_contact, &
+      obs_dissipated_friction, obs_drive_work, obs_virial, obs_contact_normal_work, &
+      obs_dissipated_viscoelastic, ext_max_contact, &
       ext_min_contact, ext_max_free, ext_min_free
    implicit none
    private
@@ -78,6 +79,8 @@ module tmafm_observable_table
       observable_row_t('virial', group_energy, 'E1 I d/L^2', 'aJ', scale_force_length, kind_column, obs_virial), &
       observable_row_t('contact_normal_work', group_energy, energy_unit, 'aJ', scale_energy, kind_column, &
                        obs_contact_normal_work), &
+      observable_row_t('dissipated_viscoelastic', group_energy, energy_unit, 'aJ', scale_energy, kind_column, &
+                       obs_dissipated_viscoelastic), &
       observable_row_t('harmonic_amplitude', group_lockin, 'd', 'nm', scale_length, kind_harmonic, 0), &
       observable_row_t('harmonic_phase', group_lockin, 'deg', 'deg', scale_one, kind_harmonic, 0), &
       observable_row_t('poincare', 0, '(d, d/tau)', '', scale_none, kind_points, 0), &

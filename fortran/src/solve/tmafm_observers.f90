@@ -25,7 +25,7 @@
 module tmafm_observers
    use tmafm_kinds, only: dp
    use tmafm_model, only: model_t, n_powers, power_drive, power_beam_damping, &
-      power_contact_damping, power_contact_normal, power_contact_friction
+      power_contact_damping, power_contact_normal, power_contact_friction, power_contact_viscoelastic
    use tmafm_contact, only: contact_brackets_t
    use tmafm_embedded_pair, only: embedded_pair_t
    use tmafm_flight, only: free_flight_t
@@ -43,13 +43,15 @@ module tmafm_observers
    public :: obs_amplitude, obs_phase, obs_mean_deflection, obs_min_gap, obs_peak_force, &
       obs_contact_time, obs_contacts, obs_dissipated, obs_dissipated_beam, &
       obs_dissipated_contact_damping, obs_dissipated_friction, obs_drive_work, obs_virial, &
-      obs_contact_normal_work, ext_max_contact, ext_min_contact, ext_max_free, ext_min_free
+      obs_contact_normal_work, obs_dissipated_viscoelastic, ext_max_contact, ext_min_contact, ext_max_free, &
+      ext_min_free
 
    !> Columns of observer_t%values.
    integer, parameter :: obs_amplitude = 1, obs_phase = 2, obs_mean_deflection = 3, obs_min_gap = 4, &
       obs_peak_force = 5, obs_contact_time = 6, obs_contacts = 7, obs_dissipated = 8, &
       obs_dissipated_beam = 9, obs_dissipated_contact_damping = 10, obs_dissipated_friction = 11, &
-      obs_drive_work = 12, obs_virial = 13, obs_contact_normal_work = 14, n_observables = 14
+      obs_drive_work = 12, obs_virial = 13, obs_contact_normal_work = 14, &
+      obs_dissipated_viscoelastic = 15, n_observables = 15
    !> Observable groups, bits of observer_t%groups: V_T's harmonics, phase and mean deflection;
    !> the located extrema (min_gap, max V_T, modal extrema); the peak force; the energies and
    !> the virial.  contact_time, contacts_per_period and the Poincare points are always computed.
@@ -75,8 +77,10 @@ module tmafm_observers
 
    !> The observer of one run: settings, the current period's accumulators, and the results.
    type :: observer_t
-      !> Number of state components 2N.
+      !> Number of state components: 2N, or 2N + 2 with a viscoelastic sample (tmafm_model).
       integer :: n_state = 0
+      !> Number of modes N.
+      integer :: n_modes = 0
       !> Harmonics 1..harmonics of V_T reported.
       integer :: harmonics = 3
       !> Periods to integrate at most.
@@ -183,7 +187,8 @@ contains
       if (iand(groups, group_peak_force) /= 0) computed(obs_peak_force) = .true.
       if (iand(groups, group_energy) /= 0) computed([obs_dissipated, obs_dissipated_beam, &
                                                       obs_dissipated_contact_damping, obs_dissipated_friction, &
-                                                      obs_drive_work, obs_virial, obs_contact_normal_work]) = .true.
+                                                      obs_drive_work, obs_virial, obs_contact_normal_work, &
+                                                      obs_dissipated_viscoelastic]) = .true.
    end function group_columns
 
    subroutine observer_init(self, model, max_periods, harmonics, p_max, tol, repeats, &
@@ -214,6 +219,7 @@ contains
       self%match_distance = huge(1.0_dp)
       self%attractor = 0
       self%n_state = size(y0)
+      self%n_modes = model%n_modes
       self%max_periods = max_periods
       self%harmonics = harmonics
       self%p_max = p_max
@@ -239,10 +245,10 @@ contains
       if (allocated(self%acc_sin)) deallocate (self%acc_sin, self%acc_cos)
       if (allocated(self%acc_modal)) deallocate (self%acc_modal, self%modal_nodes, self%modal_rates)
       if (allocated(self%max_gap_values)) deallocate (self%max_gap_values, self%modal_extrema)
-      allocate (self%acc_modal(self%n_state/2, 4), self%modal_nodes(0:gl_points + 1, self%n_state/2), &
-                self%modal_rates(0:1, self%n_state/2))
+      allocate (self%acc_modal(self%n_modes, 4), self%modal_nodes(0:gl_points + 1, self%n_modes), &
+                self%modal_rates(0:1, self%n_modes))
       allocate (self%max_gap_values(max_periods), &
-                self%modal_extrema(max_periods, self%n_state/2, 4))
+                self%modal_extrema(max_periods, self%n_modes, 4))
       self%max_gap_values = 0
       self%modal_extrema = 0
       if (allocated(self%values)) deallocate (self%values, self%harmonic_amplitude, &
@@ -368,7 +374,7 @@ contains
       if (.not. self%do_extrema) return
       call self%exact%extremum(flight, channel_gap, -1.0_dp, a, b, self%min_gap)
       call self%exact%extremum(flight, channel_gap, 1.0_dp, a, b, self%max_gap)
-      do j = 1, self%n_state/2
+      do j = 1, self%n_modes
          call self%exact%extremum(flight, j, 1.0_dp, a, b, self%acc_modal(j, ext_max_free))
          call self%exact%extremum(flight, j, -1.0_dp, a, b, self%acc_modal(j, ext_min_free))
       end do
@@ -444,8 +450,7 @@ contains
       else if (kind == 1) then
          value = sign*model%tip_gap(t, y)
       else
-         state = model%contact(t, y(1:model%n_modes))
-         value = -sign*model%kappa5*state%normal
+         value = -sign*model%normal_force(t, y)
       end if
    end subroutine target
 
@@ -541,7 +546,7 @@ contains
       type(contact_brackets_t) :: state
       integer :: i, k, n, i_best, m
 
-      n = self%n_state/2
+      n = self%n_modes
       half = (b - a)/2
       mid = (a + b)/2
       ! A fixed step's cubic needs fewer points than the pairs' higher-degree dense output.
@@ -585,8 +590,12 @@ contains
          if (self%do_extrema) self%modal_nodes(i, :) = self%y(1:n)
          if ((in_contact .or. model%long_range) .and. (self%do_force .or. self%do_energy)) then
             ! The normal force: in contact, and under 'dmt_vdw' the attraction in flight too.
-            state = model%forces_in_phase(t(i), self%y(1:n), in_contact)
-            force(i) = model%kappa5*state%normal
+            if (model%long_range) then
+               state = model%forces_in_phase(t(i), self%y(1:n), in_contact)
+               force(i) = model%kappa5*state%normal
+            else
+               force(i) = model%normal_force(t(i), self%y)
+            end if
          end if
          if (i == 0 .or. i == m + 1) cycle
          weight = gl_weight(i)
@@ -607,7 +616,13 @@ contains
             self%acc_deflection = self%acc_deflection + weight*(tip_u - model%scene%alpha2*s1)
          end if
          if (self%do_energy) then
-            call model%energy_flow(t(i), self%y(1:n), self%y(n + 1:2*n), in_contact, power, energy)
+            if (self%n_state > 2*n) then
+               ! A viscoelastic sample: its dashpot w sets the viscoelastic power.
+               call model%energy_flow(t(i), self%y(1:n), self%y(n + 1:2*n), in_contact, power, energy, &
+                                      self%y(2*n + 1))
+            else
+               call model%energy_flow(t(i), self%y(1:n), self%y(n + 1:2*n), in_contact, power, energy)
+            end if
             self%acc_powers = self%acc_powers + weight*power
             self%acc_virial = self%acc_virial + weight*force(i)*tip_u
          end if
@@ -732,8 +747,9 @@ contains
          v(obs_dissipated_beam) = -self%acc_powers(power_beam_damping)
          v(obs_dissipated_contact_damping) = -self%acc_powers(power_contact_damping)
          v(obs_dissipated_friction) = -self%acc_powers(power_contact_friction)
+         v(obs_dissipated_viscoelastic) = -self%acc_powers(power_contact_viscoelastic)
          v(obs_dissipated) = v(obs_dissipated_beam) + v(obs_dissipated_contact_damping) &
-                             + v(obs_dissipated_friction)
+                             + v(obs_dissipated_friction) + v(obs_dissipated_viscoelastic)
          v(obs_drive_work) = self%acc_powers(power_drive)
          v(obs_virial) = self%acc_virial/period
          v(obs_contact_normal_work) = self%acc_powers(power_contact_normal)

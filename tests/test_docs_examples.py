@@ -11,8 +11,10 @@ BLOCKS lists each block, keyed by (file, the block's first line):
 - `skip`: why the block is not meant to run (a sketch with `...` for its arguments).
 A block missing from BLOCKS, or an entry whose block is gone, fails
 test_every_block_is_listed; a code line in an indented (unfenced) block fails
-test_no_unfenced_python.  Each block runs in its own temporary folder, with `inputs/` linked to
-the repository's, as the docs' commands run from the checkout.
+test_no_unfenced_python.  Each block runs in its own temporary folder outside the checkout,
+with nothing of the checkout in reach (no `inputs/` link, no checkout folder on sys.path) and
+tmafm imported from the installed wheel: the docs' examples run as they do after
+`pip install tmafm` (packaged names such as "fig2_n4" and "sweeps/bistable_n2").
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ import numpy as np
 import pytest
 
 import tmafm
-from tmafm.observe import UNITS
+from tmafm.observe import CF_UNITS, UNITS
 
 REPO = Path(__file__).resolve().parent.parent
 DOCS = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
@@ -148,7 +150,10 @@ def _check_grid(ns, seen, out):
     assert ds["amplitude"].dims == ("scene.delta_hat", "scene.alpha2")
     np.testing.assert_array_equal(ds["scene.delta_hat"].values, np.linspace(0, 2e-3, 21))
     for name in STEADY:
-        assert name in ds and ds[name].attrs["units"] == UNITS[name]
+        assert name in ds and ds[name].attrs["units"] == CF_UNITS.get(UNITS[name], UNITS[name])
+    # every coordinate has its units (the swept keys are dimensionless: "1")
+    for name in ds.coords:
+        assert ds[name].attrs["units"] == "1", name
     assert ds["harmonic_amplitude"].dims[-1] == "harmonic"
     for name in ("period", "steady", "periods", "failed"):
         assert name in ds
@@ -248,7 +253,7 @@ BLOCKS = {
         check=_check_npz_read),
     ("docs/sweeps.md", "import numpy as np, tmafm"): Block(
         setup="import matplotlib; matplotlib.use('Agg')", check=_check_grid),
-    ("docs/sweeps.md", 'ds = tmafm.approach("inputs/sweeps/bistable_n2.nml", '
+    ("docs/sweeps.md", 'ds = tmafm.approach("sweeps/bistable_n2", '
                        'delta_hat=np.linspace(8e-3, 0, 41),'): Block(
         setup="import numpy as np, tmafm", check=_check_approach_and_frequency),
     ("docs/sweeps.md", 'fig5 = tmafm.Config("fig5a", solver={"method": "flight_exact", '
@@ -293,6 +298,48 @@ def _run(source: str, ns: dict, filename: str, seen: dict) -> None:
                 seen.setdefault(name, []).append(value)
 
 
+def _inside(path, folder: Path) -> bool:
+    try:
+        Path(path).resolve().relative_to(folder)
+    except (ValueError, OSError):
+        return False
+    return True
+
+
+def _outside_the_checkout(folder: Path) -> None:
+    """The block's folder is outside the checkout, tmafm (and its extension and inputs) comes
+    from the installed wheel, and no folder of the checkout that holds a tmafm package is on
+    sys.path: what runs is what `pip install` gives."""
+    import importlib.util
+    import sys
+    assert not _inside(folder, REPO), f"{folder} is inside the checkout {REPO}"
+    for module in (tmafm, tmafm.inputs):
+        assert not _inside(module.__file__, REPO), f"{module.__name__} imported from the checkout"
+    assert not _inside(tmafm.inputs.folder(), REPO)
+    assert not _inside(importlib.util.find_spec("tmafm._fwrap").origin, REPO)
+    for entry in sys.path:
+        root = Path(entry or ".").resolve()
+        assert not (_inside(root, REPO) and (root / "tmafm").is_dir()), \
+            f"sys.path entry {entry!r} holds the checkout's tmafm"
+
+
+def test_examples_run_outside_the_checkout(tmp_path, monkeypatch):
+    """The check itself: from a folder outside the checkout, the packaged names the docs use
+    resolve inside the installed package, sweep files included."""
+    _outside_the_checkout(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    for name in ("fig2_n4", "sweeps/bistable_n2", "sweeps/approach"):
+        path = tmafm.inputs.path(name)
+        assert path.is_file() and not _inside(path, REPO)
+        assert path.read_bytes() == (REPO / "inputs" / f"{name}.nml").read_bytes()
+    assert tmafm.inputs.sweep_names() == sorted(
+        f"sweeps/{p.stem}" for p in (REPO / "inputs" / "sweeps").glob("*.nml"))
+    assert tmafm.Config("sweeps/bistable_n2").n_modes == 2
+    from tmafm.sweeps import read_sweep_file
+    spec = read_sweep_file("sweeps/approach.nml")
+    assert Path(spec["base"]).is_file() and not _inside(spec["base"], REPO)
+
+
 @pytest.mark.parametrize("path,line,body", python_blocks(),
                          ids=[f"{p}:{n}" for p, n, _ in python_blocks()])
 def test_block_runs_and_gives_what_the_docs_say(path, line, body, tmp_path, monkeypatch):
@@ -305,7 +352,7 @@ def test_block_runs_and_gives_what_the_docs_say(path, line, body, tmp_path, monk
     for old, new in block.subs:
         assert old in source, f"{path}:{line}: substitution {old!r} no longer applies"
         source = source.replace(old, new)
-    (tmp_path / "inputs").symlink_to(REPO / "inputs")
+    _outside_the_checkout(tmp_path)
     monkeypatch.chdir(tmp_path)
     ns = {"__name__": "__docs__", "tmafm": tmafm, "subprocess": subprocess, "os": os}
     seen: dict = {}

@@ -100,6 +100,19 @@ def _sweep_groups(path: Path) -> dict:
     return groups
 
 
+def _packaged_sweep(path: Path) -> Path:
+    """The packaged sweep file of a missing path named "sweeps/<stem>[.nml]" (tmafm.inputs);
+    InputFileError otherwise."""
+    from .. import inputs
+    if path.suffix in ("", ".nml") and len(path.parts) == 2 and path.parts[0] == inputs.SWEEPS:
+        try:
+            return inputs.path("/".join(path.parts))
+        except InputFileError:
+            pass
+    raise InputFileError(f"sweep file '{path}' not found, and no packaged sweep file has that "
+                         f"name ({', '.join(inputs.sweep_names())})")
+
+
 def read_sweep_file(path) -> dict:
     """The &sweep group of a sweep file, checked: a dict of its keys (docs/sweeps.md)."""
     path = _input_name(path, "sweep file")
@@ -108,7 +121,7 @@ def read_sweep_file(path) -> dict:
     except (OSError, ValueError):  # a name too long, a NUL byte
         is_file = False
     if not is_file:
-        raise InputFileError(f"sweep file '{path}' not found")
+        path = _packaged_sweep(path)
     groups = _sweep_groups(path)
     if "sweep" not in groups:
         raise InputError(f"{path}: no &sweep group")

@@ -399,6 +399,21 @@ def _period_cost_rows(report):
     return {(scene, r["method"], r.get("rtol")): r for scene, e in report["scenes"].items() for r in e["rows"]}
 
 
+#: README's "which method for what" table: (row of period_cost.json's fig2 scene, first cell,
+#: second cell); the numbers of each row are its CPU per period and V_T error.
+METHOD_ROWS = (
+    (("flight_exact", 1e-7, None), "`flight_exact` rtol 1e-7 (observed runs' and sweeps' default)",
+     "sweeps, approach and frequency curves, basin maps: anything run to a steady state"),
+    (("flight_exact", 1e-10, None), "`flight_exact` rtol 1e-10, atol 1e-14",
+     "reference runs, convergence studies"),
+    (("dop853", 1e-7, None), "`dop853` rtol 1e-7",
+     "a trajectory with a classical adaptive method, cross-checks"),
+    (("dopri5", 1e-7, None), "`dopri5` rtol 1e-7", "the same at lower order; the automatic-N search"),
+    (("rk4_event", None, 0.002), "`rk4_event` dτ = 2e-3", "fixed steps with located switches"),
+    (("rk4_paper", None, 0.002), "`rk4_paper` dτ = 2e-3 (the packaged inputs' method)",
+     "reproducing the paper's figures (its first-order scheme)"))
+
+
 def check_readme(ck, group="readme"):
     doc = "README.md"
     pc = load(result_path("period_cost.json"))
@@ -452,6 +467,12 @@ def check_readme(ck, group="readme"):
              / (r["main"]["phase_switches_per_period"] / 2)
              for r in warp]
     ck.text(group, doc, "is not: {} steps fewer per contact", [span(fewer, lambda x: f"{x:.0f}")], "Methods")
+    # "Which method for what": the Fig. 2 scene's rows at each method's usual tolerance
+    fig2 = {(r["method"], r.get("rtol"), r.get("dtau")): r for r in pc["scenes"]["fig2"]["rows"]}
+    for (method, rtol, dtau), first, use in METHOD_ROWS:
+        r = fig2[(method, rtol, dtau)]
+        ck.text(group, doc, f"| {first} | {use} | " + "{} µs | {} |",
+                [grouped(r["us_per_period"]), sci(r["vt_error"], 2, "-")], "Methods")
     ow = load(result_path("output_write.json"))["cases"]
     least = min(c["cpu_ratio_text_over_npy"] for c in ow)
     ck.text(group, doc, "archive for `numpy.load`, more than {} times cheaper to write",

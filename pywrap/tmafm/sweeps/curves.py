@@ -207,17 +207,23 @@ _LONG_NAMES = {"physical.tip_sample_distance": "tip-sample distance Z",
 
 def _free_amplitude(ds, base_groups: dict) -> None:
     """A physical scene given by its free amplitude A0 (&physical free_amplitude): ``setpoint``
-    = amplitude/A0 (the setpoint A/A0 of AM-AFM) and the attribute free_amplitude (in the
-    amplitude's unit)."""
-    a0 = base_groups.get("physical", {}).get("free_amplitude")
+    = amplitude/A0 (the setpoint A/A0 of AM-AFM) and, for one A0, the attribute
+    free_amplitude (in the amplitude's unit, nm).  A0 may be a curve key."""
     unit = ds["amplitude"].attrs.get("units") if "amplitude" in ds else None
-    if not a0 or unit != "nm":
+    if unit != "nm":
         return
-    a0_nm = float(a0) * 1e9
-    ds.attrs["free_amplitude"] = a0_nm
+    if "physical.free_amplitude" in ds.coords:
+        a0_nm = ds["physical.free_amplitude"] * 1e9
+        text = "A0: the curve's free amplitude"
+    else:
+        a0 = base_groups.get("physical", {}).get("free_amplitude")
+        if not a0:
+            return
+        a0_nm = float(a0) * 1e9
+        ds.attrs["free_amplitude"] = a0_nm
+        text = f"A0: the free amplitude {a0_nm:.6g} nm"
     ds["setpoint"] = ds["amplitude"] / a0_nm
-    ds["setpoint"].attrs = {"units": "1", "long_name": "setpoint A/A0 (A0: the free amplitude "
-                                                       f"{a0_nm:.6g} nm)"}
+    ds["setpoint"].attrs = {"units": "1", "long_name": f"setpoint A/A0 ({text})"}
 
 
 def _jump_flags(data: dict, shape: tuple, reverse: bool, jump_threshold: float) -> np.ndarray:

@@ -124,7 +124,7 @@ def _continuation_panels(ds, path, names):
         ax.set_ylabel(ylabel, fontsize=8)
         ax.grid(alpha=0.3)
         ax.tick_params(labelsize=7)
-        if name == "amplitude" and "setpoint" in ds:
+        if name == "amplitude" and "free_amplitude" in ds.attrs:
             _setpoint_axis(ax, ds)
     axes = np.atleast_1d(axes)
     axes[-1].set_xlabel(xlabel)

@@ -32,7 +32,7 @@ import numpy as np
 import tmafm
 
 OUT = Path(__file__).resolve().parent / "results"
-SHORT = {"model": {"n_modes": 4}, "solver": {"tau_end": 0.1}}
+SHORT = {"model": {"n_modes": 4, "convention": "paper"}, "solver": {"tau_end": 0.1}}
 
 
 def cpu_per_call(call, calls: int, batches: int = 5) -> float:
@@ -49,7 +49,7 @@ def cpu_per_call(call, calls: int, batches: int = 5) -> float:
 
 def scenes(count: int) -> list[dict]:
     rng = np.random.default_rng(1)
-    return [{"model": {"n_modes": 4},
+    return [{"model": {"n_modes": 4, "convention": "paper"},
              "scene": {"alpha2": float(rng.uniform(3e-4, 8e-4)), "omega": float(rng.uniform(1.8, 2.2))},
              "solver": {"tau_end": 20.0}} for _ in range(count)]
 

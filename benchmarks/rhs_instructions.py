@@ -53,7 +53,7 @@ def kernel_instructions(build_dir: Path, work: Path) -> dict:
     result = {}
     for n in MODES:
         nml = work / f"n{n}.nml"
-        nml.write_text(f"&model n_modes = {n} /\n&scene alpha2 = 7e-4, theta = 0.2 /\n")
+        nml.write_text(f"&model n_modes = {n}, convention = 'paper' /\n&scene alpha2 = 7e-4, theta = 0.2 /\n")
         result[str(n)] = {}
         for kind, name in KINDS.items():
             counts = [callgrind([str(driver), str(nml), str(n), str(calls), str(kind)], work)

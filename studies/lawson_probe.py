@@ -34,7 +34,7 @@ E3, E5 = dop.E3[:12], dop.E5[:12]
 PERIOD = math.pi  # Omega = 2
 SCENES = {
     "fig2": {},
-    "tilted_hertz_3": {"model": {"n_modes": 3}, "scene": {"alpha2": 7e-4, "theta": 0.2},
+    "tilted_hertz_3": {"model": {"n_modes": 3, "convention": "paper"}, "scene": {"alpha2": 7e-4, "theta": 0.2},
                        "initial": {"a0": [2e-4, 0.0, 0.0]}},
 }
 

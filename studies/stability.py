@@ -91,7 +91,7 @@ def measured_limit(groups, guess):
 
 
 def free_case(n):
-    groups = {"model": {"n_modes": n}, "scene": {"delta_hat": 1.0},
+    groups = {"model": {"n_modes": n, "convention": "paper"}, "scene": {"delta_hat": 1.0},
               "initial": {"a0": [1e-6] * n, "adot0": [0.0] * n}}
     y = np.concatenate([np.full(n, 1e-6), np.zeros(n)])
     return groups, 0.0, y, False
@@ -99,7 +99,7 @@ def free_case(n):
 
 def stuck_case(n):
     """Fig. 6 (DMT, paper): the tip sticks; take the state after 10 drive periods."""
-    base = {"model": {"n_modes": n, "contact_law": "dmt"},
+    base = {"model": {"n_modes": n, "contact_law": "dmt", "convention": "paper"},
             "solver": {"method": "dopri5", "rtol": 1e-9, "atol": 1e-15}}
     settled = tmafm.run(base, solver={"tau_end": 10 * math.pi}, output={"sample_dtau": math.pi / 10})
     assert settled.vt[-20:].max() < 0, "the DMT tip did not stick"

@@ -15,9 +15,9 @@ import tmafm
 from conftest import INPUTS
 
 #: benchmarks/period_cost.py's untilted_3 and tilted_hertz_3: two Hertz contacts per period.
-UNTILTED = {"model": {"n_modes": 3}, "scene": {"alpha2": 7e-4, "theta": 0.0, "alpha4": 0.0},
+UNTILTED = {"model": {"n_modes": 3, "convention": "paper"}, "scene": {"alpha2": 7e-4, "theta": 0.0, "alpha4": 0.0},
             "initial": {"a0": [2e-4, 0.0, 0.0]}}
-TILTED = {"model": {"n_modes": 3}, "scene": {"alpha2": 7e-4, "theta": 0.2},
+TILTED = {"model": {"n_modes": 3, "convention": "paper"}, "scene": {"alpha2": 7e-4, "theta": 0.2},
           "initial": {"a0": [2e-4, 0.0, 0.0]}}
 PERIODS = 20
 #: Before the warp (main at a5c81a8, the build of benchmarks/contact_steps.py's docstring), on

@@ -32,7 +32,9 @@ def test_physical_file_is_the_fig2_scene():
 
 def test_physical_run_matches_dimensionless_run():
     physical = tmafm.run(INPUTS / "physical_polystyrene.nml", solver={"tau_end": 5.0})
-    scene = tmafm.run(INPUTS / "fig2_n4.nml", solver={"tau_end": 5.0})
+    # physical_polystyrene names convention 'consistent'; fig2_n4 names 'paper'.
+    scene = tmafm.run(INPUTS / "fig2_n4.nml", solver={"tau_end": 5.0},
+                      model={"convention": "consistent", "errata": "convention"})
     # The printed groups are rounded to 4-5 digits; the trajectories agree to that level.
     assert abs(physical.vt - scene.vt).max() < 1e-3 * abs(scene.vt).max()
 

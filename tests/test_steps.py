@@ -14,7 +14,7 @@ import tmafm
 from conftest import INPUTS
 
 #: benchmarks/period_cost.py's tilted_hertz_3: two Hertz contacts per drive period.
-TILTED = {"model": {"n_modes": 3}, "scene": {"alpha2": 7e-4, "theta": 0.2},
+TILTED = {"model": {"n_modes": 3, "convention": "paper"}, "scene": {"alpha2": 7e-4, "theta": 0.2},
           "initial": {"a0": [2e-4, 0.0, 0.0]}}
 PERIODS = 20
 

@@ -107,15 +107,57 @@ def test_model_md_names_the_scene_keys_of_the_core():
 # --- the reader and the writer use the table ------------------------------------------------
 
 #: The defaults the reader resolves: errata 'convention' is written as the list its convention
-#: gives ('paper': none).
-RESOLVED = {("model", "errata"): "'none'"}
+#: gives (the default 'consistent': all of them).
+RESOLVED = {("model", "errata"): "'E1,E2,E3,E4,E6,E7'"}
+
+#: The &physical keys that replace others (docs/model.md section 12): their default is 'none'
+#: (not given); given, they are written back and the keys they replace are not.  Each with what
+#: it needs beside it, and the keys it replaces.
+ALTERNATIVES = {
+    "spring_constant": ("resonance_frequency = 3e5, quality_factor = 400, tip_mass_ratio = 0.05",
+                        ("thickness", "density", "tip_mass", "beam_damping")),
+    "resonance_frequency": ("spring_constant = 40, quality_factor = 400, tip_mass_ratio = 0.05",
+                            ("thickness", "density", "tip_mass", "beam_damping")),
+    "quality_factor": ("spring_constant = 40, resonance_frequency = 3e5, tip_mass_ratio = 0.05",
+                       ("thickness", "density", "tip_mass", "beam_damping")),
+    "tip_mass_ratio": ("spring_constant = 40, resonance_frequency = 3e5, quality_factor = 400",
+                       ("thickness", "density", "tip_mass", "beam_damping")),
+    "drive_frequency": ("", ("drive_angular_frequency",)),
+    "free_amplitude": ("", ("drive_amplitude",)),
+    "tip_sample_distance": ("", ("gap", "static_offset")),
+}
+
+
+def test_the_alternative_keys_are_the_keys_whose_default_is_none():
+    assert {k.name for k in KEYS if k.default == "none"} == set(ALTERNATIVES)
+
+
+@pytest.mark.parametrize("name", ALTERNATIVES)
+def test_an_alternative_key_given_is_written_back_and_the_keys_it_replaces_are_not(name):
+    value = {"spring_constant": "40", "resonance_frequency": "3e5", "quality_factor": "400",
+             "tip_mass_ratio": "0.05", "drive_frequency": "2e4", "free_amplitude": "1e-8",
+             "tip_sample_distance": "2e-9"}[name]
+    companions, replaced = ALTERNATIVES[name]
+    text = _config_text(f"&physical {name} = {value}, {companions} /\n")
+    written = {line.split(" = ")[0].strip(): line.split(" = ")[1] for line in text.splitlines()
+               if " = " in line and not line.lstrip().startswith("!")}
+    assert float(written[name]) == float(value)
+    assert not set(replaced) & set(written)
+    # The keys it replaces are derived: the header says their values.
+    assert all(f"! derived: {key} = " in text for key in replaced if key != "thickness"
+               and key != "density")
+    # The written text reads back to itself.
+    assert _config_text(text) == text
 
 
 @pytest.mark.parametrize("key", KEYS, ids=KEY_IDS)
 def test_a_key_given_its_default_is_read_and_written_back_as_the_default(key):
     # An empty default is a row that key_value_text does not write; a key the group's reader
-    # does not store is refused ("in the key table but not read").
+    # does not store is refused ("in the key table but not read").  An alternative key's
+    # default is 'none' (not given): test_an_alternative_key_given_... reads and writes it.
     assert key.default
+    if key.name in ALTERNATIVES:
+        return
     text = _config_text(f"&{key.group} {key.name} = {key.default} /\n")
     written = RESOLVED.get((key.group, key.name), key.default)
     assert f"\n    {key.name} = {written}\n" in text
@@ -126,6 +168,10 @@ def test_the_resolved_text_of_no_input_holds_every_default_in_the_table_order():
     physical = _config_text("&physical /\n").splitlines()
     for key in KEYS:
         lines = physical if key.group == "physical" else scene
+        if key.name in ALTERNATIVES:
+            # Not given: not written (test_an_alternative_key_given_...).
+            assert not any(line.startswith(f"    {key.name} = ") for line in lines), key
+            continue
         written = RESOLVED.get((key.group, key.name), key.default)
         assert f"    {key.name} = {written}" in lines, key
     keys = [line.split(" = ")[0].strip() for line in scene if " = " in line]

@@ -26,6 +26,7 @@ module tmafm
    use tmafm_observable_table, only: observable_row_t, observable_rows, n_observable_rows, &
       observable_group_name, observable_si_factor, observable_kind_names, observable_scale_names
    use tmafm_units, only: scales_t
+   use tmafm_calibration, only: physical_derived, derived_names, derived_units, derived_meanings, n_derived
    use tmafm_steady_state, only: steady_test, repeat_steps, steady_harmonic
    use tmafm_trajectory, only: trajectory_t
    use tmafm_driver, only: run_trajectory
@@ -34,7 +35,7 @@ module tmafm
    use tmafm_nml_syntax, only: patch_document
    use tmafm_output, only: commit_output
    use tmafm_config, only: config_t, path_len
-   use tmafm_namelist, only: read_config, read_config_text, write_config, config_text
+   use tmafm_namelist, only: read_config, read_config_text, write_config, config_text, config_errata
    use tmafm_text, only: real_text, int_text, lower, printable_text
    use tmafm_posix, only: write_text, error_text
    use tmafm_nml_syntax, only: nml_document_t, parse_namelist, entry_text
@@ -65,5 +66,6 @@ module tmafm
              observable_si_factor, observable_kind_names, observable_scale_names
    public :: write_trajectory_file, output_sink_t, prepare_output, check_output_size, begin_output, &
              write_output, discard_output, sample_count, target_file, target_device, target_stdout
+   public :: physical_derived, derived_names, derived_units, derived_meanings, n_derived, config_errata
 
 end module tmafm

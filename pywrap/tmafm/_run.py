@@ -19,6 +19,7 @@ import numpy as np
 
 from . import inputs as _inputs
 from ._fortran import api as _api
+from ._fortran import text as _text
 from ._fortran import config_t as _config_t
 from ._fortran import polls
 from ._namelist import KEY_TYPES, check_groups, shown, to_text
@@ -233,6 +234,19 @@ class Config:
         return dict(self._scene)
 
     @property
+    def derived(self) -> dict | None:
+        """The values the core derives from ``&physical`` ({name: value}, in the units of
+        ``tmafm.DERIVED_UNITS``), as the output header prints them: the beam (E1 I, m, C, M),
+        the gap and drive the run uses, the N-mode model's own spring constant, first resonance,
+        Q and free amplitude, the continuum 3 E1 I/x0^3 and the scales; None for an input given
+        in ``&scene`` (docs/model.md section 12)."""
+        names = list(DERIVED_UNITS)
+        values = np.zeros(len(names))
+        has_values, ierr, errmsg = _api.config_derived(self._f, values)
+        raise_for(ierr, errmsg)
+        return dict(zip(names, map(float, values))) if has_values else None
+
+    @property
     def text(self) -> str:
         """The resolved input as namelist text (every key, defaults included)."""
         if self._text is None:
@@ -368,6 +382,14 @@ class Result:
         self._scene = value
 
     @property
+    def derived(self) -> dict | None:
+        """Config.derived of the run's input (for a Result read from a file, the header's
+        ``! derived:`` lines); None for an input given in ``&scene``."""
+        if self.config is not None:
+            return self.config.derived
+        return _derived_of_text(self.resolved_text)
+
+    @property
     def mode_search(self) -> dict | None:
         """How N was chosen when ``&model n_modes = 0`` (None for a fixed N): Config.mode_search;
         for a Result read from a file, the differences as its header prints them (6 digits): its
@@ -404,6 +426,29 @@ def _mode_search(text: str, differences: dict | None = None) -> dict | None:
     horizon = _HORIZON_LINE.search(text)
     return {"n_modes": int(line[1]), "quantity": line[2], "differences": differences,
             "mode_tol": float(line[4]), "mode_horizon": float(horizon[1]) if horizon else None}
+
+
+def _derived_table() -> dict:
+    """{name: unit} of the core's derived values of a physical scene, in the core's order."""
+    table = {}
+    for k in range(1, int(_api.derived_count()) + 1):
+        name, unit, _ = (_text(field) for field in _api.derived_entry(k))
+        table[name] = unit
+    return table
+
+
+#: {name: unit} of Config.derived (the core's tmafm_calibration derived_names, derived_units).
+DERIVED_UNITS = _derived_table()
+
+
+#: A derived value in a resolved text's header: '! derived: name = value unit (meaning)'.
+_DERIVED_LINE = re.compile(r"^\s*! derived: (\w+) = (\S+) ", re.MULTILINE)
+
+
+def _derived_of_text(text: str) -> dict | None:
+    """The derived values a resolved text records (None if it records none)."""
+    found = {m[1]: float(m[2]) for m in _DERIVED_LINE.finditer(text)}
+    return found or None
 
 
 def _scene_of_text(text: str) -> dict:

@@ -18,7 +18,8 @@ module tmafm_api
       nml_document_t, parse_namelist, int_text, observe_options_t, observe_batch, observe_states, config_scales, &
       steady_harmonics, steady_evidence, observer_t, n_observables, observable_factors, obs_amplitude, obs_phase, &
       scales_t, steady_test, repeat_steps, steady_harmonic, observable_rows, n_observable_rows, &
-      observable_group_name, observable_si_factor, observable_kind_names, observable_scale_names
+      observable_group_name, observable_si_factor, observable_kind_names, observable_scale_names, &
+      physical_derived, derived_names, derived_units, derived_meanings, n_derived, config_errata
    ! The types Python sees are named from the modules that define them, not the facade: f90wrap
    ! reads only the wrapped modules' sources and resolves a type through its defining module.
    use tmafm_config, only: config_t
@@ -34,7 +35,8 @@ module tmafm_api
       config_text_codes, model_of_config, run_config, run_sizes, run_samples, run_switches, &
       run_counters, trajectory_energy_flow, key_count, key_entry, limit_count, limit_entry, &
       batch_t, batch_add, batch_size, batch_run, observe_states_of, steady_test_of, &
-      steady_harmonic_of, namelist_syntax, observable_count, observable_entry, observable_table_factors
+      steady_harmonic_of, namelist_syntax, observable_count, observable_entry, observable_table_factors, &
+      derived_count, derived_entry, config_derived
 
    !> Length of the error messages returned to Python.
    integer, parameter :: api_errmsg_len = errmsg_len
@@ -325,6 +327,47 @@ contains
       unit = u
       meaning = m
    end subroutine key_entry
+
+   !> Number of the derived values of a physical scene (derived_entry, config_derived).
+   function derived_count() result(n)
+      integer :: n
+      n = n_derived
+   end function derived_count
+
+   !> Derived value k (1 to derived_count()): its name, unit and meaning, blank-padded; all
+   !> blank for another k.
+   subroutine derived_entry(k, name, unit, meaning)
+      integer, intent(in) :: k
+      character(len=32), intent(out) :: name
+      character(len=16), intent(out) :: unit
+      character(len=128), intent(out) :: meaning
+      name = ''
+      unit = ''
+      meaning = ''
+      if (k < 1 .or. k > n_derived) return
+      name = derived_names(k)
+      unit = derived_units(k)
+      meaning = derived_meanings(k)
+   end subroutine derived_entry
+
+   !> The derived values of a configuration given in &physical (tmafm_calibration
+   !> physical_derived, as the output header prints them) into `values` (derived_count() of
+   !> them); has_values = 0 for a dimensionless configuration (values all 0).
+   subroutine config_derived(config, values, has_values, ierr, errmsg)
+      type(config_t), intent(in) :: config
+      real(dp), intent(inout) :: values(:)
+      integer, intent(out) :: has_values
+      integer, intent(out) :: ierr
+      character(len=api_errmsg_len), intent(out) :: errmsg
+      values = 0
+      has_values = 0
+      ierr = ok
+      errmsg = ''
+      call check_shape('values', shape(values), [n_derived], ierr, errmsg)
+      if (ierr /= ok .or. .not. config%from_physical) return
+      call physical_derived(config%physical, config%n_modes, config_errata(config), values, ierr, errmsg)
+      has_values = 1
+   end subroutine config_derived
 
    !> Number of the core's limits (limit_entry).
    function limit_count() result(n)

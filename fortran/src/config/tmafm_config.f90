@@ -32,8 +32,9 @@ module tmafm_config
       integer :: n_initial = 0
       !> &model contact_law: 'hertz' or 'dmt'.
       character(len=64) :: contact_law = 'hertz'
-      !> &model convention: 'paper' (printed equations) or 'consistent' (corrected).
-      character(len=64) :: convention = 'paper'
+      !> &model convention: 'paper' (printed equations) or 'consistent' (corrected; the default,
+      !> so that SI scenes report physical forces: docs/model.md section 8).
+      character(len=64) :: convention = 'consistent'
       !> &model errata: corrections applied, resolved to a list such as 'E1,E3' or 'none'.
       character(len=64) :: errata = 'convention'
       !> .true. when the scene was given in SI units (&physical) and converted.

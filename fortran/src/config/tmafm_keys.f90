@@ -14,7 +14,7 @@ module tmafm_keys
    use tmafm_text, only: real_text, int_text
    use tmafm_float_format, only: shortest_text_padded
    use tmafm_modes, only: max_modes
-   use tmafm_scene, only: scene_names, physical_names, scene_values, physical_values
+   use tmafm_scene, only: physical_t, scene_names, physical_names, scene_values, physical_values
    use tmafm_settings, only: method_names, max_max_steps
    use tmafm_config, only: config_t
    implicit none
@@ -23,7 +23,7 @@ module tmafm_keys
    public :: key_t, keys, n_keys, key_groups
    public :: key_row, group_index, key_in_range, key_range_text, key_choices_text, key_is_word
    public :: group_keys_text, key_value_text, describe_key, range_text
-   public :: max_mode_horizon
+   public :: max_mode_horizon, physical_key_given
 
    !> Value types: an integer, a real (an integer or real literal), a quoted string, a list of
    !> reals (r*value repeats allowed).
@@ -151,7 +151,27 @@ module tmafm_keys
             meaning='tip-sample contact damping C1'), &
       key_t('physical', 'drive_amplitude', key_real, 0, 1, unit='m', meaning='base drive amplitude f'), &
       key_t('physical', 'drive_angular_frequency', key_real, 0, 1.0e12_dp, unit='rad/s', &
-            meaning='base drive angular frequency omega')]
+            meaning='base drive angular frequency omega'), &
+      key_t('physical', 'spring_constant', key_real, 0, 1.0e6_dp, .false., unit='N/m', &
+            rule='with resonance_frequency, quality_factor and tip_mass_ratio, instead of thickness, '// &
+            'density, tip_mass, beam_damping', &
+            meaning="the cantilever by its calibration: the model's static tip stiffness k (docs/model.md "// &
+            "section 12)"), &
+      key_t('physical', 'resonance_frequency', key_real, 0, 1.0e12_dp, .false., unit='Hz', &
+            rule='with spring_constant', &
+            meaning="the model's first resonance f0 = |lambda1|/(2 pi), with the tip mass"), &
+      key_t('physical', 'quality_factor', key_real, 0.5_dp, 1.0e9_dp, .false., unit='1', &
+            rule='with spring_constant', meaning="the model's Q = |lambda1|/(2 |Re lambda1|) of that resonance"), &
+      key_t('physical', 'tip_mass_ratio', key_real, 0, 1.0e3_dp, unit='1', rule='with spring_constant', &
+            meaning='tip mass / beam mass M/(m L) of the calibrated cantilever (alpha1)'), &
+      key_t('physical', 'drive_frequency', key_real, 0, 1.0e12_dp, unit='Hz', &
+            rule='instead of drive_angular_frequency', meaning='drive frequency omega/(2 pi)'), &
+      key_t('physical', 'free_amplitude', key_real, 0, 1, unit='m', rule='instead of drive_amplitude', &
+            meaning="the tip's steady amplitude far from the sample (V_T's first harmonic); sets "// &
+            "drive_amplitude"), &
+      key_t('physical', 'tip_sample_distance', key_real, -1, 1, unit='m', &
+            rule='instead of gap and static_offset', &
+            meaning='tip-sample rest distance Z: static_offset = Z, gap = tip_length + Z/cos(tilt)')]
 
    type(key_t), parameter :: initial_rows(*) = [ &
       key_t('initial', 'a0', key_list, -1, 1, unit='d', &
@@ -197,6 +217,34 @@ module tmafm_keys
       all(physical_rows%name == physical_names))
 
 contains
+
+   !> .true. when &physical key k (index into physical_names) is one the scene was given by:
+   !> the keys of the route in use (the calibration, drive_frequency, free_amplitude or
+   !> tip_sample_distance, or the keys they replace); the resolved text writes these only.
+   pure logical function physical_key_given(phys, k)
+      type(physical_t), intent(in) :: phys
+      integer, intent(in) :: k
+      select case (trim(physical_names(k)))
+      case ('thickness', 'density', 'tip_mass', 'beam_damping')
+         physical_key_given = .not. phys%by_calibration
+      case ('spring_constant', 'resonance_frequency', 'quality_factor', 'tip_mass_ratio')
+         physical_key_given = phys%by_calibration
+      case ('drive_angular_frequency')
+         physical_key_given = .not. phys%by_drive_frequency
+      case ('drive_frequency')
+         physical_key_given = phys%by_drive_frequency
+      case ('drive_amplitude')
+         physical_key_given = .not. phys%by_free_amplitude
+      case ('free_amplitude')
+         physical_key_given = phys%by_free_amplitude
+      case ('gap', 'static_offset')
+         physical_key_given = .not. phys%by_distance
+      case ('tip_sample_distance')
+         physical_key_given = phys%by_distance
+      case default
+         physical_key_given = .true.
+      end select
+   end function physical_key_given
 
    !> The row of key `name` of group `group` (blank-padded comparison), 0 if there is none.
    pure integer function key_row(group, name)
@@ -358,6 +406,11 @@ contains
          end associate
          return
       case ('physical')
+         ! An alternative key that was not given (tmafm_namelist physical_key_given): 'none'.
+         if (.not. physical_key_given(config%physical, group_index(row))) then
+            text = 'none'
+            return
+         end if
          associate (v => physical_values(config%physical))
             text = real_value(v(group_index(row)))
          end associate

@@ -24,11 +24,14 @@ module tmafm_namelist
    use tmafm_errata, only: errata_t, errata_for_convention, parse_errata, errata_label
    use tmafm_config, only: config_t
    use tmafm_keys, only: keys, key_groups, key_row, group_index, key_in_range, key_range_text, &
-      key_choices_text, key_is_word, group_keys_text, key_value_text, range_text
+      key_choices_text, key_is_word, group_keys_text, key_value_text, range_text, physical_key_given
    use tmafm_nml_syntax, only: nml_document_t, nml_group_t, nml_entry_t, nml_value_t, &
       parse_namelist, value_integer, value_real, value_logical, value_string, value_word, &
       value_kind_name, value_other
    use tmafm_input_file, only: read_text_file
+   use tmafm_calibration, only: calibrate_cantilever, drive_for_free_amplitude, physical_derived, &
+      derived_names, derived_units, derived_meanings, n_derived
+   use tmafm_float_format, only: shortest_text_padded
    implicit none
    private
 
@@ -120,7 +123,12 @@ contains
       ierr = ok
       errmsg = ''
 
-      if (at('model') /= 0) call read_model(place('model'), doc%groups(at('model')), config, ierr, errmsg)
+      if (at('model') /= 0) then
+         call read_model(place('model'), doc%groups(at('model')), config, ierr, errmsg)
+      else
+         ! &model errata 'convention' resolved as read_model resolves it (the default convention's list).
+         config%errata = errata_label(errata_for_convention(trim(config%convention)))
+      end if
       if (ierr /= ok) return
       if (at('physical') /= 0) then
          call read_physical(place('physical'), doc%groups(at('physical')), config, ierr, errmsg)
@@ -168,6 +176,11 @@ contains
       type(errata_t) :: errata
       integer :: ierr
       character(len=64) :: bad
+      ! 'convention' (the default, kept when &model is absent) follows the convention.
+      if (lower(trim(config%errata)) == 'convention') then
+         errata = errata_for_convention(trim(config%convention))
+         return
+      end if
       call parse_errata(trim(config%errata), errata, ierr, bad)
    end function config_errata
 
@@ -290,30 +303,161 @@ contains
       character(len=*), intent(out) :: errmsg
       real(dp) :: v(size(physical_names)), mismatch
       type(nml_entry_t) :: fixed
+      type(physical_t) :: phys
+      ! given(k): physical_names(k) is given (an override's alternative drops the base's keys).
+      logical :: given(size(physical_names))
+      character(len=*), parameter :: calibration(4) = [character(len=19) :: 'spring_constant', &
+         'resonance_frequency', 'quality_factor', 'tip_mass_ratio']
+      character(len=*), parameter :: geometry(4) = [character(len=12) :: 'thickness', 'density', &
+         'tip_mass', 'beam_damping']
+      integer :: i, j
+      integer, allocatable :: dropped(:)
 
       v = physical_values(config%physical)
       call read_real_group(p, g, v, ierr, errmsg)
       if (ierr /= ok) return
+      do i = 1, size(physical_names)
+         given(i) = entry_at(trim(physical_names(i))) > 0
+      end do
+      ! The alternatives: each pair is refused in one line naming both keys.
+      call exclusive('drive_frequency', 'drive_angular_frequency', '')
+      call exclusive('free_amplitude', 'drive_amplitude', '')
+      call exclusive('tip_sample_distance', 'gap', '')
+      call exclusive('tip_sample_distance', 'static_offset', '')
+      do i = 1, size(calibration)
+         do j = 1, size(geometry)
+            call exclusive(trim(calibration(i)), trim(geometry(j)), &
+                           ' (the cantilever is given by its calibration spring_constant, resonance_frequency, '// &
+                           'quality_factor, tip_mass_ratio or by its geometry and mass thickness, density, '// &
+                           'tip_mass, beam_damping)')
+         end do
+      end do
+      if (ierr /= ok) return
+      if (given(21) .or. given(22) .or. given(23) .or. given(24)) then
+         do i = 1, size(calibration)
+            if (given(index_of(physical_names, calibration(i)))) cycle
+            do j = 1, size(calibration)
+               if (.not. given(index_of(physical_names, calibration(j)))) cycle
+               call key_error(p, g%entries(entry_at(trim(calibration(j)))), 'needs '// &
+                              trim(calibration(i))//' too: the calibration is spring_constant, '// &
+                              'resonance_frequency, quality_factor and tip_mass_ratio (0 for no tip mass)', &
+                              ierr, errmsg)
+               return
+            end do
+         end do
+      end if
+      ! The calibration and the free amplitude are exact for the N modes that run.
+      if (config%auto_modes) then
+         do i = 1, 2
+            j = index_of(physical_names, merge('spring_constant', 'free_amplitude ', i == 1))
+            if (.not. given(j)) cycle
+            call key_error(p, g%entries(entry_at(trim(physical_names(j)))), 'needs a fixed &model n_modes, '// &
+                           'not n_modes = 0: it is computed exactly from the N-mode model that runs', ierr, errmsg)
+            return
+         end do
+      end if
       ! tip_position lies on the beam: 0 < x0 <= L.
       if (v(15) > v(1)) then
          fixed = entry_or_default(g, 'tip_position', v(15))
          call key_error(p, fixed, 'must be <= length = '//real_text(v(1)), ierr, errmsg)
          return
       end if
-      ! The paper's geometry: d = g0 + delta/cos(theta).
-      mismatch = abs(v(12) - v(13) - v(14)/cos(v(11)))
-      if (mismatch > 1.0e-6_dp*v(12)) then
-         fixed = entry_or_default(g, 'gap', v(12))
-         call key_error(p, fixed, 'must equal tip_length + static_offset/cos(tilt) = '// &
-                        real_text(v(13) + v(14)/cos(v(11))), ierr, errmsg)
-         return
+      if (given(27)) then
+         ! The gap follows the tip-sample distance Z (docs/model.md section 1).
+         v(14) = v(27)
+         v(12) = v(13) + v(27)/cos(v(11))
+         if (.not. (v(12) > 0 .and. v(12) <= 1)) then
+            call key_error(p, g%entries(entry_at('tip_sample_distance')), 'gives gap = tip_length + '// &
+                           'tip_sample_distance/cos(tilt) = '//real_text(v(12))//': must be > 0 and <= 1', &
+                           ierr, errmsg)
+            return
+         end if
+      else
+         ! The paper's geometry: d = g0 + delta/cos(theta).
+         mismatch = abs(v(12) - v(13) - v(14)/cos(v(11)))
+         if (mismatch > 1.0e-6_dp*v(12)) then
+            fixed = entry_or_default(g, 'gap', v(12))
+            call key_error(p, fixed, 'must equal tip_length + static_offset/cos(tilt) = '// &
+                           real_text(v(13) + v(14)/cos(v(11))), ierr, errmsg)
+            return
+         end if
       end if
-      config%physical = physical_t(v(1), v(2), v(3), v(4), v(5), v(6), v(7), v(8), v(9), v(10), &
-                                   v(11), v(12), v(13), v(14), v(15), v(16), v(17), v(18), v(19), &
-                                   v(20))
+      if (given(25)) v(20) = 2*acos(-1.0_dp)*v(25)
+      phys = physical_t(v(1), v(2), v(3), v(4), v(5), v(6), v(7), v(8), v(9), v(10), &
+                        v(11), v(12), v(13), v(14), v(15), v(16), v(17), v(18), v(19), &
+                        v(20), v(21), v(22), v(23), v(24), v(25), v(26), v(27), &
+                        given(21), given(25), given(26), given(27))
+      if (phys%by_calibration) then
+         call calibrate_cantilever(phys, config%n_modes, config_errata(config), ierr, errmsg)
+         if (ierr /= ok) then
+            call key_error(p, g%entries(entry_at('quality_factor')), trim(errmsg), ierr, errmsg)
+            return
+         end if
+      end if
+      if (phys%by_free_amplitude) then
+         call drive_for_free_amplitude(phys, config%n_modes, config_errata(config), ierr, errmsg)
+         if (ierr /= ok) then
+            call key_error(p, g%entries(entry_at('free_amplitude')), trim(errmsg), ierr, errmsg)
+            return
+         end if
+      end if
+      config%physical = phys
       config%from_physical = .true.
       config%scene = scene_from_physical(config%physical)
+   contains
+      !> Position in g of the given entry for `key` (0 if absent or dropped).
+      integer function entry_at(key)
+         character(len=*), intent(in) :: key
+         integer :: k
+         entry_at = 0
+         do k = 1, g%n_entries
+            if (g%entries(k)%key == key) entry_at = k
+         end do
+         if (entry_at > 0) then
+            if (allocated(dropped)) then
+               if (any(dropped == entry_at)) entry_at = 0
+            end if
+         end if
+      end function entry_at
+      !> Keys `a` and `b` exclude each other: both given is refused in one line, unless one is an
+      !> override and the other comes from the base input (the base's key is then dropped).
+      subroutine exclusive(a, b, why)
+         character(len=*), intent(in) :: a, b, why
+         integer :: ea, eb
+         if (ierr /= ok) return
+         ea = entry_at(a)
+         eb = entry_at(b)
+         if (ea == 0 .or. eb == 0) return
+         if (g%entries(ea)%override .and. .not. g%entries(eb)%override) then
+            call drop(eb, b)
+         else if (g%entries(eb)%override .and. .not. g%entries(ea)%override) then
+            call drop(ea, a)
+         else
+            call key_error(p, g%entries(ea), 'give '//a//' or '//b//', not both ('//b//' = '// &
+                           g%entries(eb)%written//', '//trim(line_text(entry_line(g%entries(eb))))//')'//why, &
+                           ierr, errmsg)
+         end if
+      end subroutine exclusive
+      !> Forget base entry e (key `key`): an override gave its alternative.
+      subroutine drop(e, key)
+         integer, intent(in) :: e
+         character(len=*), intent(in) :: key
+         if (.not. allocated(dropped)) allocate (dropped(0))
+         dropped = [dropped, e]
+         given(index_of(physical_names, key)) = .false.
+         ! The dropped key's value goes back to its default (a derived key is set below).
+         v(index_of(physical_names, key)) = physical_values_default(index_of(physical_names, key))
+      end subroutine drop
    end subroutine read_physical
+
+   !> The default of &physical value k (index into physical_names).
+   pure real(dp) function physical_values_default(k)
+      integer, intent(in) :: k
+      type(physical_t) :: defaults
+      associate (values => physical_values(defaults))
+         physical_values_default = values(k)
+      end associate
+   end function physical_values_default
 
    subroutine read_initial(p, g, config, ierr, errmsg)
       type(place_t), intent(in) :: p
@@ -982,19 +1126,38 @@ contains
          c = ''
       end do
    contains
-      !> The lines of one group: its keys in the order of the key table.
+      !> The lines of one group: its keys in the order of the key table (of &physical, those
+      !> the scene was given by; the values derived from them follow as comments).
       subroutine put_group(name)
          character(len=*), intent(in) :: name
          call line('&'//name)
          do row = 1, size(keys)
             if (keys(row)%group /= name) cycle
+            if (name == 'physical') then
+               if (.not. physical_key_given(config%physical, group_index(row))) cycle
+            end if
             call key_value_text(config, row, value)
             call line('    '//trim(keys(row)%name)//' = '//value)
             ! Keep the request of an automatic N, and record the choice as a comment.
             if (keys(row)%name == 'n_modes' .and. config%auto_modes) call choice_note()
          end do
          call line('/')
+         if (name == 'physical') call derived_lines()
       end subroutine put_group
+      !> The derived values of a physical scene as comments (tmafm_calibration physical_derived):
+      !> '! derived: name = value unit (meaning)'; the model's own values need N (not yet
+      !> chosen when n_modes = 0 has not been resolved).
+      subroutine derived_lines()
+         real(dp) :: values(n_derived)
+         integer :: k, ierr
+         character(len=256) :: errmsg
+         call physical_derived(config%physical, config%n_modes, config_errata(config), values, ierr, errmsg)
+         do k = 1, n_derived
+            if (ierr /= ok .and. any(k == [10, 11, 13, 14, 15])) cycle
+            call line('! derived: '//trim(derived_names(k))//' = '//trim(shortest_text_padded(values(k)))// &
+                      ' '//trim(derived_units(k))//' ('//trim(derived_meanings(k))//')')
+         end do
+      end subroutine derived_lines
       subroutine line(body)
          character(len=*), intent(in) :: body
          text = text//c//body//nl

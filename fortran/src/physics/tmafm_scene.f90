@@ -12,6 +12,7 @@ module tmafm_scene
 
    public :: scene_t, physical_t, scene_from_physical
    public :: scene_names, scene_values, physical_names, physical_values, scene_depends_on
+   public :: beam_rigidity, beam_mass_per_length
 
    real(dp), parameter :: pi = acos(-1.0_dp)
 
@@ -87,6 +88,35 @@ module tmafm_scene
       real(dp) :: drive_amplitude = 2.5e-9_dp
       !> Base drive angular frequency omega (rad/s).
       real(dp) :: drive_angular_frequency = 143751.31743848347_dp
+      ! The cantilever by its calibration, the drive in Hz and by the free amplitude, and the
+      ! tip-sample distance (docs/model.md section 12): alternatives to keys above, each used
+      ! only where its flag below is set; the reader derives the keys they replace.
+      !> Static spring constant k at the tip (N/m), with by_calibration.
+      real(dp) :: spring_constant = 0
+      !> First flexural resonance f0 with the tip mass (Hz), with by_calibration.
+      real(dp) :: resonance_frequency = 0
+      !> Quality factor Q of that resonance, with by_calibration.
+      real(dp) :: quality_factor = 0
+      !> Tip mass over beam mass M/(m L), with by_calibration.
+      real(dp) :: tip_mass_ratio = 0
+      !> Drive frequency omega/(2 pi) (Hz), with by_drive_frequency.
+      real(dp) :: drive_frequency = 0
+      !> Steady free amplitude of the tip's V_T (m), with by_free_amplitude.
+      real(dp) :: free_amplitude = 0
+      !> Tip-sample rest distance Z (m): static_offset = Z, gap = g0 + Z/cos(theta), with by_distance.
+      real(dp) :: tip_sample_distance = 0
+      !> .true. when the cantilever is given by spring_constant, resonance_frequency, quality_factor.
+      logical :: by_calibration = .false.
+      !> .true. when the drive is given by drive_frequency.
+      logical :: by_drive_frequency = .false.
+      !> .true. when the drive is given by free_amplitude.
+      logical :: by_free_amplitude = .false.
+      !> .true. when the gap is given by tip_sample_distance.
+      logical :: by_distance = .false.
+      !> E1 I derived by the calibration (N m^2); 0 with the geometry route.
+      real(dp) :: rigidity = 0
+      !> Mass per length m derived by the calibration (kg/m); 0 with the geometry route.
+      real(dp) :: mass_per_length = 0
    end type physical_t
 
    !> The &scene keys, in the order of scene_values (their ranges: config/tmafm_keys.f90).
@@ -94,11 +124,13 @@ module tmafm_scene
       'alpha3', 'alpha4', 'alpha5', 'alpha6', 'beta', 'omega', 'theta', 'l_over_d', 'g0_over_d', &
       'delta_hat', 'xi0']
    !> The &physical keys, in the order of physical_values.
-   character(len=*), parameter :: physical_names(20) = [character(len=23) :: 'length', 'width', &
+   character(len=*), parameter :: physical_names(27) = [character(len=23) :: 'length', 'width', &
       'thickness', 'density', 'youngs_modulus_tip', 'poisson_ratio_tip', 'youngs_modulus_sample', &
       'poisson_ratio_sample', 'tip_radius', 'adhesion_energy', 'tilt', 'gap', 'tip_length', &
       'static_offset', 'tip_position', 'tip_mass', 'beam_damping', 'contact_damping', &
-      'drive_amplitude', 'drive_angular_frequency']
+      'drive_amplitude', 'drive_angular_frequency', &
+      'spring_constant', 'resonance_frequency', 'quality_factor', 'tip_mass_ratio', &
+      'drive_frequency', 'free_amplitude', 'tip_sample_distance']
 
 contains
 
@@ -114,12 +146,14 @@ contains
    !> The physical inputs as an array, in the order of physical_names.
    pure function physical_values(phys) result(values)
       type(physical_t), intent(in) :: phys
-      real(dp) :: values(20)
+      real(dp) :: values(27)
       values = [phys%length, phys%width, phys%thickness, phys%density, phys%youngs_modulus_tip, &
                 phys%poisson_ratio_tip, phys%youngs_modulus_sample, phys%poisson_ratio_sample, &
                 phys%tip_radius, phys%adhesion_energy, phys%tilt, phys%gap, phys%tip_length, &
                 phys%static_offset, phys%tip_position, phys%tip_mass, phys%beam_damping, &
-                phys%contact_damping, phys%drive_amplitude, phys%drive_angular_frequency]
+                phys%contact_damping, phys%drive_amplitude, phys%drive_angular_frequency, &
+                phys%spring_constant, phys%resonance_frequency, phys%quality_factor, &
+                phys%tip_mass_ratio, phys%drive_frequency, phys%free_amplitude, phys%tip_sample_distance]
    end function physical_values
 
    !> Which &physical keys (indices into physical_names) scene group k depends on by Eq. (12).
@@ -127,14 +161,15 @@ contains
       integer, intent(in) :: k
       integer, allocatable :: keys(:)
       ! 1 length, 2 width, 3 thickness, 4 density, 5 E1, 6 nu1, 7 E2, 8 nu2, 9 R, 10 gamma,
-      ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega.
+      ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega,
+      ! 21 k, 22 f0, 23 Q, 24 M/(m L), 25 omega/(2 pi), 26 A0, 27 Z.
       select case (k)
       case (1)
-         keys = [16, 4, 2, 3, 1]
+         keys = [16, 4, 2, 3, 1, 24]
       case (2)
-         keys = [19, 12]
+         keys = [19, 12, 26, 27]
       case (3)
-         keys = [17, 1, 5, 2, 3, 4]
+         keys = [17, 1, 5, 2, 3, 4, 23]
       case (4)
          keys = [18, 1, 5, 2, 3, 4]
       case (5)
@@ -144,7 +179,7 @@ contains
       case (7)
          keys = [10, 5, 6, 7, 8, 12, 9]
       case (8)
-         keys = [20, 4, 2, 3, 1, 5]
+         keys = [20, 4, 2, 3, 1, 5, 25, 22]
       case (9)
          keys = [11]
       case (10)
@@ -152,23 +187,43 @@ contains
       case (11)
          keys = [13, 12]
       case (12)
-         keys = [14, 12, 11]
+         keys = [14, 12, 11, 27]
       case default
          keys = [15, 1]
       end select
    end function scene_depends_on
 
+   !> E1 I of a physical scene (N m^2): from the calibration where it gave one, else E1 b h^3/12.
+   pure real(dp) function beam_rigidity(phys)
+      type(physical_t), intent(in) :: phys
+      if (phys%by_calibration) then
+         beam_rigidity = phys%rigidity
+      else
+         ! (the same operations, in the same order, as before the calibration existed)
+         beam_rigidity = phys%youngs_modulus_tip*(phys%width*phys%thickness**3/12)
+      end if
+   end function beam_rigidity
+
+   !> Mass per length m of a physical scene (kg/m): from the calibration, else rho b h.
+   pure real(dp) function beam_mass_per_length(phys)
+      type(physical_t), intent(in) :: phys
+      if (phys%by_calibration) then
+         beam_mass_per_length = phys%mass_per_length
+      else
+         beam_mass_per_length = phys%density*phys%width*phys%thickness
+      end if
+   end function beam_mass_per_length
+
    !> The dimensionless groups of Eq. (10)-(12) for a physical scene (E8 corrected in alpha4).
    pure function scene_from_physical(phys) result(scene)
       type(physical_t), intent(in) :: phys
       type(scene_t) :: scene
-      real(dp) :: inertia, mass_per_length, rigidity, e_star, g_tip, g_sample, g_star
+      real(dp) :: mass_per_length, rigidity, e_star, g_tip, g_sample, g_star
       real(dp) :: damping_scale, time_unit, d
 
       d = phys%gap
-      inertia = phys%width*phys%thickness**3/12
-      mass_per_length = phys%density*phys%width*phys%thickness
-      rigidity = phys%youngs_modulus_tip*inertia
+      mass_per_length = beam_mass_per_length(phys)
+      rigidity = beam_rigidity(phys)
       e_star = 1.0_dp/((1 - phys%poisson_ratio_tip**2)/phys%youngs_modulus_tip &
                      + (1 - phys%poisson_ratio_sample**2)/phys%youngs_modulus_sample)
       g_tip = phys%youngs_modulus_tip/(2*(1 + phys%poisson_ratio_tip))

@@ -4,7 +4,7 @@
 !> E1 I d^2/L^3 (the beam equation divided by E1 I d/L^4 makes w'''' + w_tautau = F L^3/(E1 I d)).
 module tmafm_units
    use tmafm_kinds, only: dp
-   use tmafm_scene, only: physical_t
+   use tmafm_scene, only: physical_t, beam_rigidity, beam_mass_per_length
    implicit none
    private
 
@@ -33,8 +33,10 @@ contains
       type(physical_t), intent(in) :: phys
       type(scales_t) :: scales
       real(dp) :: rigidity, mass_per_length
+      ! The geometry's E1 I as this module always computed it (last bits kept), or the calibration's.
       rigidity = phys%youngs_modulus_tip*phys%width*phys%thickness**3/12
-      mass_per_length = phys%density*phys%width*phys%thickness
+      if (phys%by_calibration) rigidity = beam_rigidity(phys)
+      mass_per_length = beam_mass_per_length(phys)
       scales%known = .true.
       scales%length = phys%gap
       scales%time = sqrt(mass_per_length*phys%length**4/rigidity)

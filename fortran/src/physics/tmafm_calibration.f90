@@ -1,0 +1,335 @@
+!> The cantilever of the N-mode model as an experimentalist calibrates it (docs/model.md
+!> section 12): its static tip stiffness k, its first resonance f0 and quality factor Q, and the
+!> tip's steady free amplitude under a base drive, all computed from the model's own matrices
+!> (M = I + alpha1 m m^T, C = alpha3 I, K = Lambda of the free phase, Eqs. 16-19); and the
+!> inverse, the beam (E1 I, m, C, M) that gives a calibration (k, f0, Q, M/(m L)) exactly.
+!>
+!> Definitions (the model's free phase, tau in units of t0 = sqrt(m L^4/(E1 I))):
+!> - k = E1 I/(L^3 p^T Lambda^-1 p), p = phi(xi0): the static force at the tip over the tip's
+!>   deflection;
+!> - lambda1, the eigenvalue of lambda^2 M + lambda alpha3 I + Lambda = 0 (the free decay
+!>   a = Re(v e^(lambda tau))) of least modulus, with Im lambda1 > 0 (mode 1 underdamped);
+!> - f0 = |lambda1|/(2 pi t0) and Q = |lambda1|/(2 |Re lambda1|): the natural frequency and
+!>   quality factor of the one oscillator that decays as mode 1 does.  The beam damping is
+!>   uniform and the tip mass undamped, so mode 1 is not a modal (real) mode: lambda1 is the
+!>   complex eigenvalue itself, not alpha3 over a modal mass;
+!> - the free amplitude: |p^T X - i| alpha2 d, with (Lambda - Omega^2 M + i Omega alpha3 I) X
+!>   = Omega^2 (alpha1 m + q) (-i) - alpha3 Omega q: the first harmonic of V_T = p^T a +
+!>   alpha2 sin(Omega tau) + delta_hat in steady free flight (the `amplitude` observable).
+module tmafm_calibration
+   use tmafm_kinds, only: dp
+   use tmafm_errors, only: ok, err_input
+   use tmafm_scene, only: scene_t, physical_t, scene_from_physical, beam_rigidity, beam_mass_per_length
+   use tmafm_units, only: scales_t, scales_from_physical
+   use tmafm_errata, only: errata_t
+   use tmafm_contact, only: law_hertz
+   use tmafm_model, only: model_t, init_model
+   implicit none
+   private
+
+   public :: tip_compliance, first_mode, free_response, damping_for_quality
+   public :: calibrate_cantilever, drive_for_free_amplitude, physical_derived
+   public :: derived_names, derived_units, derived_meanings, n_derived
+
+   real(dp), parameter :: pi = acos(-1.0_dp)
+
+   !> Number of derived values of a physical scene (physical_derived).
+   integer, parameter :: n_derived = 19
+   !> Their names, in the order of physical_derived's values.
+   character(len=*), parameter :: derived_names(n_derived) = [character(len=28) :: 'rigidity', &
+      'mass_per_length', 'tip_mass', 'beam_damping', 'gap', 'static_offset', 'drive_amplitude', &
+      'drive_angular_frequency', 'drive_frequency', 'free_amplitude', 'spring_constant', &
+      'continuum_spring_constant', 'resonance_frequency', 'undamped_resonance_frequency', &
+      'quality_factor', 'length_scale', 'time_scale', 'force_scale', 'energy_scale']
+   !> Their units.
+   character(len=*), parameter :: derived_units(n_derived) = [character(len=8) :: 'N m^2', 'kg/m', &
+      'kg', 'N s/m^2', 'm', 'm', 'm', 'rad/s', 'Hz', 'm', 'N/m', 'N/m', 'Hz', 'Hz', '1', 'm', 's', &
+      'N', 'J']
+   !> What each one is.
+   character(len=*), parameter :: derived_meanings(n_derived) = [character(len=100) :: &
+      'E1 I of the beam', 'beam mass per length m', 'tip mass M', 'beam damping C per length', &
+      'gap d = g0 + delta/cos(theta)', 'static tip-sample offset delta (the Z of an approach)', &
+      'base drive amplitude f = alpha2 d', 'drive angular frequency omega', 'drive frequency omega/(2 pi)', &
+      "tip's steady free amplitude at the drive (V_T's first harmonic, no contact)", &
+      "the model's static tip stiffness E1 I/(L^3 p^T Lambda^-1 p)", 'continuum 3 E1 I/x0^3', &
+      "the model's first resonance |lambda1|/(2 pi t0)", "the model's first undamped natural frequency", &
+      "the model's Q = |lambda1|/(2 |Re lambda1|)", 'length scale d', 'time scale t0 = sqrt(m L^4/(E1 I))', &
+      'force scale E1 I/L^2', 'energy scale E1 I d^2/L^3']
+
+contains
+
+   !> p^T Lambda^-1 p: the tip's static deflection in units of F L^3/(E1 I) for a force F at the
+   !> tip (Lambda a = (F L^3/(E1 I d)) p, V_T = p^T a).
+   pure real(dp) function tip_compliance(model)
+      type(model_t), intent(in) :: model
+      tip_compliance = sum(model%tip**2/model%eigen)
+   end function tip_compliance
+
+   !> lambda1 (module comment) of the model's free phase with beam damping alpha3: the
+   !> companion matrix's eigenvalues (LAPACK dgeev) give the start, Newton's method on
+   !> T(lambda) v = 0 (nonlinear inverse iteration, complex LU) refines it to the last bits.
+   !> `underdamped` is .false. when the eigenvalue of least modulus is real.
+   subroutine first_mode(model, alpha3, lambda, underdamped, ierr, errmsg)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: alpha3
+      complex(dp), intent(out) :: lambda
+      logical, intent(out) :: underdamped
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      real(dp) :: companion(2*model%n_modes, 2*model%n_modes), wr(2*model%n_modes), wi(2*model%n_modes)
+      real(dp) :: dummy(1, 1), work(8*model%n_modes + 64)
+      complex(dp) :: t(model%n_modes, model%n_modes), x(model%n_modes), v(model%n_modes), u(model%n_modes)
+      complex(dp) :: step
+      integer :: n, j, k, info, pivots(model%n_modes), it
+
+      ierr = ok
+      errmsg = ''
+      n = model%n_modes
+      companion = 0
+      do j = 1, n
+         companion(j, n + j) = 1
+      end do
+      companion(n + 1:, 1:n) = -model%inv_mass_eigen
+      companion(n + 1:, n + 1:) = -alpha3*model%inv_mass
+      call dgeev('N', 'N', 2*n, companion, 2*n, wr, wi, dummy, 1, dummy, 1, work, size(work), info)
+      if (info /= 0) then
+         ierr = err_input
+         write (errmsg, '(a,i0)') 'the eigenvalues of the free beam failed: LAPACK dgeev info = ', info
+         return
+      end if
+      k = minloc(hypot(wr, wi), 1, mask=wi >= 0)
+      lambda = cmplx(wr(k), wi(k), dp)
+      underdamped = wi(k) > 0
+      if (.not. underdamped) return
+      ! One step of inverse iteration from the tip's shape gives mode 1's vector, then Newton.
+      v = model%tip
+      call solve(lambda, v, info)
+      if (info /= 0) return
+      u = v/sum(abs(v)**2)
+      do it = 1, 30
+         x = (2*lambda)*matmul(model%mass, v) + alpha3*v
+         call solve(lambda, x, info)
+         if (info /= 0) exit
+         step = 1/dot_product(u, x)
+         lambda = lambda - step
+         v = x*step
+         if (abs(step) <= 4*epsilon(1.0_dp)*abs(lambda)) exit
+      end do
+      underdamped = aimag(lambda) > 0
+   contains
+      !> rhs <- T(lam)^-1 rhs, T(lam) = lam^2 M + lam alpha3 I + Lambda (info > 0: singular).
+      subroutine solve(lam, rhs, info)
+         complex(dp), intent(in) :: lam
+         complex(dp), intent(inout) :: rhs(:)
+         integer, intent(out) :: info
+         integer :: i
+         t = lam**2*model%mass
+         do i = 1, n
+            t(i, i) = t(i, i) + lam*alpha3 + model%eigen(i)
+         end do
+         call zgesv(n, 1, t, n, pivots, rhs, n, info)
+      end subroutine solve
+   end subroutine first_mode
+
+   !> The beam damping alpha3 that gives the model's mode 1 the quality factor `quality` (and
+   !> its lambda1): Illinois' regula falsi on log alpha3, bracketed first.
+   subroutine damping_for_quality(model, quality, alpha3, lambda, ierr, errmsg)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: quality
+      real(dp), intent(out) :: alpha3
+      complex(dp), intent(out) :: lambda
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      real(dp) :: lo, hi, f_lo, f_hi, x, f
+      integer :: it, side
+      logical :: under
+
+      alpha3 = 0
+      call first_mode(model, 0.0_dp, lambda, under, ierr, errmsg)
+      if (ierr /= ok) return
+      lo = abs(lambda)/quality
+      f_lo = misfit(lo)
+      if (ierr /= ok) return
+      do it = 1, 200
+         if (f_lo > 0) exit
+         lo = lo/2
+         f_lo = misfit(lo)
+         if (ierr /= ok) return
+      end do
+      hi = 2*lo
+      f_hi = misfit(hi)
+      do it = 1, 200
+         if (ierr /= ok) return
+         if (f_hi < 0) exit
+         hi = 2*hi
+         f_hi = misfit(hi)
+      end do
+      if (.not. (f_lo > 0 .and. f_hi < 0)) then
+         ierr = err_input
+         errmsg = 'no beam damping gives mode 1 this quality factor'
+         return
+      end if
+      ! Regula falsi (Illinois) in x = log alpha3; f = log(Q/quality), -1 where mode 1 is overdamped.
+      lo = log(lo)
+      hi = log(hi)
+      side = 0
+      do it = 1, 200
+         x = (lo*f_hi - hi*f_lo)/(f_hi - f_lo)
+         f = misfit(exp(x))
+         if (ierr /= ok) return
+         if (abs(f) <= 1.0e-14_dp .or. hi - lo <= 4*epsilon(1.0_dp)*abs(hi)) exit
+         if (f > 0) then
+            lo = x
+            f_lo = f
+            if (side == 1) f_hi = f_hi/2
+            side = 1
+         else
+            hi = x
+            f_hi = f
+            if (side == -1) f_lo = f_lo/2
+            side = -1
+         end if
+      end do
+      alpha3 = exp(x)
+      call first_mode(model, alpha3, lambda, under, ierr, errmsg)
+   contains
+      !> log(Q(a3)/quality) for beam damping a3, or -1 where mode 1 is overdamped.
+      real(dp) function misfit(a3)
+         real(dp), intent(in) :: a3
+         complex(dp) :: lam
+         logical :: under
+         call first_mode(model, a3, lam, under, ierr, errmsg)
+         misfit = -1
+         if (under) misfit = log(abs(lam)/(2*abs(real(lam, dp)))/quality)
+      end function misfit
+   end subroutine damping_for_quality
+
+   !> V_T's first-harmonic complex amplitude per unit alpha2 in steady free flight (module
+   !> comment): the free amplitude is alpha2 |h| gap units.
+   function free_response(model, ierr, errmsg) result(h)
+      type(model_t), intent(in) :: model
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      complex(dp) :: h
+      complex(dp) :: z(model%n_modes, model%n_modes), x(model%n_modes)
+      complex(dp), parameter :: i = (0.0_dp, 1.0_dp)
+      integer :: n, j, info, pivots(model%n_modes)
+
+      ierr = ok
+      errmsg = ''
+      n = model%n_modes
+      associate (s => model%scene)
+         z = -s%omega**2*model%mass
+         do j = 1, n
+            z(j, j) = z(j, j) + model%eigen(j) + i*s%omega*s%alpha3
+         end do
+         x = -i*s%omega**2*(s%alpha1*model%mass_point + model%integral) - s%alpha3*s%omega*model%integral
+      end associate
+      call zgesv(n, 1, z, n, pivots, x, n, info)
+      if (info /= 0) then
+         ierr = err_input
+         errmsg = 'the drive is at an undamped resonance of the free beam (no steady free amplitude)'
+         h = 0
+         return
+      end if
+      h = sum(model%tip*x) - i
+   end function free_response
+
+   !> The free-phase model of a physical scene for N modes and a set of corrections.
+   subroutine free_model(phys, n_modes, errata, model, ierr, errmsg)
+      type(physical_t), intent(in) :: phys
+      integer, intent(in) :: n_modes
+      type(errata_t), intent(in) :: errata
+      type(model_t), intent(out) :: model
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      call init_model(model, n_modes, scene_from_physical(phys), law_hertz, errata, ierr, errmsg)
+   end subroutine free_model
+
+   !> The beam of a cantilever given by its calibration (phys%spring_constant,
+   !> resonance_frequency, quality_factor, tip_mass_ratio, length, tip_position): sets
+   !> phys%rigidity, mass_per_length, beam_damping and tip_mass so that the N-mode model has
+   !> exactly that k, f0 and Q (module comment).  Errors name no key (the reader adds it).
+   subroutine calibrate_cantilever(phys, n_modes, errata, ierr, errmsg)
+      type(physical_t), intent(inout) :: phys
+      integer, intent(in) :: n_modes
+      type(errata_t), intent(in) :: errata
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      type(model_t) :: model
+      type(scene_t) :: scene
+      real(dp) :: alpha3, t0
+      complex(dp) :: lambda
+
+      scene%alpha1 = phys%tip_mass_ratio
+      scene%xi0 = phys%tip_position/phys%length
+      call init_model(model, n_modes, scene, law_hertz, errata, ierr, errmsg)
+      if (ierr /= ok) return
+      call damping_for_quality(model, phys%quality_factor, alpha3, lambda, ierr, errmsg)
+      if (ierr /= ok) return
+      phys%rigidity = phys%spring_constant*phys%length**3*tip_compliance(model)
+      t0 = abs(lambda)/(2*pi*phys%resonance_frequency)
+      phys%mass_per_length = phys%rigidity*t0**2/phys%length**4
+      phys%beam_damping = alpha3*phys%mass_per_length/t0
+      phys%tip_mass = phys%tip_mass_ratio*phys%mass_per_length*phys%length
+   end subroutine calibrate_cantilever
+
+   !> The base drive amplitude phys%drive_amplitude that gives the tip the steady free
+   !> amplitude phys%free_amplitude (module comment), for N modes and a set of corrections.
+   subroutine drive_for_free_amplitude(phys, n_modes, errata, ierr, errmsg)
+      type(physical_t), intent(inout) :: phys
+      integer, intent(in) :: n_modes
+      type(errata_t), intent(in) :: errata
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      type(model_t) :: model
+      complex(dp) :: h
+
+      call free_model(phys, n_modes, errata, model, ierr, errmsg)
+      if (ierr /= ok) return
+      h = free_response(model, ierr, errmsg)
+      if (ierr /= ok) return
+      phys%drive_amplitude = phys%free_amplitude/abs(h)
+   end subroutine drive_for_free_amplitude
+
+   !> The derived values of a physical scene, in the order of derived_names: the beam, the
+   !> geometry and drive as the run uses them, the N-mode model's own k, f0, Q and free
+   !> amplitude (n_modes >= 1), the continuum 3 E1 I/x0^3, and the scales; f0 and Q are 0
+   !> where mode 1 is overdamped.
+   subroutine physical_derived(phys, n_modes, errata, values, ierr, errmsg)
+      type(physical_t), intent(in) :: phys
+      integer, intent(in) :: n_modes
+      type(errata_t), intent(in) :: errata
+      real(dp), intent(out) :: values(n_derived)
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      type(model_t) :: model
+      type(scales_t) :: scales
+      complex(dp) :: lambda, undamped
+      logical :: under
+      real(dp) :: rigidity
+
+      rigidity = beam_rigidity(phys)
+      scales = scales_from_physical(phys)
+      values = 0
+      values(1:9) = [rigidity, beam_mass_per_length(phys), phys%tip_mass, phys%beam_damping, phys%gap, &
+                     phys%static_offset, phys%drive_amplitude, phys%drive_angular_frequency, &
+                     phys%drive_angular_frequency/(2*pi)]
+      values(12) = 3*rigidity/phys%tip_position**3
+      values(16:19) = [scales%length, scales%time, scales%force, scales%energy]
+      call free_model(phys, n_modes, errata, model, ierr, errmsg)
+      if (ierr /= ok) return
+      values(10) = phys%drive_amplitude*abs(free_response(model, ierr, errmsg))
+      if (ierr /= ok) return
+      values(11) = rigidity/(phys%length**3*tip_compliance(model))
+      call first_mode(model, 0.0_dp, undamped, under, ierr, errmsg)
+      if (ierr /= ok) return
+      call first_mode(model, model%scene%alpha3, lambda, under, ierr, errmsg)
+      if (ierr /= ok) return
+      values(14) = abs(undamped)/(2*pi*scales%time)
+      if (.not. under) return
+      values(13) = abs(lambda)/(2*pi*scales%time)
+      values(15) = abs(lambda)/(2*abs(real(lambda, dp)))
+   end subroutine physical_derived
+
+end module tmafm_calibration

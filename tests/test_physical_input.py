@@ -1,0 +1,215 @@
+"""The physical input in practitioner terms (issue 20; docs/model.md section 12): the cantilever by
+its calibration (spring_constant, resonance_frequency, quality_factor, tip_mass_ratio), the drive
+by drive_frequency and free_amplitude, the tip-sample distance Z; the refused combinations; and
+the default convention 'consistent' that makes an SI scene's forces the physical ones.
+
+Every check is against an independent computation: numpy's eigenvalues of the model's own
+matrices, a free decay integrated by dop853, Hertz's law from the materials."""
+
+import math
+import subprocess
+
+import numpy as np
+import pytest
+
+import tmafm
+from tmafm import executable
+
+#: A standard tapping cantilever (k = 40 N/m, f0 = 300 kHz, Q = 400), a silicon tip of R = 10 nm.
+CANTILEVER = {"length": 225e-6, "width": 38e-6, "tip_position": 225e-6, "spring_constant": 40.0,
+              "resonance_frequency": 300e3, "quality_factor": 400.0, "tip_mass_ratio": 0.05,
+              "tip_radius": 10e-9, "tip_length": 10e-6, "tip_sample_distance": 20e-9}
+
+
+def _companion_eigenvalues(model):
+    """Eigenvalues of the free phase M a'' + C a' + K a = 0 (the model's matrices), by numpy."""
+    n = model.n_modes
+    mass, damping, stiffness, _ = model.matrices(0.0, np.zeros(n), False)
+    inv = np.linalg.inv(mass)
+    a = np.block([[np.zeros((n, n)), np.eye(n)], [-inv @ stiffness, -inv @ damping]])
+    return np.linalg.eigvals(a), (mass, damping, stiffness)
+
+
+def _first_mode(model):
+    values, _ = _companion_eigenvalues(model)
+    return values[np.argmin(np.where(values.imag >= 0, abs(values), np.inf))]
+
+
+@pytest.mark.parametrize("n_modes", [3, 6])
+@pytest.mark.parametrize("convention", ["paper", "consistent"])
+def test_a_calibrated_cantilever_has_its_k_f0_and_q_in_the_model_matrices(n_modes, convention):
+    config = tmafm.Config({"model": {"n_modes": n_modes, "convention": convention},
+                           "physical": CANTILEVER})
+    model = config.model()
+    derived = config.derived
+    # The scales from the derived beam: t0 = sqrt(m L^4/(E1 I)).
+    L = CANTILEVER["length"]
+    t0 = math.sqrt(derived["mass_per_length"] * L ** 4 / derived["rigidity"])
+    lam = _first_mode(model)
+    assert abs(lam) / (2 * math.pi * t0) == pytest.approx(300e3, rel=1e-9)
+    assert abs(lam) / (2 * abs(lam.real)) == pytest.approx(400.0, rel=1e-9)
+    # Static tip stiffness: F = k w_T, with K a = (F L^3/(E1 I d)) p and w_T = d p^T a.
+    _, _, stiffness, _ = model.matrices(0.0, np.zeros(n_modes), False)
+    p = model.tip
+    compliance = p @ np.linalg.solve(stiffness, p)
+    assert derived["rigidity"] / (L ** 3 * compliance) == pytest.approx(40.0, rel=1e-9)
+    # The tip mass is the ratio's, the damping the model's alpha3.
+    assert derived["tip_mass"] / (derived["mass_per_length"] * L) == pytest.approx(0.05, rel=1e-12)
+    assert config.scene["alpha3"] == pytest.approx(derived["beam_damping"] * t0 / derived["mass_per_length"],
+                                                   rel=1e-12)
+    # The model's own values, as the header prints them, and the continuum 3 E1 I/L^3 (x0 = L).
+    assert derived["spring_constant"] == pytest.approx(40.0, rel=1e-12)
+    assert derived["resonance_frequency"] == pytest.approx(300e3, rel=1e-12)
+    assert derived["quality_factor"] == pytest.approx(400.0, rel=1e-12)
+    assert derived["continuum_spring_constant"] == pytest.approx(3 * derived["rigidity"] / L ** 3, rel=1e-14)
+
+
+def test_the_free_decay_of_a_calibrated_cantilever_gives_its_q():
+    """Mode 1 alone (a = Re(v e^(lambda tau)), its complex eigenvector from numpy) decays freely,
+    integrated by dop853: sampled every damped period T = 2 pi/Im(lambda), a(kT) = e^(-sigma k T)
+    a(0); sigma fitted from the run gives Q = |lambda|/(2 sigma)."""
+    base = {"model": {"n_modes": 4}, "physical": {**CANTILEVER, "tip_sample_distance": 1e-6,
+                                                  "drive_amplitude": 0.0}}
+    model = tmafm.Model(base)
+    values, (mass, damping, stiffness) = _companion_eigenvalues(model)
+    lam = _first_mode(model)
+    # Mode 1's vector: the null vector of lambda^2 M + lambda C + K.
+    _, _, vh = np.linalg.svd(lam ** 2 * mass + lam * damping + stiffness)
+    v = vh[-1].conj()
+    v *= 1e-4 / np.abs(v).max()
+    period = 2 * math.pi / lam.imag
+    count = 20
+    result = tmafm.run(base, initial={"a0": list(v.real), "adot0": list((lam * v).real)},
+                       solver={"method": "dop853", "rtol": 1e-12, "atol": 1e-18,
+                               "tau_end": count * period * (1 + 1e-12)},
+                       output={"sample_dtau": period})
+    a = result.a
+    assert a.shape[0] == count + 1
+    ratio = a[-1] @ a[0] / (a[0] @ a[0])
+    # a(kT) is parallel to a(0): the damped frequency is Im(lambda).
+    np.testing.assert_allclose(a[-1], ratio * a[0], rtol=0, atol=1e-9 * abs(a[-1]).max())
+    sigma = -math.log(ratio) / (count * period)
+    q = math.hypot(sigma, lam.imag) / (2 * sigma)
+    assert q == pytest.approx(400.0, rel=1e-6)
+
+
+def test_a_scene_given_by_its_free_amplitude_reaches_it_far_from_the_sample():
+    """Q = 30 so that the start's transient dies (e^(-sigma tau) < 1e-9 for the slowest
+    eigenvalue) within the run; the
+    last period's amplitude observable (V_T's first harmonic, located) is the free amplitude."""
+    physical = {**CANTILEVER, "quality_factor": 30.0, "tip_sample_distance": 1e-6,
+                "drive_frequency": 290e3, "free_amplitude": 20e-9}
+    config = tmafm.Config({"model": {"n_modes": 3}, "physical": physical,
+                           "solver": {"method": "flight_exact", "rtol": 1e-12, "atol": 1e-16}})
+    # The slowest decay of the free beam (every mode's transient dies at least as fast).
+    values, _ = _companion_eigenvalues(config.model())
+    period = 2 * math.pi / config.scene["omega"]
+    n_periods = math.ceil(21 / min(-values.real) / period) + 2
+    obs = tmafm.observe(config, max_periods=n_periods, stop_at_steady=False)
+    assert obs.per_period["min_gap"][-1] > 0  # never in contact
+    d = config.derived["gap"]
+    assert obs.per_period["amplitude"][-1] * d == pytest.approx(20e-9, rel=1e-6)
+    assert config.derived["free_amplitude"] == pytest.approx(20e-9, rel=1e-12)
+    # The drive in Hz: Omega = 2 pi f t0.
+    assert config.scene["omega"] == pytest.approx(2 * math.pi * 290e3 * config.derived["time_scale"],
+                                                  rel=1e-14)
+
+
+def test_the_tip_sample_distance_sets_the_gap_and_an_override_replaces_the_base_gap(tmp_path):
+    config = tmafm.Config("physical_polystyrene", physical={"tip_sample_distance": 3e-9})
+    tilt = math.pi / 12
+    assert config.derived["gap"] == pytest.approx(5e-6 + 3e-9 / math.cos(tilt), rel=1e-15)
+    assert config.derived["static_offset"] == 3e-9
+    assert config.scene["delta_hat"] == pytest.approx(3e-9 / (config.derived["gap"] * math.cos(tilt)),
+                                                      rel=1e-14)
+    # The resolved text gives Z, not the gap, and reads back to the same scene.
+    again = tmafm.Config(config.write(tmp_path / "resolved.nml"))
+    assert again.scene == config.scene
+    assert "tip_sample_distance = " in again.text and "    gap = " not in again.text
+
+
+#: Refused combinations: (&physical entries, the two keys the one-line message names).
+REFUSED = [
+    ({"spring_constant": 40, "resonance_frequency": 3e5, "quality_factor": 400,
+      "tip_mass_ratio": 0.05, "thickness": 3e-6}, ("spring_constant", "thickness")),
+    ({"spring_constant": 40, "resonance_frequency": 3e5, "quality_factor": 400,
+      "tip_mass_ratio": 0.05, "density": 2330}, ("spring_constant", "density")),
+    ({"spring_constant": 40, "resonance_frequency": 3e5, "quality_factor": 400,
+      "tip_mass_ratio": 0.05, "tip_mass": 1e-12}, ("spring_constant", "tip_mass")),
+    ({"spring_constant": 40, "resonance_frequency": 3e5, "quality_factor": 400,
+      "tip_mass_ratio": 0.05, "beam_damping": 1e-3}, ("spring_constant", "beam_damping")),
+    ({"spring_constant": 40, "resonance_frequency": 3e5, "tip_mass_ratio": 0.05},
+     ("spring_constant", "quality_factor")),
+    ({"resonance_frequency": 3e5}, ("resonance_frequency", "spring_constant")),
+    ({"drive_frequency": 3e5, "drive_angular_frequency": 1e6}, ("drive_frequency", "drive_angular_frequency")),
+    ({"free_amplitude": 2e-8, "drive_amplitude": 1e-9}, ("free_amplitude", "drive_amplitude")),
+    ({"tip_sample_distance": 1e-8, "gap": 5e-6}, ("tip_sample_distance", "gap")),
+    ({"tip_sample_distance": 1e-8, "static_offset": 0.0}, ("tip_sample_distance", "static_offset")),
+]
+
+
+def _nml(physical: dict, n_modes: int = 4) -> str:
+    entries = ", ".join(f"{k} = {v!r}" for k, v in physical.items())
+    return f"&model n_modes = {n_modes} /\n&physical {entries} /\n&solver tau_end = 1 /\n"
+
+
+@pytest.mark.parametrize("physical, names", REFUSED, ids=[" ".join(n) for _, n in REFUSED])
+def test_an_over_determined_input_is_refused_in_one_line_naming_both_keys(tmp_path, physical, names):
+    path = tmp_path / "bad.nml"
+    path.write_text(_nml(physical))
+    done = subprocess.run([executable(), "-q", str(path), "-o", str(tmp_path / "out.dat")],
+                          capture_output=True, text=True)
+    assert done.returncode == 2
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and all(name in lines[0] for name in names), done.stderr
+    assert not (tmp_path / "out.dat").exists()
+    with pytest.raises(tmafm.InputError, match=names[1]) as info:
+        tmafm.Config(path)
+    assert names[0] in str(info.value) and "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("key", ["spring_constant", "free_amplitude"])
+def test_an_exact_conversion_needs_a_fixed_n(key):
+    physical = dict(CANTILEVER) if key == "spring_constant" else {"free_amplitude": 1e-8}
+    with pytest.raises(tmafm.InputError, match=f"{key}.*n_modes"):
+        tmafm.Config({"model": {"n_modes": 0}, "physical": physical})
+
+
+def test_physical_polystyrene_peak_force_is_hertz_at_its_own_indentation():
+    """The packaged SI scene, default convention: the located peak force (N) is
+    (4/3) E* sqrt(R) delta^(3/2) at the located indentation delta = -min_gap.  The normal
+    indentation is -v_T sin(theta1), theta1 = pi/2 - tilt + arctan(slope): with the tilt set to
+    0, sin(theta1) = 1 - O(slope^2) ~ 1e-9, so -min_gap is delta to that.  Under 'paper' (the
+    printed E4) the ratio is 2."""
+    config = tmafm.Config("physical_polystyrene", physical={"tilt": 0.0},
+                          solver={"method": "dop853", "rtol": 1e-10, "atol": 1e-14})
+    assert config.to_dict()["model"]["convention"] == "consistent"
+    obs = tmafm.observe(config, max_periods=4, stop_at_steady=False)
+    phys = config.to_dict()["physical"]
+    e_star = 1 / ((1 - phys["poisson_ratio_tip"] ** 2) / phys["youngs_modulus_tip"]
+                  + (1 - phys["poisson_ratio_sample"] ** 2) / phys["youngs_modulus_sample"])
+    delta = -obs.physical["min_gap"][-1] * 1e-9
+    assert delta > 0
+    hertz = 4 / 3 * e_star * math.sqrt(phys["tip_radius"]) * delta ** 1.5
+    assert obs.physical["peak_force"][-1] * 1e-9 == pytest.approx(hertz, rel=1e-6)
+    # 'paper' (the printed E4): twice Hertz's force at its own indentation.
+    paper = tmafm.observe(tmafm.Config(config, model={"convention": "paper", "errata": "convention"}),
+                          max_periods=4,
+                          stop_at_steady=False)
+    delta = -paper.physical["min_gap"][-1] * 1e-9
+    hertz = 4 / 3 * e_star * math.sqrt(phys["tip_radius"]) * delta ** 1.5
+    assert paper.physical["peak_force"][-1] * 1e-9 == pytest.approx(2 * hertz, rel=1e-6)
+    # The packaged scene as it is (tilt pi/12): the same law to within the tilt's effect,
+    # |sin(theta1)/cos(tilt) - 1| <= tan(tilt) |slope|, slope = (d/L) s.a bounded by the run's
+    # modal extrema in contact.
+    config = tmafm.Config("physical_polystyrene", solver={"method": "dop853", "rtol": 1e-10,
+                                                          "atol": 1e-14})
+    obs = tmafm.observe(config, max_periods=4, stop_at_steady=False)
+    tilt = config.scene["theta"]
+    slope = (1 / config.scene["l_over_d"]) * abs(config.model().slope) @ np.maximum(
+        abs(obs.per_period["modal_max_contact"][-1]), abs(obs.per_period["modal_min_contact"][-1]))
+    delta = -obs.physical["min_gap"][-1] * 1e-9 * math.cos(tilt)
+    hertz = 4 / 3 * e_star * math.sqrt(phys["tip_radius"]) * delta ** 1.5
+    bound = 1.5 * math.tan(tilt) * slope * 1.01 + 1e-6
+    assert abs(obs.physical["peak_force"][-1] * 1e-9 / hertz - 1) <= bound
+

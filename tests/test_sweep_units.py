@@ -24,7 +24,10 @@ def _independent_scales(config):
     phys = config.to_dict()["physical"]
     ei = phys["youngs_modulus_tip"] * phys["width"] * phys["thickness"] ** 3 / 12
     m = phys["density"] * phys["width"] * phys["thickness"]
-    length, d = phys["length"], phys["gap"]
+    length = phys["length"]
+    # the gap: given, or tip_length + Z/cos(tilt) from the tip-sample distance Z
+    d = phys["gap"] if "gap" in phys else \
+        phys["tip_length"] + phys["tip_sample_distance"] / math.cos(phys["tilt"])
     return {"length": d, "time": math.sqrt(m * length ** 4 / ei), "force": ei / length ** 2,
             "energy": ei * d ** 2 / length ** 3}
 
@@ -49,7 +52,7 @@ def test_a_physical_scene_gives_si_values_with_units(physical_grid):
     expected = {"amplitude": "nm", "phase": "degree", "mean_deflection": "nm", "min_gap": "nm",
                 "peak_force": "nN", "contact_time": "us", "dissipated_energy": "aJ",
                 "virial": "aJ", "harmonic_amplitude": "nm", "harmonic_phase": "degree",
-                "dissipated_power": "pW", "contacts_per_period": "1"}
+                "dissipated_power": "pW", "tip_sample_power": "pW", "contacts_per_period": "1"}
     for name, unit in expected.items():
         assert ds[name].attrs["units"] == unit, name
     # No unit hides in a name any more.
@@ -72,6 +75,9 @@ def test_a_physical_scene_gives_si_values_with_units(physical_grid):
         omega = config.to_dict()["physical"]["drive_angular_frequency"]
         power = model["dissipated_energy"] * s["energy"] / (2 * math.pi / omega)
         assert float(point.dissipated_power) * 1e-12 == pytest.approx(power, rel=1e-9)
+        contact = (model["dissipated_contact_damping"] + model["dissipated_friction"]) \
+            * s["energy"] / (2 * math.pi / omega)
+        assert float(point.tip_sample_power) * 1e-12 == pytest.approx(contact, rel=1e-9)
 
 
 def test_every_coordinate_has_units_pint_reads(physical_grid):
@@ -154,3 +160,62 @@ def test_basin_period_has_a_discrete_colour_bar(monkeypatch, tmp_path):
     assert labels == ["none", "1", "2"]
     image = fig.axes[1].images[0]
     assert image.cmap.N == 3                     # one colour per value found, no gradient
+
+
+# --- Curves in physical terms (the &physical keys tip_sample_distance, drive_frequency) ------
+
+def _accurate(name):
+    return tmafm.Config(name, model={"convention": "consistent"},
+                        solver={"method": "flight_exact", "rtol": 1e-10, "atol": 1e-14})
+
+
+def test_approach_in_z_is_the_dimensionless_delta_hat_sweep():
+    """approach(z=) on an SI base gives, in nm, nN, degree and aJ, the numbers of the same curve
+    run as a delta_hat sweep of the matching dimensionless scene: the scene at Z = 0 (gap d0 =
+    tip_length), delta_hat = Z/(d0 cos(tilt)), converted with the scales of Eq. (12) computed
+    here from the input.  The model is invariant under the choice of length unit, so the two
+    agree to the integration's error (rtol 1e-10), far inside 1e-7."""
+    base = _accurate("physical_polystyrene")
+    z = np.array([3e-9, 2e-9, 1e-9, 0.5e-9])
+    keywords = dict(max_periods=30, stop_at_steady=False, workers=1)
+    ds = tmafm.approach(base, z=z, **keywords)
+    assert ds["z"].attrs["units"] == "m" and ds.attrs["input_key"] == "physical.tip_sample_distance"
+    np.testing.assert_array_equal(ds["z"].values, z)
+    for name, unit in (("amplitude", "nm"), ("phase", "degree"), ("peak_force", "nN"),
+                       ("min_gap", "nm"), ("dissipated_energy", "aJ"), ("dissipated_power", "pW")):
+        assert ds[name].attrs["units"] == unit, name
+    at_zero = tmafm.Config(base, physical={"tip_sample_distance": 0.0})
+    groups = at_zero.to_dict()
+    s = _independent_scales(at_zero)
+    d0, tilt = s["length"], groups["physical"]["tilt"]
+    scene = dict(at_zero.scene)
+    plain = tmafm.approach({"model": groups["model"], "solver": groups["solver"], "scene": scene},
+                           delta_hat=z / (d0 * math.cos(tilt)), **keywords)
+    for name, factor in (("amplitude", d0 * 1e9), ("min_gap", d0 * 1e9),
+                         ("peak_force", s["force"] * 1e9), ("dissipated_energy", s["energy"] * 1e18)):
+        np.testing.assert_allclose(ds[name].values, plain[name].values * factor, rtol=1e-7,
+                                   err_msg=name)
+    np.testing.assert_allclose(ds["phase"].values, plain["phase"].values, rtol=0, atol=1e-5)
+    np.testing.assert_array_equal(ds["jump"].values, plain["jump"].values)
+
+
+def test_frequency_sweep_in_hz_is_the_omega_sweep():
+    base = _accurate("physical_polystyrene")
+    t0 = _independent_scales(base)["time"]
+    omega = np.array([1.8, 2.0, 2.2])
+    keywords = dict(max_periods=12, stop_at_steady=False, workers=1)
+    ds = tmafm.frequency_sweep(base, frequency=omega / (2 * math.pi * t0), **keywords)
+    assert ds["frequency"].attrs["units"] == "Hz"
+    groups = base.to_dict()
+    plain = tmafm.frequency_sweep({"model": groups["model"], "solver": groups["solver"],
+                                   "scene": base.scene}, omega=omega, **keywords)
+    d = _independent_scales(base)["length"]
+    np.testing.assert_allclose(ds["amplitude"].values, plain["amplitude"].values * d * 1e9,
+                               rtol=1e-7)
+
+
+def test_a_scene_key_on_a_physical_base_is_named():
+    with pytest.raises(tmafm.InputError, match=r"scene.delta_hat.*&physical.*approach\(base, z="):
+        tmafm.approach("physical_polystyrene", delta_hat=[1e-3, 0.0])
+    with pytest.raises(tmafm.InputError, match="give either delta_hat= .* or z="):
+        tmafm.approach("physical_polystyrene", delta_hat=[1e-3], z=[1e-9])

@@ -27,6 +27,10 @@ def _units(base_config: Config) -> tuple[dict, dict]:
 #: The units attribute and long name of the dissipated power of a &physical scene: the energy
 #: dissipated per drive period (aJ) over the period (s), in pW.
 POWER = ("pW", "steady power dissipated (dissipated_energy over the drive period)")
+#: The power dissipated in the tip-sample contact alone, as AM-AFM reads it from the phase
+#: (contact damping and friction; not the cantilever's own damping), in pW.
+TIP_SAMPLE = ("pW", "steady power dissipated in the tip-sample contact ((dissipated_contact_"
+                    "damping + dissipated_friction) over the drive period)")
 
 
 def _steady_variables(summaries: list[dict], shape: tuple, dims: tuple, units: dict,
@@ -86,10 +90,16 @@ def _steady_columns(columns: dict, physical: dict, period, steady, failed, perio
                                         "long_name": f"steady {name}" + (
                                             " (harmonics 1, 2, ...)" if harmonic else "")})
     if drive_period is not None and "dissipated_energy" in physical:
-        energy = physical["dissipated_energy"] * _SI_VALUE[PHYSICAL_UNITS["dissipated_energy"]]
+        joule = _SI_VALUE[PHYSICAL_UNITS["dissipated_energy"]]
+        per_second = 1.0 / np.asarray(drive_period, dtype=float)
         data["dissipated_power"] = xr.Variable(
-            dims, (energy / np.asarray(drive_period, dtype=float) / 1e-12).reshape(shape),
+            dims, (physical["dissipated_energy"] * joule * per_second / 1e-12).reshape(shape),
             attrs={"units": POWER[0], "units_system": "physical", "long_name": POWER[1]})
+        if "dissipated_contact_damping" in physical and "dissipated_friction" in physical:
+            contact = physical["dissipated_contact_damping"] + physical["dissipated_friction"]
+            data["tip_sample_power"] = xr.Variable(
+                dims, (contact * joule * per_second / 1e-12).reshape(shape),
+                attrs={"units": POWER[0], "units_system": "physical", "long_name": TIP_SAMPLE[1]})
     data["period"] = xr.Variable(dims, np.asarray(period, dtype=np.int32).reshape(shape),
                                  attrs={"units": "1", "long_name": "period of the steady motion "
                                         "in drive periods (0: none found)"})

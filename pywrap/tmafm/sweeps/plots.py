@@ -28,6 +28,7 @@ _SHOWN = {"m": (1e9, "nm"), "Hz": (1e-3, "kHz"), "degree": (1.0, "deg"), "us": (
 #: Axis names of the variables and coordinates of physical scenes.
 _NAMES = {"z": "Z", "frequency": "drive frequency", "amplitude": "amplitude A",
           "setpoint": "A/A0", "peak_force": "peak force", "dissipated_power": "dissipated power",
+          "tip_sample_power": "tip-sample dissipation",
           "mean_deflection": "mean deflection", "min_gap": "min gap",
           "contact_time": "contact time", "dissipated_energy": "dissipated energy"}
 
@@ -147,7 +148,8 @@ def _setpoint_axis(ax, ds) -> None:
 
 def plot_approach(ds, path):
     """Amplitude (and A/A0 when the scene has a free amplitude A0), phase, peak force,
-    indentation (-min_gap when < 0) and dissipated power against Z (or delta_hat), both
+    indentation (-min_gap when < 0) and the power dissipated in the tip-sample contact against
+    Z (or delta_hat), both
     branches, jumps marked by squares (the panels of the observables the sweep computed)."""
     _check(ds, "plot_approach")
     ds = ds.copy()
@@ -155,7 +157,7 @@ def plot_approach(ds, path):
         ds["indentation"] = (-ds["min_gap"]).clip(min=0)
         ds["indentation"].attrs = dict(ds["min_gap"].attrs, long_name="indentation")
     return _continuation_panels(ds, path, [name for name in (
-        "amplitude", "phase", "peak_force", "indentation", "dissipated_power") if name in ds])
+        "amplitude", "phase", "peak_force", "indentation", "tip_sample_power") if name in ds])
 
 
 def plot_frequency(ds, path):

@@ -1002,6 +1002,30 @@ def rerun_timings(ck, factor, group="timings-rerun"):
                          labels=RERUN)
 
 
+def am_afm_row(row) -> list:
+    """The numbers of one row of docs/sweeps.md's AM-AFM table, formatted as printed."""
+    fmt = lambda x, n: f"{x:.{n}f}".replace("-", MINUS)  # noqa: E731
+    return [f"{row['z_nm']:.0f}", fmt(row["amplitude_nm"], 2), fmt(row["setpoint"], 3),
+            fmt(row["phase_deg"], 1), fmt(row["peak_force_nN"], 2), fmt(row["indentation_nm"], 2),
+            fmt(row["tip_sample_power_pW"], 2)]
+
+
+def check_am_afm(ck, group="am_afm"):
+    """docs/sweeps.md's AM-AFM approach curve and README's quick start against
+    benchmarks/results/am_afm_approach.json (`python benchmarks/am_afm_approach.py`)."""
+    am = load(result_path("am_afm_approach.json"))
+    doc, sec = "docs/sweeps.md", "An AM-AFM approach curve"
+    ck.text(group, doc, "on one worker, in {} s of CPU (user + sys; {} periods, {} µs per period)",
+            [f"{am['cpu_s']:.1f}", grouped(am["periods_run"]), f"{am['cpu_us_per_period']:.0f}"], sec)
+    for row in am["approach"]:
+        ck.text(group, doc, "| {} | {} | {} | {} | {} | {} | {} |", am_afm_row(row), sec)
+    ck.value(group, doc, "approach and retract agree (no jumps)", "[] []",
+             " ".join(str(j["at"]) for j in am["jumps"]))
+    ck.text(group, doc, "The first contact is at Z = {} nm", [f"{am['contact_onset_nm']['approach']:.0f}"], sec)
+    ck.text(group, "README.md", "in {} s of CPU (`python benchmarks/am_afm_approach.py`)",
+            [f"{am['cpu_s']:.1f}"], "Quick start")
+
+
 # ----------------------------------------------------------------------------- main
 GROUPS = {
     "figures": lambda ck: check_figures(ck, load(SUMMARY)),
@@ -1010,6 +1034,7 @@ GROUPS = {
     "performance": check_performance,
     "docs": check_other_docs,
     "errata": check_errata,
+    "am_afm": check_am_afm,
 }
 
 

@@ -138,6 +138,28 @@ def _check_npz_read(ns, seen, out):
     assert tmafm.Config("again.nml").to_dict() == made.to_dict()
 
 
+def _check_quick_start(ns, seen, out):
+    ds = ns["ds"]
+    # "This prints `...`": the line the README quotes
+    quoted = re.search(r"This prints `([^`]*)`", (REPO / "README.md").read_text()).group(1)
+    assert out.getvalue().strip() == quoted
+    # Z in m, the observables in nm, degree, nN, pW; the setpoint A/A0 with A0 = 20 nm
+    assert ds["z"].attrs["units"] == "m" and ds.attrs["free_amplitude"] == pytest.approx(20.0)
+    units = {"amplitude": "nm", "phase": "degree", "peak_force": "nN", "min_gap": "nm",
+             "tip_sample_power": "pW", "setpoint": "1"}
+    for name, unit in units.items():
+        assert ds[name].attrs["units"] == unit, name
+    for name in ds.coords:
+        if ds[name].dtype.kind in "fi":
+            assert "units" in ds[name].attrs, name
+    # "A0 = 20 nm": far from the sample the amplitude is the free amplitude (the core's linear
+    # response gives the drive), within the steady test's Q/pi * steady_tol
+    far = ds.sel(direction="approach").sel(z=25e-9, method="nearest")
+    assert float(far.amplitude) == pytest.approx(20.0, rel=400 / np.pi * 1e-8 * 2)
+    assert int(ds["failed"].sum()) == 0 and int((ds["period"] == 0).sum()) == 0
+    assert Path("approach.png").stat().st_size > 10_000
+
+
 STEADY = ("amplitude", "phase", "mean_deflection", "min_gap", "peak_force", "contact_time",
           "contacts_per_period", "dissipated_energy", "drive_work", "virial",
           "contact_normal_work", "harmonic_amplitude", "harmonic_phase")
@@ -236,6 +258,7 @@ BLOCKS = {
               "a = np.array([2e-4, 1e-5, -1e-6, 1e-7]); adot = np.array([1e-4, 0, 0, 0])\n"
               "y = np.concatenate([a, adot])",
         check=_check_readme_run),
+    ("README.md", "import numpy as np, tmafm"): Block(check=_check_quick_start),
     ("README.md", 'ds = tmafm.sweep(base, {"scene.delta_hat": np.linspace(0, 2e-3, 21)}, '
                   'workers=2)  # xarray'): Block(
         skip="a sketch of the sweep API: `...` stands for the arrays; docs/sweeps.md runs "

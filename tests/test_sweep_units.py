@@ -10,6 +10,7 @@ import pytest
 
 import tmafm
 from tmafm.observe import physical_scales
+from tmafm import sweeps  # noqa: F401 (tmafm.sweeps below)
 from tmafm.sweeps import plots
 
 xr = pytest.importorskip("xarray")
@@ -219,3 +220,14 @@ def test_a_scene_key_on_a_physical_base_is_named():
         tmafm.approach("physical_polystyrene", delta_hat=[1e-3, 0.0])
     with pytest.raises(tmafm.InputError, match="give either delta_hat= .* or z="):
         tmafm.approach("physical_polystyrene", delta_hat=[1e-3], z=[1e-9])
+
+
+def test_a_sweep_file_on_a_physical_base_sweeps_z(tmp_path):
+    path = tmp_path / "z.nml"
+    path.write_text("&sweep\n    kind = 'approach', base = 'physical_polystyrene'\n"
+                    "    start = 2.0e-9, stop = 0.0, count = 3\n"
+                    "    max_periods = 4, stop_at_steady = .false., method = 'flight_exact'\n/\n")
+    ds = tmafm.sweeps.run_sweep_file(path, workers=1)
+    assert ds.attrs["input_key"] == "physical.tip_sample_distance"
+    np.testing.assert_allclose(ds["z"].values, [2e-9, 1e-9, 0.0])
+    assert ds["amplitude"].attrs["units"] == "nm"

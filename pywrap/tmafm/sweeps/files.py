@@ -224,13 +224,15 @@ def run_sweep_file(path, *, workers=None, client=None, progress=False):
         if "key2" in spec:
             axes[spec["key2"]] = _axis_of(spec, "2")
         return sweep(base, axes, **common, **keywords)
-    if kind == "approach":
-        return approach(base, _axis_of(spec), retract=spec.get("reverse", True), curves=curves,
-                        jump_threshold=spec.get("jump_threshold", 0.2), **common, **keywords)
-    if kind == "frequency":
-        return frequency_sweep(base, _axis_of(spec), reverse=spec.get("reverse", True),
-                               curves=curves, jump_threshold=spec.get("jump_threshold", 0.2),
-                               **common, **keywords)
+    if kind in ("approach", "frequency"):
+        # A base in SI units (&physical) sweeps Z (m) or the drive frequency (Hz).
+        physical = "physical" in (base if isinstance(base, Config) else Config(base)).to_dict()
+        name = {("approach", False): "delta_hat", ("approach", True): "z",
+                ("frequency", False): "omega", ("frequency", True): "frequency"}[kind, physical]
+        run = approach if kind == "approach" else frequency_sweep
+        back = {"retract" if kind == "approach" else "reverse": spec.get("reverse", True)}
+        return run(base, **{name: _axis_of(spec)}, **back, curves=curves,
+                   jump_threshold=spec.get("jump_threshold", 0.2), **common, **keywords)
     if kind == "bifurcation":
         if "key" not in spec:
             raise InputError(f"{spec['_file']}: &sweep key: missing (required for bifurcation)")

@@ -130,6 +130,8 @@ def test_plot_labels_are_physical(physical_grid):
     values, label = plots._shown(ds, "physical.drive_amplitude")
     assert label == "physical.drive_amplitude [nm]"
     np.testing.assert_allclose(values, [2.0, 3.0])
+    assert plots._curve_label(ds, "physical.drive_amplitude", 2e-9) == \
+        ", physical.drive_amplitude = 2 nm"
 
 
 def _figure(monkeypatch):

@@ -28,7 +28,8 @@ _SHOWN = {"m": (1e9, "nm"), "Hz": (1e-3, "kHz"), "degree": (1.0, "deg"), "us": (
 #: Axis names of the variables and coordinates of physical scenes.
 _NAMES = {"z": "Z", "frequency": "drive frequency", "amplitude": "amplitude A",
           "setpoint": "A/A0", "peak_force": "peak force", "dissipated_power": "dissipated power",
-          "tip_sample_power": "tip-sample dissipation",
+          "tip_sample_power": "tip-sample dissipation", "physical.tip_sample_distance": "Z",
+          "physical.drive_frequency": "drive frequency", "physical.free_amplitude": "A0",
           "mean_deflection": "mean deflection", "min_gap": "min gap",
           "contact_time": "contact time", "dissipated_energy": "dissipated energy"}
 
@@ -116,7 +117,8 @@ def _continuation_panels(ds, path, names):
                 curve_label = ""
                 if curve_dims:
                     value = stacked["curve"].values[c]
-                    curve_label = f", {curve_dims[0]} = {value if np.isscalar(value) else value[0]:g}"
+                    curve_label = _curve_label(ds, curve_dims[0],
+                                               value if np.isscalar(value) else value[0])
                 line, = ax.plot(x, y, label=f"{direction}{curve_label}", **styles[d % 2])
                 flags = jump.isel(direction=d, curve=c).transpose(key).values.astype(bool)
                 if flags.any():
@@ -136,6 +138,15 @@ def _continuation_panels(ds, path, names):
     axes[0].set_title(f"{title} (squares: jumps)", fontsize=9)
     fig.tight_layout()
     return _save(fig, path)
+
+
+def _curve_label(ds, dim: str, value) -> str:
+    """', Z = 15 nm' for a curve of a physical key (its unit as _SHOWN shows it), ', key = value'
+    for a dimensionless one."""
+    unit = ds[dim].attrs.get("units", "")
+    factor, shown = _SHOWN.get(unit, (1.0, unit))
+    text = f"{float(value) * factor:g}" + (f" {shown}" if shown and shown != "1" else "")
+    return f", {_NAMES.get(dim, dim)} = {text}"
 
 
 def _setpoint_axis(ax, ds) -> None:

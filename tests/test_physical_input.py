@@ -213,3 +213,102 @@ def test_physical_polystyrene_peak_force_is_hertz_at_its_own_indentation():
     bound = 1.5 * math.tan(tilt) * slope * 1.01 + 1e-6
     assert abs(obs.physical["peak_force"][-1] * 1e-9 / hertz - 1) <= bound
 
+
+def _contact_forces(model, result):
+    """(kappa5 f_c, kappa6 h) of the model at each sample in contact (0 elsewhere)."""
+    kappa5, kappa6 = model.kappas
+    normal, friction = np.zeros(result.tau.size), np.zeros(result.tau.size)
+    for k in np.flatnonzero(result.contact == 1):
+        state = model.contact(result.tau[k], result.a[k])
+        normal[k], friction[k] = kappa5 * state.normal, kappa6 * state.friction
+    return normal, friction
+
+
+def test_the_si_series_are_the_dimensionless_ones_times_the_scales(tmp_path):
+    config = tmafm.Config("physical_polystyrene", solver={"method": "dop853", "tau_end": 8.0},
+                          output={"sample_dtau": 0.005})
+    result = config.run()
+    scales = config.derived
+    model = config.model()
+    normal, friction = _contact_forces(model, result)
+    assert result.contact.any() and friction.any()
+    expected = {"t_s": result.tau * scales["time_scale"], "distance_m": result.vt * scales["length_scale"],
+                "deflection_m": result.a @ model.tip * scales["length_scale"],
+                "normal_force_N": normal * scales["force_scale"],
+                "friction_force_N": friction * scales["force_scale"]}
+    assert list(result.physical) == list(tmafm.SERIES_UNITS) == list(expected)
+    for name, value in expected.items():
+        np.testing.assert_allclose(result.physical[name], value, rtol=1e-13,
+                                   atol=1e-13 * abs(value).max(), err_msg=name)
+    # The executable writes the same series as five more columns (text) and arrays (npy).
+    path = tmp_path / "p.nml"
+    config.write(path)
+    subprocess.run([executable(), "-q", str(path), "-o", str(tmp_path / "p.dat")], check=True)
+    header = [line for line in (tmp_path / "p.dat").read_text().splitlines() if line.startswith("#")]
+    n = config.n_modes
+    columns = header[-1].split()[2:]
+    assert columns[4 + 2 * n:] == list(tmafm.SERIES_UNITS)
+    table = np.loadtxt(tmp_path / "p.dat")
+    for k, name in enumerate(tmafm.SERIES_UNITS):
+        np.testing.assert_array_equal(table[:, 4 + 2 * n + k], result.physical[name])
+    assert any(line.startswith("# ! derived: force_scale = ") for line in header)
+    tmafm.Config(config, output={"format": "npy"}).write(tmp_path / "npy.nml")
+    subprocess.run([executable(), "-q", str(tmp_path / "npy.nml"), "-o", str(tmp_path / "p.npz")],
+                   check=True)
+    with np.load(tmp_path / "p.npz") as data:
+        for name in tmafm.SERIES_UNITS:
+            np.testing.assert_array_equal(data[name], result.physical[name])
+    loaded = tmafm.load(tmp_path / "p.npz")
+    assert loaded.derived == config.derived
+    for name in tmafm.SERIES_UNITS:
+        np.testing.assert_array_equal(loaded.physical[name], result.physical[name])
+    # Result.save writes them too, and load reads them back.
+    result.save(tmp_path / "saved.npz")
+    again = tmafm.load(tmp_path / "saved.npz")
+    np.testing.assert_array_equal(again.physical["normal_force_N"], result.physical["normal_force_N"])
+
+
+def test_force_against_distance_is_the_last_period_of_the_series():
+    result = tmafm.run("physical_polystyrene", solver={"method": "dop853", "tau_end": 20.0},
+                       output={"sample_dtau": 0.01})
+    distance, force = result.force_distance()
+    period = 2 * math.pi / result.scene["omega"]
+    last = result.tau >= result.tau[-1] - period * (1 + 1e-12)
+    assert last.sum() == distance.size == force.size and last.sum() >= period / 0.01
+    np.testing.assert_array_equal(distance, result.physical["distance_m"][last])
+    np.testing.assert_array_equal(force, result.physical["normal_force_N"][last])
+    # Force only where the tip is at or below the surface.
+    assert np.all(force[distance > 0] == 0) and force.max() > 0
+    # A dimensionless scene has no SI series and no force-distance curve.
+    plain = tmafm.run("fig2_n4", solver={"tau_end": 1.0})
+    assert plain.physical is None and plain.derived is None
+    with pytest.raises(tmafm.InputError, match="no SI series"):
+        plain.force_distance()
+
+
+def test_a_dimensionless_scene_writes_no_si_column(tmp_path):
+    path = tmp_path / "f.nml"
+    tmafm.Config("fig2_n4", solver={"tau_end": 1.0}).write(path)
+    subprocess.run([executable(), "-q", str(path), "-o", str(tmp_path / "f.dat")], check=True)
+    text = (tmp_path / "f.dat").read_text()
+    assert "! derived:" not in text
+    columns = [line for line in text.splitlines() if line.startswith("# columns:")][0].split()[2:]
+    assert columns[-1] == "adot_4" and len(columns) == 12
+
+
+def test_calibration_overrides_replace_the_base_geometry():
+    """Overrides of the calibration on a geometry base drop the base's thickness, density,
+    tip_mass and beam_damping (given in the same input, they are refused)."""
+    calibration = {"spring_constant": 40.0, "resonance_frequency": 300e3, "quality_factor": 400.0,
+                   "tip_mass_ratio": 0.05, "drive_frequency": 299e3}
+    config = tmafm.Config("physical_polystyrene", physical=calibration)
+    derived = config.derived
+    assert derived["spring_constant"] == pytest.approx(40.0, rel=1e-12)
+    assert derived["resonance_frequency"] == pytest.approx(300e3, rel=1e-12)
+    written = config.to_dict()["physical"]
+    assert not {"thickness", "density", "tip_mass", "beam_damping", "drive_angular_frequency"} & set(written)
+    # The geometry overridden back on the calibrated Config drops the calibration in turn.
+    geometry = tmafm.Config(config, physical={"thickness": 3e-6, "density": 2330.0, "tip_mass": 3.1455e-12,
+                                              "beam_damping": 6.028930253369996e-3})
+    assert geometry.derived["rigidity"] == pytest.approx(130e9 * 30e-6 * (3e-6) ** 3 / 12, rel=1e-14)
+    assert "spring_constant" not in geometry.to_dict()["physical"]

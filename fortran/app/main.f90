@@ -118,7 +118,7 @@ program tmafm_main
       call choose_mode_count(config, ierr, errmsg, progress_unit=error_unit)
    end if
    if (ierr == ok) call check_output_size(sink, int(sample_count(config%solver), i8), config%n_modes, &
-                                          ierr, errmsg)
+                                          ierr, errmsg, config%from_physical)
    if (ierr == ok) then
       if (quiet) then
          call simulate(config, traj, ierr, errmsg)

@@ -29,6 +29,7 @@ module tmafm
    use tmafm_calibration, only: physical_derived, derived_names, derived_units, derived_meanings, n_derived
    use tmafm_steady_state, only: steady_test, repeat_steps, steady_harmonic
    use tmafm_trajectory, only: trajectory_t
+   use tmafm_physical_series, only: physical_series, n_series, series_names, series_units
    use tmafm_driver, only: run_trajectory
    ! A base input patched by overrides (tmafm_api), and the rename held apart (the executable).
    use tmafm_namelist, only: read_config_document
@@ -67,5 +68,6 @@ module tmafm
    public :: write_trajectory_file, output_sink_t, prepare_output, check_output_size, begin_output, &
              write_output, discard_output, sample_count, target_file, target_device, target_stdout
    public :: physical_derived, derived_names, derived_units, derived_meanings, n_derived, config_errata
+   public :: physical_series, n_series, series_names, series_units
 
 end module tmafm

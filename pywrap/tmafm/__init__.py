@@ -9,7 +9,7 @@ True
 from importlib.metadata import PackageNotFoundError, version as _version
 
 from . import inputs
-from ._run import COUNTER_KEYS, DERIVED_UNITS, SCENE_KEYS, Config, Result, resolve, run
+from ._run import COUNTER_KEYS, DERIVED_UNITS, SCENE_KEYS, SERIES_UNITS, Config, Result, resolve, run
 from ._model import POWER_NAMES, ContactState, Model
 from ._resultio import load
 from .errors import (BlowUpError, InputError, InputFileError, InputTypeError, SolverError,
@@ -34,7 +34,7 @@ except PackageNotFoundError:  # running from a source tree
     __version__ = "unknown"
 
 __all__ = ["run", "resolve", "load", "Config", "Model", "Result", "ContactState", "inputs",
-           "SCENE_KEYS", "COUNTER_KEYS", "DERIVED_UNITS", "observe", "observe_batch", "Observation",
+           "SCENE_KEYS", "COUNTER_KEYS", "DERIVED_UNITS", "SERIES_UNITS", "observe", "observe_batch", "Observation",
            "POWER_NAMES", "executable",
            "TmafmError", "InputError",
            "InputTypeError", "InputFileError", "SolverError", "BlowUpError", "TmafmWarning",

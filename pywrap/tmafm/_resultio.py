@@ -2,7 +2,8 @@
 
 Members: tau, vt, vtdot (<f8, n), contact (|i1, n), a, adot (<f8, n x N, Fortran order),
 switches (<f8), counters (<i8, 5: steps, contact_steps, rejected_steps, rhs_evaluations,
-phase_switches), resolved (0-d |S: the resolved namelist text), version (0-d |S: 'tmafm X.Y.Z').
+phase_switches), resolved (0-d |S: the resolved namelist text), version (0-d |S: 'tmafm X.Y.Z');
+and for a scene given in &physical, its SI series (<f8, n each: tmafm.SERIES_UNITS).
 """
 
 from __future__ import annotations
@@ -78,6 +79,13 @@ def _result_members(result) -> dict:
     members["counters"] = np.array([int(v) for v in values], dtype="<i8")
     members["resolved"] = np.array(resolved, dtype="S")
     members["version"] = np.array(_version().encode("ascii"), dtype="S")
+    physical = getattr(result, "physical", None)
+    if physical is not None:
+        from ._run import SERIES_UNITS
+        if not isinstance(physical, dict) or set(physical) != set(SERIES_UNITS):
+            raise InputError(f"Result.save: physical must be None or a dict of the SI series "
+                             f"{', '.join(SERIES_UNITS)}")
+        members.update({name: _real_member(name, physical[name]) for name in SERIES_UNITS})
     return members
 
 
@@ -88,12 +96,12 @@ def save(result, path) -> Path:
     from ._run import _atomic_write
     members = _result_members(result)
     _verify("Result.save", members)
-    size = sum(members[m].nbytes for m in MEMBERS)
+    size = sum(members[m].nbytes for m in members)
     if size > _MAX_BYTES:
         raise InputError(f"Result.save: the members hold {size} bytes, more than a tmafm .npz "
                          f"({_MAX_BYTES})")
     buffer = io.BytesIO()
-    np.savez(buffer, **{m: members[m] for m in MEMBERS})
+    np.savez(buffer, **members)
     return _atomic_write(path, buffer.getvalue())
 
 
@@ -121,8 +129,12 @@ def _members(path: Path, name: str) -> dict:
         if size > _MAX_BYTES:
             raise InputError(f"{name}: the members hold {size} bytes, more than a tmafm .npz "
                              f"({_MAX_BYTES})")
+        from ._run import SERIES_UNITS
+        series = [m for m in SERIES_UNITS if m in data.files]
+        if series and len(series) != len(SERIES_UNITS):
+            raise InputError(f"{name}: holds some SI series but not all ({', '.join(series)})")
         try:
-            return {m: data[m] for m in MEMBERS}
+            return {m: data[m] for m in (*MEMBERS, *series)}
         except Exception as exc:  # a bad header, a pickled member, a CRC error, a cut file
             raise InputError(f"{name}: a member cannot be read: {shown(str(exc))[1:-1]}") from None
 
@@ -153,6 +165,16 @@ def _check(name: str, members: dict) -> None:
         raise InputError(f"{name}: member contact holds values other than 0 and 1")
     if np.any(members["counters"] < 0):
         raise InputError(f"{name}: member counters holds negative counts")
+    from ._run import SERIES_UNITS
+    for member in SERIES_UNITS:
+        if member not in members:
+            continue
+        value = members[member]
+        if value.dtype.kind != "f" or value.dtype.itemsize != 8 or value.shape != (n,):
+            raise InputError(f"{name}: member {member} has dtype {value.dtype.str} and shape "
+                             f"{value.shape}, not f8 ({n},)")
+        if not np.all(np.isfinite(value)):
+            raise InputError(f"{name}: member {member} holds non-finite values")
 
 
 def _text(member: str, value) -> str:
@@ -231,6 +253,9 @@ def _verify(name: str, members: dict):
     if (config.n_modes, config.n_samples) != (n_modes, n):
         raise InputError(f"{name}: the resolved input gives {config.n_samples} samples of "
                          f"N = {config.n_modes} modes, but the arrays hold {n} of N = {n_modes}")
+    from ._run import SERIES_UNITS
+    if all(m in members for m in SERIES_UNITS) and config.derived is None:
+        raise InputError(f"{name}: holds SI series but the resolved input is given in &scene")
     return config, resolved
 
 
@@ -260,7 +285,10 @@ def load(path):
     config, resolved = _verify(name, members)
     counters = dict(zip(COUNTER_KEYS, map(int, members["counters"])))
     real = lambda m: members[m].astype(np.float64)  # noqa: E731 (native byte order)
-    return Result(tau=real("tau"), vt=real("vt"), vtdot=real("vtdot"),
+    from ._run import SERIES_UNITS
+    physical = ({m: real(m) for m in SERIES_UNITS} if all(m in members for m in SERIES_UNITS)
+                else None)
+    return Result(physical=physical, tau=real("tau"), vt=real("vt"), vtdot=real("vtdot"),
                   contact=members["contact"].astype(np.int8),
                   a=np.asfortranarray(members["a"], dtype=np.float64),
                   adot=np.asfortranarray(members["adot"], dtype=np.float64), counters=counters,

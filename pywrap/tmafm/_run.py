@@ -301,9 +301,16 @@ class Config:
         _api.run_switches(handle, switches)
         counters = np.zeros(5, dtype=np.int64)
         _api.run_counters(handle, counters)
+        physical = None
+        if bool(self._f.from_physical):
+            # The SI series, from the core (tmafm_physical_series), as the executable writes them.
+            series = np.empty((n_samples, len(SERIES_UNITS)), order="F")
+            ierr, errmsg = _api.run_physical_series(self._f, handle, series)
+            raise_for(ierr, errmsg)
+            physical = {name: series[:, k].copy() for k, name in enumerate(SERIES_UNITS)}
         return Result(tau=tau, vt=vt, vtdot=vtdot, contact=contact.astype(np.int8), a=a,
                       adot=adot, counters=dict(zip(COUNTER_KEYS, map(int, counters))),
-                      switches=switches, config=self)
+                      switches=switches, config=self, physical=physical)
 
     def __repr__(self) -> str:
         return f"tmafm.Config({self.label!r}, n_modes={self.n_modes})"
@@ -325,13 +332,17 @@ class Result:
     methods, and the step starts where the phase changed for ``rk4_paper``.
     ``counters`` has steps, contact_steps, rejected_steps, rhs_evaluations, phase_switches.
     ``resolved`` (an f90nml Namelist) and ``scene`` are computed when first asked for.
+    ``physical``, for a scene given in ``&physical``, holds the SI series the core computes
+    (``tmafm.SERIES_UNITS``: time t_s, tip-sample distance distance_m, tip deflection
+    deflection_m, normal_force_N and friction_force_N), one value per sample; None otherwise.
     """
 
     def __init__(self, tau, vt, vtdot, contact, a, adot, resolved=None, scene=None,
                  counters=None, switches=None, *, config: Config | None = None,
-                 resolved_text: str | None = None):
+                 resolved_text: str | None = None, physical: dict | None = None):
         self.tau, self.vt, self.vtdot, self.contact, self.a, self.adot = (
             tau, vt, vtdot, contact, a, adot)
+        self.physical = physical
         self.counters = dict(counters or {})
         self.switches = np.zeros(0) if switches is None else switches
         self.config = config
@@ -398,6 +409,18 @@ class Result:
             return self.config.mode_search
         return _mode_search(self.resolved_text)
 
+    def force_distance(self) -> tuple[np.ndarray, np.ndarray]:
+        """The last drive period's (tip-sample distance in m, normal contact force in N), the
+        samples with tau >= tau_end - 2 pi/Omega, straight from ``physical`` (the core's
+        series): the force-distance curve of one tap.  InputError for a Result without SI
+        series (a scene given in &scene)."""
+        if self.physical is None:
+            raise InputError("Result.force_distance: this Result has no SI series (its scene "
+                             "was not given in &physical)")
+        period = 2 * np.pi / self.scene["omega"]
+        last = self.tau >= self.tau[-1] - period * (1 + 1e-12)
+        return self.physical["distance_m"][last], self.physical["normal_force_N"][last]
+
     def save(self, path):
         """Save as .npz in the executable's binary layout (atomically); tmafm.load reads it."""
         from ._resultio import save
@@ -440,6 +463,15 @@ def _derived_table() -> dict:
 #: {name: unit} of Config.derived (the core's tmafm_calibration derived_names, derived_units).
 DERIVED_UNITS = _derived_table()
 
+
+def _series_table() -> dict:
+    """{name: unit} of the core's SI series of a physical run, in the core's order."""
+    return dict((_text(name), _text(unit)) for name, unit in
+                (_api.series_entry(k) for k in range(1, int(_api.series_count()) + 1)))
+
+
+#: {name: unit} of Result.physical (the core's tmafm_physical_series series_names, series_units).
+SERIES_UNITS = _series_table()
 
 #: A derived value in a resolved text's header: '! derived: name = value unit (meaning)'.
 _DERIVED_LINE = re.compile(r"^\s*! derived: (\w+) = (\S+) ", re.MULTILINE)

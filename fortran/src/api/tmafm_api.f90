@@ -19,7 +19,8 @@ module tmafm_api
       steady_harmonics, steady_evidence, observer_t, n_observables, observable_factors, obs_amplitude, obs_phase, &
       scales_t, steady_test, repeat_steps, steady_harmonic, observable_rows, n_observable_rows, &
       observable_group_name, observable_si_factor, observable_kind_names, observable_scale_names, &
-      physical_derived, derived_names, derived_units, derived_meanings, n_derived, config_errata
+      physical_derived, derived_names, derived_units, derived_meanings, n_derived, config_errata, &
+      physical_series, n_series, series_names, series_units
    ! The types Python sees are named from the modules that define them, not the facade: f90wrap
    ! reads only the wrapped modules' sources and resolves a type through its defining module.
    use tmafm_config, only: config_t
@@ -36,7 +37,7 @@ module tmafm_api
       run_counters, trajectory_energy_flow, key_count, key_entry, limit_count, limit_entry, &
       batch_t, batch_add, batch_size, batch_run, observe_states_of, steady_test_of, &
       steady_harmonic_of, namelist_syntax, observable_count, observable_entry, observable_table_factors, &
-      derived_count, derived_entry, config_derived
+      derived_count, derived_entry, config_derived, series_count, series_entry, run_physical_series
 
    !> Length of the error messages returned to Python.
    integer, parameter :: api_errmsg_len = errmsg_len
@@ -368,6 +369,40 @@ contains
       call physical_derived(config%physical, config%n_modes, config_errata(config), values, ierr, errmsg)
       has_values = 1
    end subroutine config_derived
+
+   !> Number of the SI series of a run of a physical scene (series_entry, run_physical_series).
+   function series_count() result(n)
+      integer :: n
+      n = n_series
+   end function series_count
+
+   !> SI series k (1 to series_count()): its name and unit, blank-padded; blank for another k.
+   subroutine series_entry(k, name, unit)
+      integer, intent(in) :: k
+      character(len=32), intent(out) :: name
+      character(len=8), intent(out) :: unit
+      name = ''
+      unit = ''
+      if (k < 1 .or. k > n_series) return
+      name = series_names(k)
+      unit = series_units(k)
+   end subroutine series_entry
+
+   !> The SI series of a run of physical configuration `config` (tmafm_physical_series, as the
+   !> executable writes them) into `series` (run_sizes' samples x series_count()).
+   subroutine run_physical_series(config, run, series, ierr, errmsg)
+      type(config_t), intent(in) :: config
+      type(run_t), intent(in) :: run
+      real(dp), intent(inout) :: series(:, :)
+      integer, intent(out) :: ierr
+      character(len=api_errmsg_len), intent(out) :: errmsg
+      ierr = ok
+      errmsg = ''
+      series = 0
+      call check_shape('series', shape(series), [size(run%traj%tau), n_series], ierr, errmsg)
+      if (ierr /= ok) return
+      call physical_series(config, run%traj, series, ierr, errmsg)
+   end subroutine run_physical_series
 
    !> Number of the core's limits (limit_entry).
    function limit_count() result(n)

@@ -2,7 +2,8 @@
 !>
 !> Formats: 'text' ('#' header lines echoing the resolved input and the version, then the
 !> columns tau vt vtdot contact a_1..a_N adot_1..adot_N, for numpy.loadtxt), and 'npy' (a
-!> .npz archive for numpy.load; layout in docs/output-format.md).
+!> .npz archive for numpy.load; layout in docs/output-format.md).  A scene given in &physical
+!> adds its SI series (tmafm_physical_series): five more columns, or five more arrays.
 !>
 !> Targets: a regular file (or a missing one) is written under a unique temporary name in its
 !> folder, synced, and renamed over the target only when complete; a character device or a
@@ -32,6 +33,7 @@ module tmafm_output
                           check_descriptor, &
                           write_text, sync_descriptor, close_descriptor, rename_path, remove_path, &
                           check_writable, same_file, error_text
+   use tmafm_physical_series, only: physical_series, n_series, series_names
    use tmafm_npz, only: npz_archive_t, npy_header, npz_begin, npz_add, npz_add_text, npz_finish, &
                         npz_bytes, max_npz_bytes, native_descr
    implicit none
@@ -191,19 +193,26 @@ contains
    end subroutine prepare_output
 
    !> Refuse before the run an output the format cannot hold: a .npz beyond 4 GiB (no zip64).
-   subroutine check_output_size(sink, n_samples, n_modes, ierr, errmsg)
+   subroutine check_output_size(sink, n_samples, n_modes, ierr, errmsg, physical)
       type(output_sink_t), intent(in) :: sink
       integer(i8), intent(in) :: n_samples
       integer, intent(in) :: n_modes
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      !> .true. for a scene given in &physical (its SI series are written too).
+      logical, intent(in), optional :: physical
       real(dp) :: gib
+      integer(i8) :: per_sample
 
       ierr = ok
       errmsg = ''
       if (.not. sink%binary) return
+      per_sample = 25_i8 + 16_i8*n_modes
+      if (present(physical)) then
+         if (physical) per_sample = per_sample + 8_i8*n_series
+      end if
       ! The samples plus 1 MiB for headers, the resolved input and the switch times.
-      gib = real(n_samples*(25_i8 + 16_i8*n_modes) + 1048576_i8, dp)/1073741824.0_dp
+      gib = real(n_samples*per_sample + 1048576_i8, dp)/1073741824.0_dp
       if (gib*1073741824.0_dp > real(max_npz_bytes, dp)) then
          ierr = err_file
          write (errmsg, '(a,f0.1,a)') 'output file '//shown(sink%path)//' would hold ', gib, &
@@ -261,6 +270,8 @@ contains
       character(len=:), allocatable :: resolved
       integer :: status
       logical :: rename_now
+      ! The SI series of a physical scene (0 columns for a dimensionless one).
+      real(dp), allocatable :: series(:, :)
 
       ierr = ok
       errmsg = ''
@@ -272,10 +283,16 @@ contains
          return
       end if
       call config_text(config, resolved)
+      allocate (series(size(traj%tau), merge(n_series, 0, config%from_physical)))
+      if (config%from_physical) call physical_series(config, traj, series, ierr, errmsg)
+      if (ierr /= ok) then
+         call discard_output(sink)
+         return
+      end if
       if (sink%binary) then
-         call write_npz(sink, config, traj, resolved, ierr, errmsg, status)
+         call write_npz(sink, config, traj, resolved, series, ierr, errmsg, status)
       else
-         call write_text_format(sink%fd, input_path, config, traj, resolved, status)
+         call write_text_format(sink%fd, input_path, config, traj, resolved, series, status)
       end if
       if (ierr == ok .and. status == 0 .and. sink%target == target_file) then
          status = sync_descriptor(sink%fd)
@@ -357,19 +374,22 @@ contains
          call prepare_output(path, 'text', sink, ierr, errmsg)
       end if
       if (ierr /= ok) return
-      call check_output_size(sink, int(size(traj%tau), i8), config%n_modes, ierr, errmsg)
+      call check_output_size(sink, int(size(traj%tau), i8), config%n_modes, ierr, errmsg, &
+                             config%from_physical)
       if (ierr == ok) call begin_output(sink, ierr, errmsg)
       if (ierr == ok) call write_output(sink, input_path, config, traj, ierr, errmsg)
       if (ierr /= ok) call discard_output(sink)
    end subroutine write_trajectory_file
 
    !> The text format: header lines, then one row per sample, gathered in 1 MiB chunks.
-   subroutine write_text_format(fd, input_path, config, traj, resolved, status)
+   subroutine write_text_format(fd, input_path, config, traj, resolved, series, status)
       integer, intent(in) :: fd
       character(len=*), intent(in) :: input_path
       type(config_t), intent(in) :: config
       type(trajectory_t), intent(in) :: traj
       character(len=*), intent(in) :: resolved
+      !> The SI series (samples x 0 for a dimensionless scene), after the other columns.
+      real(dp), intent(in) :: series(:, :)
       integer, intent(out) :: status
       character(len=:), allocatable :: header, buffer
       character(len=24) :: number
@@ -391,10 +411,13 @@ contains
          write (number, '(i0)') j
          header = header//' adot_'//trim(number)
       end do
+      do j = 1, size(series, 2)
+         header = header//' '//trim(series_names(j))
+      end do
       status = write_text(fd, header//new_line('a'))
       if (status /= 0) return
 
-      row_bytes = (3 + 2*n)*es25_width + 3 + 1
+      row_bytes = (3 + 2*n + size(series, 2))*es25_width + 3 + 1
       rows = size(traj%tau)
       chunk = max(int(row_bytes, i8), min(int(chunk_bytes, i8), int(row_bytes, i8)*rows))
       allocate (character(len=chunk) :: buffer)
@@ -423,6 +446,10 @@ contains
             call put_es25(buffer, used + 1, traj%adot(k, j))
             used = used + es25_width
          end do
+         do j = 1, size(series, 2)
+            call put_es25(buffer, used + 1, series(k, j))
+            used = used + es25_width
+         end do
          buffer(used + 1:used + 1) = new_line('a')
          used = used + 1
       end do
@@ -430,11 +457,13 @@ contains
    end subroutine write_text_format
 
    !> The npy format: a .npz archive (layout in docs/output-format.md).
-   subroutine write_npz(sink, config, traj, resolved, ierr, errmsg, status)
+   subroutine write_npz(sink, config, traj, resolved, series, ierr, errmsg, status)
       type(output_sink_t), intent(in) :: sink
       type(config_t), intent(in) :: config
       type(trajectory_t), intent(in) :: traj
       character(len=*), intent(in) :: resolved
+      !> The SI series (samples x 0 for a dimensionless scene): one array each, after the others.
+      real(dp), intent(in) :: series(:, :)
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       integer, intent(out) :: status
@@ -443,8 +472,9 @@ contains
                                                   'counters.npy', 'resolved.npy', 'version.npy']
       character(len=:), allocatable :: version, h_vector, h_contact, h_matrix, h_switches, h_counters, &
                                        h_resolved, h_version
-      integer(i8) :: n, n_modes, n_switches, bytes(10)
+      integer(i8) :: n, n_modes, n_switches, bytes(10), total
       integer(i8) :: counters(5)
+      integer :: j
       integer(kind=selected_int_kind(2)), allocatable :: contact(:)
       type(npz_archive_t) :: archive
       real(dp) :: gib
@@ -466,9 +496,12 @@ contains
                len(h_matrix) + 8*n*n_modes, len(h_matrix) + 8*n*n_modes, len(h_switches) + 8*n_switches, &
                len(h_counters) + 40_i8, int(len(h_resolved) + len(resolved), i8), &
                int(len(h_version) + len(version), i8)]
-      if (npz_bytes(len_trim(names), bytes) > max_npz_bytes) then
+      ! The archive's bytes, the SI series (each '<name>.npy', a vector) included.
+      total = npz_bytes([len_trim(names), (len_trim(series_names(j)) + 4, j = 1, size(series, 2))], &
+                        [bytes, (len(h_vector) + 8*n, j = 1, size(series, 2))])
+      if (total > max_npz_bytes) then
          ierr = err_file
-         gib = real(npz_bytes(len_trim(names), bytes), dp)/1073741824.0_dp
+         gib = real(total, dp)/1073741824.0_dp
          write (errmsg, '(a,f0.1,a)') 'output file '//shown(sink%path)//' would hold ', gib, &
             ' GiB; a .npz is limited to 4 GiB (no zip64): raise &output sample_dtau or use format ''text'''
          status = 0
@@ -488,6 +521,9 @@ contains
       if (status == 0) call npz_add(archive, 'counters.npy', h_counters, counters, 40_i8, status)
       if (status == 0) call npz_add_text(archive, 'resolved.npy', h_resolved, resolved, status)
       if (status == 0) call npz_add_text(archive, 'version.npy', h_version, version, status)
+      do j = 1, size(series, 2)
+         if (status == 0) call npz_add(archive, trim(series_names(j))//'.npy', h_vector, series(:, j), 8*n, status)
+      end do
       if (status == 0) call npz_finish(archive, status)
    end subroutine write_npz
 

@@ -1021,6 +1021,9 @@ def check_am_afm(ck, group="am_afm"):
         ck.text(group, doc, "| {} | {} | {} | {} | {} | {} | {} |", am_afm_row(row), sec)
     ck.value(group, doc, "approach and retract agree (no jumps)", "[] []",
              " ".join(str(j["at"]) for j in am["jumps"]))
+    far = am["approach"][0]
+    ck.text(group, doc, "far from the sample the amplitude comes out {} below A0 here",
+            [sci((am["free_amplitude_nm"] - far["amplitude_nm"]) / am["free_amplitude_nm"], 2, "-")], sec)
     ck.text(group, doc, "The first contact is at Z = {} nm", [f"{am['contact_onset_nm']['approach']:.0f}"], sec)
     ck.text(group, "README.md", "in {} s of CPU (`python benchmarks/am_afm_approach.py`)",
             [f"{am['cpu_s']:.1f}"], "Quick start")

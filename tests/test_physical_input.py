@@ -53,8 +53,9 @@ def test_a_calibrated_cantilever_has_its_k_f0_and_q_in_the_model_matrices(n_mode
     p = model.tip
     compliance = p @ np.linalg.solve(stiffness, p)
     assert derived["rigidity"] / (L ** 3 * compliance) == pytest.approx(40.0, rel=1e-9)
-    # The tip mass is the ratio's, the damping the model's alpha3.
+    # The tip mass is the ratio's (alpha1 the ratio itself), the damping the model's alpha3.
     assert derived["tip_mass"] / (derived["mass_per_length"] * L) == pytest.approx(0.05, rel=1e-12)
+    assert config.scene["alpha1"] == 0.05
     assert config.scene["alpha3"] == pytest.approx(derived["beam_damping"] * t0 / derived["mass_per_length"],
                                                    rel=1e-12)
     # The model's own values, as the header prints them, and the continuum 3 E1 I/L^3 (x0 = L).
@@ -162,16 +163,21 @@ def test_an_over_determined_input_is_refused_in_one_line_naming_both_keys(tmp_pa
     assert done.returncode == 2
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and all(name in lines[0] for name in names), done.stderr
+    # Refused for giving both (or one without the other), not as an unknown key.
+    assert ("not both" in lines[0] or "needs" in lines[0]) and "unknown key" not in lines[0]
     assert not (tmp_path / "out.dat").exists()
     with pytest.raises(tmafm.InputError, match=names[1]) as info:
         tmafm.Config(path)
     assert names[0] in str(info.value) and "\n" not in str(info.value)
+    assert "unknown key" not in str(info.value)
 
 
 @pytest.mark.parametrize("key", ["spring_constant", "free_amplitude"])
 def test_an_exact_conversion_needs_a_fixed_n(key):
+    """The calibration and the free amplitude are exact for the N that runs: n_modes = 0 is
+    refused with them."""
     physical = dict(CANTILEVER) if key == "spring_constant" else {"free_amplitude": 1e-8}
-    with pytest.raises(tmafm.InputError, match=f"{key}.*n_modes"):
+    with pytest.raises(tmafm.InputError, match=f"{key}.*needs a fixed &model n_modes"):
         tmafm.Config({"model": {"n_modes": 0}, "physical": physical})
 
 
@@ -312,3 +318,27 @@ def test_calibration_overrides_replace_the_base_geometry():
                                               "beam_damping": 6.028930253369996e-3})
     assert geometry.derived["rigidity"] == pytest.approx(130e9 * 30e-6 * (3e-6) ** 3 / 12, rel=1e-14)
     assert "spring_constant" not in geometry.to_dict()["physical"]
+
+
+def test_the_continuum_resonance_is_the_root_of_the_tip_mass_beam_equation():
+    """The echoed continuum frequency: beta^2/(2 pi t0), beta the first root of
+    1 + cos b cosh b + alpha1 b (cos b sinh b - sin b cosh b) = 0 (scipy's brentq, unscaled);
+    the N-mode model's undamped frequency approaches it from above (docs/model.md section 4)."""
+    optimize = pytest.importorskip("scipy.optimize")
+    alpha1 = CANTILEVER["tip_mass_ratio"]
+    beta = optimize.brentq(lambda b: 1 + math.cos(b) * math.cosh(b)
+                           + alpha1 * b * (math.cos(b) * math.sinh(b) - math.sin(b) * math.cosh(b)),
+                           1.0, 1.8751, xtol=1e-15, rtol=1e-15)
+    for n in (4, 12):
+        derived = tmafm.Config({"model": {"n_modes": n}, "physical": CANTILEVER}).derived
+        continuum = beta ** 2 / (2 * math.pi * derived["time_scale"])
+        assert derived["continuum_resonance_frequency"] == pytest.approx(continuum, rel=1e-13)
+        gap = derived["undamped_resonance_frequency"] / continuum - 1
+        assert 0 < gap < (1e-4 if n == 4 else 1e-6)
+
+
+def test_the_largest_tip_mass_ratio_is_taken_as_given():
+    """alpha1 is the ratio itself, not M/(m L) recomputed (which rounds past the bound 1e3)."""
+    config = tmafm.Config({"model": {"n_modes": 3}, "physical": {**CANTILEVER, "tip_mass_ratio": 1e3}})
+    assert config.scene["alpha1"] == 1e3
+    assert config.derived["resonance_frequency"] == pytest.approx(300e3, rel=1e-12)

@@ -29,22 +29,23 @@ module tmafm_calibration
 
    public :: tip_compliance, first_mode, free_response, damping_for_quality
    public :: calibrate_cantilever, drive_for_free_amplitude, physical_derived
-   public :: derived_names, derived_units, derived_meanings, n_derived
+   public :: derived_names, derived_units, derived_meanings, n_derived, continuum_first_root
 
    real(dp), parameter :: pi = acos(-1.0_dp)
 
    !> Number of derived values of a physical scene (physical_derived).
-   integer, parameter :: n_derived = 19
+   integer, parameter :: n_derived = 20
    !> Their names, in the order of physical_derived's values.
-   character(len=*), parameter :: derived_names(n_derived) = [character(len=28) :: 'rigidity', &
+   character(len=*), parameter :: derived_names(n_derived) = [character(len=29) :: 'rigidity', &
       'mass_per_length', 'tip_mass', 'beam_damping', 'gap', 'static_offset', 'drive_amplitude', &
       'drive_angular_frequency', 'drive_frequency', 'free_amplitude', 'spring_constant', &
       'continuum_spring_constant', 'resonance_frequency', 'undamped_resonance_frequency', &
-      'quality_factor', 'length_scale', 'time_scale', 'force_scale', 'energy_scale']
+      'quality_factor', 'length_scale', 'time_scale', 'force_scale', 'energy_scale', &
+      'continuum_resonance_frequency']
    !> Their units.
    character(len=*), parameter :: derived_units(n_derived) = [character(len=8) :: 'N m^2', 'kg/m', &
       'kg', 'N s/m^2', 'm', 'm', 'm', 'rad/s', 'Hz', 'm', 'N/m', 'N/m', 'Hz', 'Hz', '1', 'm', 's', &
-      'N', 'J']
+      'N', 'J', 'Hz']
    !> What each one is.
    character(len=*), parameter :: derived_meanings(n_derived) = [character(len=100) :: &
       'E1 I of the beam', 'beam mass per length m', 'tip mass M', 'beam damping C per length', &
@@ -54,7 +55,8 @@ module tmafm_calibration
       "the model's static tip stiffness E1 I/(L^3 p^T Lambda^-1 p)", 'continuum 3 E1 I/x0^3', &
       "the model's first resonance |lambda1|/(2 pi t0)", "the model's first undamped natural frequency", &
       "the model's Q = |lambda1|/(2 |Re lambda1|)", 'length scale d', 'time scale t0 = sqrt(m L^4/(E1 I))', &
-      'force scale E1 I/L^2', 'energy scale E1 I d^2/L^3']
+      'force scale E1 I/L^2', 'energy scale E1 I d^2/L^3', &
+      'continuum beam, tip mass at the free end: first undamped frequency (0 if the mass sits elsewhere)']
 
 contains
 
@@ -235,6 +237,32 @@ contains
       h = sum(model%tip*x) - i
    end function free_response
 
+   !> The first root beta of the continuum clamped-free beam with a tip mass alpha1 at its free
+   !> end, 1 + cos(b) cosh(b) + alpha1 b (cos(b) sinh(b) - sin(b) cosh(b)) = 0 (docs/model.md
+   !> section 4): its first undamped frequency is beta^2/t0.  Divided by cosh(b) so that
+   !> nothing overflows; bisection on (0, 1.8751...], where the function falls from 2 to < 0.
+   pure real(dp) function continuum_first_root(alpha1) result(beta)
+      real(dp), intent(in) :: alpha1
+      real(dp) :: lo, hi
+      integer :: it
+      lo = 0
+      hi = 1.8751040687119612_dp
+      do it = 1, 200
+         beta = (lo + hi)/2
+         if (beta <= lo .or. beta >= hi) exit
+         if (g(beta) > 0) then
+            lo = beta
+         else
+            hi = beta
+         end if
+      end do
+   contains
+      pure real(dp) function g(b)
+         real(dp), intent(in) :: b
+         g = cos(b) + 1/cosh(b) + alpha1*b*(cos(b)*tanh(b) - sin(b))
+      end function g
+   end function continuum_first_root
+
    !> The free-phase model of a physical scene for N modes and a set of corrections.
    subroutine free_model(phys, n_modes, errata, model, ierr, errmsg)
       type(physical_t), intent(in) :: phys
@@ -294,8 +322,8 @@ contains
 
    !> The derived values of a physical scene, in the order of derived_names: the beam, the
    !> geometry and drive as the run uses them, the N-mode model's own k, f0, Q and free
-   !> amplitude (n_modes >= 1), the continuum 3 E1 I/x0^3, and the scales; f0 and Q are 0
-   !> where mode 1 is overdamped.
+   !> amplitude (n_modes >= 1), the continuum 3 E1 I/x0^3, the scales, and the continuum's
+   !> first undamped frequency; f0 and Q are 0 where mode 1 is overdamped.
    subroutine physical_derived(phys, n_modes, errata, values, ierr, errmsg)
       type(physical_t), intent(in) :: phys
       integer, intent(in) :: n_modes
@@ -317,6 +345,11 @@ contains
                      phys%drive_angular_frequency/(2*pi)]
       values(12) = 3*rigidity/phys%tip_position**3
       values(16:19) = [scales%length, scales%time, scales%force, scales%energy]
+      ! The continuum's first frequency, where the tip mass sits at the free end.
+      if (phys%tip_position == phys%length .or. .not. errata%e6_tip_mass_at_xi0) then
+         values(20) = continuum_first_root(phys%tip_mass/(beam_mass_per_length(phys)*phys%length))**2 &
+                      /(2*pi*scales%time)
+      end if
       call free_model(phys, n_modes, errata, model, ierr, errmsg)
       if (ierr /= ok) return
       values(10) = phys%drive_amplitude*abs(free_response(model, ierr, errmsg))

@@ -234,6 +234,8 @@ contains
       damping_scale = sqrt(phys%length**4/(rigidity*mass_per_length))
 
       scene%alpha1 = phys%tip_mass/(mass_per_length*phys%length)
+      ! The calibration gives the ratio itself (M was derived from it: no round trip).
+      if (phys%by_calibration) scene%alpha1 = phys%tip_mass_ratio
       scene%alpha2 = phys%drive_amplitude/d
       scene%alpha3 = phys%beam_damping*damping_scale
       scene%alpha4 = phys%contact_damping/phys%length*damping_scale

@@ -399,6 +399,21 @@ def _period_cost_rows(report):
     return {(scene, r["method"], r.get("rtol")): r for scene, e in report["scenes"].items() for r in e["rows"]}
 
 
+#: README's "which method for what" table: (row of period_cost.json's fig2 scene, first cell,
+#: second cell); the numbers of each row are its CPU per period and V_T error.
+METHOD_ROWS = (
+    (("flight_exact", 1e-7, None), "`flight_exact` rtol 1e-7 (observed runs' and sweeps' default)",
+     "sweeps, approach and frequency curves, basin maps: anything run to a steady state"),
+    (("flight_exact", 1e-10, None), "`flight_exact` rtol 1e-10, atol 1e-14",
+     "reference runs, convergence studies"),
+    (("dop853", 1e-7, None), "`dop853` rtol 1e-7",
+     "a trajectory with a classical adaptive method, cross-checks"),
+    (("dopri5", 1e-7, None), "`dopri5` rtol 1e-7", "the same at lower order; the automatic-N search"),
+    (("rk4_event", None, 0.002), "`rk4_event` dτ = 2e-3", "fixed steps with located switches"),
+    (("rk4_paper", None, 0.002), "`rk4_paper` dτ = 2e-3 (the packaged inputs' method)",
+     "reproducing the paper's figures (its first-order scheme)"))
+
+
 def check_readme(ck, group="readme"):
     doc = "README.md"
     pc = load(result_path("period_cost.json"))
@@ -452,6 +467,12 @@ def check_readme(ck, group="readme"):
              / (r["main"]["phase_switches_per_period"] / 2)
              for r in warp]
     ck.text(group, doc, "is not: {} steps fewer per contact", [span(fewer, lambda x: f"{x:.0f}")], "Methods")
+    # "Which method for what": the Fig. 2 scene's rows at each method's usual tolerance
+    fig2 = {(r["method"], r.get("rtol"), r.get("dtau")): r for r in pc["scenes"]["fig2"]["rows"]}
+    for (method, rtol, dtau), first, use in METHOD_ROWS:
+        r = fig2[(method, rtol, dtau)]
+        ck.text(group, doc, f"| {first} | {use} | " + "{} µs | {} |",
+                [grouped(r["us_per_period"]), sci(r["vt_error"], 2, "-")], "Methods")
     ow = load(result_path("output_write.json"))["cases"]
     least = min(c["cpu_ratio_text_over_npy"] for c in ow)
     ck.text(group, doc, "archive for `numpy.load`, more than {} times cheaper to write",
@@ -981,6 +1002,33 @@ def rerun_timings(ck, factor, group="timings-rerun"):
                          labels=RERUN)
 
 
+def am_afm_row(row) -> list:
+    """The numbers of one row of docs/sweeps.md's AM-AFM table, formatted as printed."""
+    fmt = lambda x, n: f"{x:.{n}f}".replace("-", MINUS)  # noqa: E731
+    return [f"{row['z_nm']:.0f}", fmt(row["amplitude_nm"], 2), fmt(row["setpoint"], 3),
+            fmt(row["phase_deg"], 1), fmt(row["peak_force_nN"], 2), fmt(row["indentation_nm"], 2),
+            fmt(row["tip_sample_power_pW"], 2)]
+
+
+def check_am_afm(ck, group="am_afm"):
+    """docs/sweeps.md's AM-AFM approach curve and README's quick start against
+    benchmarks/results/am_afm_approach.json (`python benchmarks/am_afm_approach.py`)."""
+    am = load(result_path("am_afm_approach.json"))
+    doc, sec = "docs/sweeps.md", "An AM-AFM approach curve"
+    ck.text(group, doc, "on one worker, in {} s of CPU (user + sys; {} periods, {} µs per period)",
+            [f"{am['cpu_s']:.1f}", grouped(am["periods_run"]), f"{am['cpu_us_per_period']:.0f}"], sec)
+    for row in am["approach"]:
+        ck.text(group, doc, "| {} | {} | {} | {} | {} | {} | {} |", am_afm_row(row), sec)
+    ck.value(group, doc, "approach and retract agree (no jumps)", "[] []",
+             " ".join(str(j["at"]) for j in am["jumps"]))
+    far = am["approach"][0]
+    ck.text(group, doc, "far from the sample the amplitude comes out {} below A0 here",
+            [sci((am["free_amplitude_nm"] - far["amplitude_nm"]) / am["free_amplitude_nm"], 2, "-")], sec)
+    ck.text(group, doc, "The first contact is at Z = {} nm", [f"{am['contact_onset_nm']['approach']:.0f}"], sec)
+    ck.text(group, "README.md", "in {} s of CPU (`python benchmarks/am_afm_approach.py`)",
+            [f"{am['cpu_s']:.1f}"], "Quick start")
+
+
 # ----------------------------------------------------------------------------- main
 GROUPS = {
     "figures": lambda ck: check_figures(ck, load(SUMMARY)),
@@ -989,6 +1037,7 @@ GROUPS = {
     "performance": check_performance,
     "docs": check_other_docs,
     "errata": check_errata,
+    "am_afm": check_am_afm,
 }
 
 

@@ -11,8 +11,10 @@ BLOCKS lists each block, keyed by (file, the block's first line):
 - `skip`: why the block is not meant to run (a sketch with `...` for its arguments).
 A block missing from BLOCKS, or an entry whose block is gone, fails
 test_every_block_is_listed; a code line in an indented (unfenced) block fails
-test_no_unfenced_python.  Each block runs in its own temporary folder, with `inputs/` linked to
-the repository's, as the docs' commands run from the checkout.
+test_no_unfenced_python.  Each block runs in its own temporary folder outside the checkout,
+with nothing of the checkout in reach (no `inputs/` link, no checkout folder on sys.path) and
+tmafm imported from the installed wheel: the docs' examples run as they do after
+`pip install tmafm` (packaged names such as "fig2_n4" and "sweeps/bistable_n2").
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ import numpy as np
 import pytest
 
 import tmafm
-from tmafm.observe import UNITS
+from tmafm.observe import CF_UNITS, UNITS
 
 REPO = Path(__file__).resolve().parent.parent
 DOCS = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
@@ -136,6 +138,28 @@ def _check_npz_read(ns, seen, out):
     assert tmafm.Config("again.nml").to_dict() == made.to_dict()
 
 
+def _check_quick_start(ns, seen, out):
+    ds = ns["ds"]
+    # "This prints `...`": the line the README quotes
+    quoted = re.search(r"This prints `([^`]*)`", (REPO / "README.md").read_text()).group(1)
+    assert out.getvalue().strip() == quoted
+    # Z in m, the observables in nm, degree, nN, pW; the setpoint A/A0 with A0 = 20 nm
+    assert ds["z"].attrs["units"] == "m" and ds.attrs["free_amplitude"] == pytest.approx(20.0)
+    units = {"amplitude": "nm", "phase": "degree", "peak_force": "nN", "min_gap": "nm",
+             "tip_sample_power": "pW", "setpoint": "1"}
+    for name, unit in units.items():
+        assert ds[name].attrs["units"] == unit, name
+    for name in ds.coords:
+        if ds[name].dtype.kind in "fi":
+            assert "units" in ds[name].attrs, name
+    # "A0 = 20 nm": far from the sample the amplitude is the free amplitude (the core's linear
+    # response gives the drive), within the steady test's Q/pi * steady_tol
+    far = ds.sel(direction="approach").sel(z=25e-9, method="nearest")
+    assert float(far.amplitude) == pytest.approx(20.0, rel=400 / np.pi * 1e-8 * 2)
+    assert int(ds["failed"].sum()) == 0 and int((ds["period"] == 0).sum()) == 0
+    assert Path("approach.png").stat().st_size > 10_000
+
+
 STEADY = ("amplitude", "phase", "mean_deflection", "min_gap", "peak_force", "contact_time",
           "contacts_per_period", "dissipated_energy", "drive_work", "virial",
           "contact_normal_work", "harmonic_amplitude", "harmonic_phase")
@@ -148,7 +172,10 @@ def _check_grid(ns, seen, out):
     assert ds["amplitude"].dims == ("scene.delta_hat", "scene.alpha2")
     np.testing.assert_array_equal(ds["scene.delta_hat"].values, np.linspace(0, 2e-3, 21))
     for name in STEADY:
-        assert name in ds and ds[name].attrs["units"] == UNITS[name]
+        assert name in ds and ds[name].attrs["units"] == CF_UNITS.get(UNITS[name], UNITS[name])
+    # every coordinate has its units (the swept keys are dimensionless: "1")
+    for name in ds.coords:
+        assert ds[name].attrs["units"] == "1", name
     assert ds["harmonic_amplitude"].dims[-1] == "harmonic"
     for name in ("period", "steady", "periods", "failed"):
         assert name in ds
@@ -241,6 +268,7 @@ BLOCKS = {
               "a = np.array([2e-4, 1e-5, -1e-6, 1e-7]); adot = np.array([1e-4, 0, 0, 0])\n"
               "y = np.concatenate([a, adot])",
         check=_check_readme_run),
+    ("README.md", "import numpy as np, tmafm"): Block(check=_check_quick_start),
     ("README.md", 'ds = tmafm.sweep(base, {"scene.delta_hat": np.linspace(0, 2e-3, 21)}, '
                   'workers=2)  # xarray'): Block(
         skip="a sketch of the sweep API: `...` stands for the arrays; docs/sweeps.md runs "
@@ -258,7 +286,7 @@ BLOCKS = {
         check=_check_npz_read),
     ("docs/sweeps.md", "import numpy as np, tmafm"): Block(
         setup="import matplotlib; matplotlib.use('Agg')", check=_check_grid),
-    ("docs/sweeps.md", 'ds = tmafm.approach("inputs/sweeps/bistable_n2.nml", '
+    ("docs/sweeps.md", 'ds = tmafm.approach("sweeps/bistable_n2", '
                        'delta_hat=np.linspace(8e-3, 0, 41),'): Block(
         setup="import numpy as np, tmafm", check=_check_approach_and_frequency),
     ("docs/sweeps.md", 'fig5 = tmafm.Config("fig5a", solver={"method": "flight_exact", '
@@ -303,6 +331,48 @@ def _run(source: str, ns: dict, filename: str, seen: dict) -> None:
                 seen.setdefault(name, []).append(value)
 
 
+def _inside(path, folder: Path) -> bool:
+    try:
+        Path(path).resolve().relative_to(folder)
+    except (ValueError, OSError):
+        return False
+    return True
+
+
+def _outside_the_checkout(folder: Path) -> None:
+    """The block's folder is outside the checkout, tmafm (and its extension and inputs) comes
+    from the installed wheel, and no folder of the checkout that holds a tmafm package is on
+    sys.path: what runs is what `pip install` gives."""
+    import importlib.util
+    import sys
+    assert not _inside(folder, REPO), f"{folder} is inside the checkout {REPO}"
+    for module in (tmafm, tmafm.inputs):
+        assert not _inside(module.__file__, REPO), f"{module.__name__} imported from the checkout"
+    assert not _inside(tmafm.inputs.folder(), REPO)
+    assert not _inside(importlib.util.find_spec("tmafm._fwrap").origin, REPO)
+    for entry in sys.path:
+        root = Path(entry or ".").resolve()
+        assert not (_inside(root, REPO) and (root / "tmafm").is_dir()), \
+            f"sys.path entry {entry!r} holds the checkout's tmafm"
+
+
+def test_examples_run_outside_the_checkout(tmp_path, monkeypatch):
+    """The check itself: from a folder outside the checkout, the packaged names the docs use
+    resolve inside the installed package, sweep files included."""
+    _outside_the_checkout(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    for name in ("fig2_n4", "sweeps/bistable_n2", "sweeps/approach"):
+        path = tmafm.inputs.path(name)
+        assert path.is_file() and not _inside(path, REPO)
+        assert path.read_bytes() == (REPO / "inputs" / f"{name}.nml").read_bytes()
+    assert tmafm.inputs.sweep_names() == sorted(
+        f"sweeps/{p.stem}" for p in (REPO / "inputs" / "sweeps").glob("*.nml"))
+    assert tmafm.Config("sweeps/bistable_n2").n_modes == 2
+    from tmafm.sweeps import read_sweep_file
+    spec = read_sweep_file("sweeps/approach.nml")
+    assert Path(spec["base"]).is_file() and not _inside(spec["base"], REPO)
+
+
 @pytest.mark.parametrize("path,line,body", python_blocks(),
                          ids=[f"{p}:{n}" for p, n, _ in python_blocks()])
 def test_block_runs_and_gives_what_the_docs_say(path, line, body, tmp_path, monkeypatch):
@@ -315,7 +385,7 @@ def test_block_runs_and_gives_what_the_docs_say(path, line, body, tmp_path, monk
     for old, new in block.subs:
         assert old in source, f"{path}:{line}: substitution {old!r} no longer applies"
         source = source.replace(old, new)
-    (tmp_path / "inputs").symlink_to(REPO / "inputs")
+    _outside_the_checkout(tmp_path)
     monkeypatch.chdir(tmp_path)
     ns = {"__name__": "__docs__", "tmafm": tmafm, "subprocess": subprocess, "os": os}
     seen: dict = {}

@@ -54,9 +54,10 @@ def _input_path(nml) -> Path:
         except FileNotFoundError:
             if path.is_symlink():
                 raise InputFileError(f"input file {name} is a symbolic link to a missing file") from None
-        if path.suffix in ("", ".nml") and len(path.parts) == 1:
+        if path.suffix in ("", ".nml") and (len(path.parts) == 1 or (
+                len(path.parts) == 2 and path.parts[0] == _inputs.SWEEPS)):
             try:
-                return _inputs.path(path.name)
+                return _inputs.path("/".join(path.parts))
             except InputFileError:
                 pass
     except InputFileError:

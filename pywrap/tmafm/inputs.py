@@ -1,10 +1,16 @@
 """The published inputs, shipped inside the package (the repository's inputs/ is their source).
 
+The run inputs are named by their stem (``"fig2_n4"``); the sweep files of docs/sweeps.md and
+their bases, from inputs/sweeps/, by ``"sweeps/<stem>"`` (``"sweeps/approach"``,
+``"sweeps/bistable_n2"``), so that every example of the docs runs after ``pip install``.
+
 >>> import tmafm
 >>> "fig2_n4" in tmafm.inputs.names()
 True
 >>> tmafm.inputs.path("fig2_n4").name
 'fig2_n4.nml'
+>>> tmafm.inputs.path("sweeps/approach").parent.name
+'sweeps'
 """
 
 from __future__ import annotations
@@ -15,7 +21,10 @@ from pathlib import Path
 from ._namelist import shown
 from .errors import InputFileError
 
-__all__ = ["folder", "names", "path"]
+__all__ = ["folder", "names", "path", "sweep_names", "SWEEPS"]
+
+#: The subfolder of the sweep files (and their bases): names "sweeps/<stem>".
+SWEEPS = "sweeps"
 
 
 def folder() -> Path:
@@ -24,21 +33,30 @@ def folder() -> Path:
 
 
 def names() -> list[str]:
-    """Names of the packaged inputs (without .nml), sorted."""
+    """Names of the packaged run inputs (without .nml), sorted."""
     return sorted(p.stem for p in folder().glob("*.nml"))
 
 
+def sweep_names() -> list[str]:
+    """Names of the packaged sweep files and their bases ("sweeps/<stem>"), sorted."""
+    return sorted(f"{SWEEPS}/{p.stem}" for p in (folder() / SWEEPS).glob("*.nml"))
+
+
 def path(name: str) -> Path:
-    """The packaged input `name` (with or without .nml); InputFileError if there is none."""
+    """The packaged input `name` (with or without .nml; "sweeps/<stem>" for inputs/sweeps/);
+    InputFileError if there is none."""
     if not isinstance(name, str):
         raise InputFileError(f"no packaged input named {shown(name)}: a name is a str (known: "
                              f"{', '.join(names())})")
     stem = name[:-4] if name.endswith(".nml") else name
-    candidate = folder() / f"{stem}.nml"
+    sub, _, leaf = stem.rpartition("/")
+    candidate = folder() / (sub or ".") / f"{leaf}.nml"
     try:
-        found = "/" not in stem and "\0" not in stem and candidate.is_file()
+        found = sub in ("", SWEEPS) and leaf not in ("", ".", "..") and "\0" not in stem \
+            and candidate.is_file()
     except (OSError, ValueError):  # a name too long
         found = False
     if not found:
-        raise InputFileError(f"no packaged input named {name!r} (known: {', '.join(names())})")
+        raise InputFileError(f"no packaged input named {name!r} (known: "
+                             f"{', '.join(names() + sweep_names())})")
     return candidate

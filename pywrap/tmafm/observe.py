@@ -30,7 +30,8 @@ from ._run import Config, _for_core, _source
 from .errors import InputError, InputTypeError, SolverError, UnsteadyWarning, raise_for
 
 __all__ = ["Observation", "observe", "observe_batch", "observe_states", "StatesObservation",
-           "OBSERVABLES", "OBSERVABLE_GROUPS", "UNITS", "PHYSICAL_UNITS", "steady_period",
+           "OBSERVABLES", "OBSERVABLE_GROUPS", "UNITS", "PHYSICAL_UNITS", "CF_UNITS",
+           "PHYSICAL_CF_UNITS", "physical_scales", "steady_period",
            "steady_test", "steady_harmonic", "unsteady_text", "observed_config", "DEFAULT_METHOD",
            "observable_groups"]
 
@@ -63,6 +64,14 @@ _GROUP_BITS = {r["group"]: r["bit"] for r in _TABLE if r["bit"]}
 ALWAYS = tuple(name for name in OBSERVABLES if _ROW[name]["group"] == "always")
 #: SI-derived units of ``Observation.physical`` (inputs given in &physical).
 PHYSICAL_UNITS = {r["name"]: r["si_unit"] for r in _TABLE if r["si_unit"]}
+#: Each SI-derived unit of the core's table as a ``units`` attribute (udunits/CF spelling, as
+#: pint and pint-xarray read it): the sweeps' datasets of &physical inputs carry these.
+CF_UNITS = {"nm": "nm", "deg": "degree", "us": "us", "nN": "nN", "aJ": "aJ", "1": "1"}
+#: The ``units`` attribute of each observable of a &physical input (PHYSICAL_UNITS spelled as
+#: CF_UNITS; a unit CF_UNITS does not know is kept as the core writes it).
+PHYSICAL_CF_UNITS = {name: CF_UNITS.get(unit, unit) for name, unit in PHYSICAL_UNITS.items()}
+#: The SI value of one of the core's SI-derived units (nm -> 1e-9 m, ...).
+_SI_VALUE = {"nm": 1e-9, "us": 1e-6, "nN": 1e-9, "aJ": 1e-18}
 
 
 #: The method an observed run (tmafm.observe, observe_batch, the sweeps) takes when its input
@@ -114,6 +123,29 @@ def observed_config(nml, **overrides) -> Config:
         key = next((g for g in overrides if str(g).lower() == "solver"), "solver")
         overrides[key] = {**(overrides.get(key) or {}), "method": DEFAULT_METHOD}
     return Config(nml, **overrides)
+
+
+def physical_scales(config) -> dict | None:
+    """The core's scales of a &physical input (tmafm_units scales_t, through its observable
+    table): {'length': m per gap unit d, 'time': s per tau, 'force': N per E1 I/L^2, 'energy':
+    J per E1 I d^2/L^3}; None for a dimensionless input.  Python computes no scale: each is the
+    core's factor to an SI-derived unit times that unit's SI value (nm = 1e-9 m, ...)."""
+    config = config if isinstance(config, Config) else Config(config)
+    if "physical" not in config.to_dict():
+        return None
+    return _core_scales(config)
+
+
+def _core_scales(config: Config) -> dict:
+    """physical_scales of a Config known to be &physical (no check)."""
+    factors = np.zeros(len(_TABLE))
+    ierr, errmsg = api.observable_table_factors(config._f, factors)
+    raise_for(int(ierr), _message(errmsg))
+    out = {}
+    for row, factor in zip(_TABLE, factors):
+        if row["scale"] in ("length", "time", "force", "energy") and row["scale"] not in out:
+            out[row["scale"]] = float(factor) * _SI_VALUE[row["si_unit"]]
+    return out
 
 
 def _message(errmsg) -> str:

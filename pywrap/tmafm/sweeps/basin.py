@@ -17,7 +17,7 @@ from .dataset import _attrs, _steady_columns, _units
 from .executors import _check_run, _dask_results, _process_pool, _progress, _results, _workers
 from .points import (_axis_values, _base_config, _base_dict, _check_flag, _check_points,
                      _check_positive, _observe_keywords, _short)
-from .runs import _basin_chunk, _basin_chunk_processes
+from .runs import _basin_chunk, _basin_chunk_processes, _drive_period
 
 
 def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=False, chunk=None,
@@ -257,8 +257,12 @@ def _basin_variables(merged: dict, shape: tuple, a1, adot1, tol: float,
     columns = {name.split(":", 1)[1]: v for name, v in merged.items() if name.startswith("steady:")}
     physical = {name.split(":", 1)[1]: v for name, v in merged.items()
                 if name.startswith("physical:")}
+    drive_period = None
+    if physical:
+        drive_period = np.full(period.shape, _drive_period(base_config))
     data = _steady_columns(columns, physical, period, period > 0, merged["failed"],
-                           merged["periods"], shape, ("a1", "adot1"), units, physical_units)
+                           merged["periods"], shape, ("a1", "adot1"), units, physical_units,
+                           drive_period)
     data["attractor"] = xr.Variable(("a1", "adot1"), labels.reshape(shape), attrs={
         "long_name": "attractor label (-1: no period found)", "tolerance": resolution})
     data["attractor_period"] = xr.Variable(("a1", "adot1"), np.array(
@@ -268,7 +272,12 @@ def _basin_variables(merged: dict, shape: tuple, a1, adot1, tol: float,
         np.int8).reshape(shape), attrs={"long_name": "1 where the run stopped at an attractor "
                                                      "found before (docs/sweeps.md)"})
     for k, orbit in enumerate(reps):
-        data[f"attractor_orbit_{k}"] = xr.Variable((f"orbit_{k}_point", "state"), orbit)
-    coords = {"a1": xr.Variable(("a1",), a1, attrs={"long_name": "a1(0)"}),
-              "adot1": xr.Variable(("adot1",), adot1, attrs={"long_name": "a1'(0)"})}
+        data[f"attractor_orbit_{k}"] = xr.Variable(
+            (f"orbit_{k}_point", "state"), orbit,
+            attrs={"units": "1", "long_name": f"Poincare orbit of attractor {k}: rows (a, a') "
+                                              f"in model units (d, d/tau)"})
+    coords = {"a1": xr.Variable(("a1",), a1, attrs={"units": "1",
+                                                    "long_name": "a1(0) (in gap units d)"}),
+              "adot1": xr.Variable(("adot1",), adot1,
+                                   attrs={"units": "1", "long_name": "a1'(0) (in d/tau)"})}
     return data, coords, len(reps)

@@ -8,8 +8,10 @@ from .._namelist import shown
 from .._run import Config
 from ..errors import InputError, InputTypeError
 from .dataset import _grid_dataset
+from ..observe import _core_scales
 from .executors import _check_run, _run_points
-from .points import (_axis_values, _base_config, _base_dict, _check_points, _observe_keywords, _raw,
+from .points import (_axis_values, _base_config, _base_dict, _check_points, _for_keys,
+                     _observe_keywords, _raw,
                      _split_key, _validate)
 
 
@@ -51,7 +53,7 @@ def bifurcation(base, key, values, *, periods_kept=32, workers=None, client=None
     _check_points(len(values), where, 8 * int(periods_kept))  # N = 1 until the base is read
     base_config = _base_config(base)
     _check_points(len(values), where, int(periods_kept) * (4 * base_config.n_modes + 4))
-    base_groups = _base_dict(base_config)
+    base_groups = _for_keys(_base_dict(base_config), [key])
     points = [{key: v} for v in _raw(values)]
     configs = _validate(base_groups, points)
     summaries = _run_points(base_groups, points, configs=configs, workers=workers, client=client,
@@ -66,15 +68,34 @@ def bifurcation(base, key, values, *, periods_kept=32, workers=None, client=None
         rows = s["poincare"]
         kept[i, periods_kept - len(rows):, :rows.shape[1]] = rows
     dims = (key, "kept")
-    ds["a1"] = xr.Variable(dims, kept[..., 0], attrs={"long_name": "a1 at the Poincaré section"})
-    ds["adot1"] = xr.Variable(dims, np.stack([kept[i, :, size // 2] for i, size in
-                                              enumerate(sizes)]),
-                              attrs={"long_name": "a1' at the section"})
     tip = np.stack([_tip_displacement(configs[i], kept[i, :, :sizes[i]])
                     for i in range(len(points))])
-    ds["tip"] = xr.Variable(dims, tip, attrs={"long_name": "p^T a at the section"})
     offsets = np.array([c.scene["delta_hat"] for c in configs])
-    ds["vt"] = xr.Variable(dims, tip + offsets[:, None],
-                           attrs={"long_name": "V_T at the section (drive phase 0)"})
+    adot1 = np.stack([kept[i, :, size // 2] for i, size in enumerate(sizes)])
+    section = {"a1": (kept[..., 0], "a1 at the Poincaré section"),
+               "adot1": (adot1, "a1' at the section"),
+               "tip": (tip, "p^T a at the section (the tip's modal displacement)"),
+               "vt": (tip + offsets[:, None], "V_T at the section (drive phase 0)")}
+    # A &physical scene's section points in nm (mm/s for a1'): each point's own scales (a
+    # swept tip_sample_distance changes the gap d, the length unit).
+    physical = "physical" in base_groups
+    if physical:
+        scales = [_core_scales(c) for c in configs]
+        length = np.array([s["length"] for s in scales])[:, None]
+        speed = length / np.array([s["time"] for s in scales])[:, None]
+        factors = {"a1": (length * 1e9, "nm"), "adot1": (speed * 1e3, "mm/s"),
+                   "tip": (length * 1e9, "nm"), "vt": (length * 1e9, "nm")}
+    else:
+        factors = {"a1": (1.0, "1"), "adot1": (1.0, "1"), "tip": (1.0, "1"), "vt": (1.0, "1")}
+    for name, (values, long_name) in section.items():
+        factor, unit = factors[name]
+        ds[name] = xr.Variable(dims, values * factor, attrs={
+            "units": unit, "units_system": "physical" if physical else "model",
+            "long_name": long_name + ("" if physical else
+                                      (" (in d/tau)" if name == "adot1" else " (in gap units d)"))})
+    ds = ds.assign_coords(kept=xr.Variable(("kept",), np.arange(1, periods_kept + 1,
+                                                                 dtype=np.int32),
+                                           attrs={"units": "1", "long_name": "section point "
+                                                  "kept (the last is the run's final one)"}))
     ds.attrs["swept_key"] = key
     return ds

@@ -12,10 +12,11 @@ import numpy as np
 from .._namelist import shown
 from ..errors import InputError
 from ..observe import observable_groups
-from .dataset import _attrs, _failure_attrs, _steady_variables, _units
+from .dataset import (_attrs, _coordinate, _failure_attrs, _index_coordinates,
+                      _steady_variables, _units, key_units)
 from .executors import _check_run, _dask_results, _progress, _results, _Stopped, _thread_pool, _workers
 from .points import (_axis_values, _base_config, _base_dict, _check_axes, _check_flag,
-                     _check_points, _check_positive, _config, _observe_keywords, _raw, _sizes,
+                     _check_points, _check_positive, _config, _for_keys, _observe_keywords, _raw, _sizes,
                      _split_key, _validate)
 from .runs import _observe_one, _warn_unsteady
 
@@ -93,9 +94,11 @@ JUMP_NAMES = ("amplitude", "phase")
 
 
 def _continuation(base, key: str, values, *, directions: tuple[str, str], reverse: bool,
-                  curves, workers, client, progress, jump_threshold, kind, keywords):
+                  curves, workers, client, progress, jump_threshold, kind, keywords,
+                  dim: str | None = None):
     """The Dataset of approach() and frequency_sweep(): every argument checked and every point
-    validated before any run, then the curves run (_run_curves) and collected (_curve_dataset)."""
+    validated before any run, then the curves run (_run_curves) and collected (_curve_dataset).
+    ``dim`` names the swept dimension (default: the key itself)."""
     _check_run(workers, client, progress, user=f"tmafm.{kind}")
     reverse = _check_flag("retract" if kind == "approach" else "reverse", reverse)
     keywords = _curve_keywords(keywords)
@@ -106,7 +109,7 @@ def _continuation(base, key: str, values, *, directions: tuple[str, str], revers
     _check_points(math.prod(len(v) for v in curves.values()) * len(values) * (2 if reverse else 1),
                   f"{kind} axes {_sizes(dict(curves, **{key: values}))}")
     base_config = _base_config(base)
-    base_groups = _base_dict(base_config)
+    base_groups = _for_keys(_base_dict(base_config), [key, *curves])
     curve_points = [dict(zip(curves, combo))
                     for combo in itertools.product(*map(_raw, curves.values()))]
     _validate(base_groups, [dict(c, **{key: v}) for c in curve_points for v in _raw(values)])
@@ -117,12 +120,15 @@ def _continuation(base, key: str, values, *, directions: tuple[str, str], revers
     # Summaries in the order (direction, curve..., value).
     ordered = [s for d in range(len(used)) for r in results for s in r[d]]
     _warn_unsteady(ordered, kind, keywords)
-    ds = _curve_dataset(ordered, base_config, key, values, curves, used, jump_threshold)
+    dim = dim or key
+    ds = _curve_dataset(ordered, base_config, key, values, curves, used, jump_threshold, dim)
     ds.attrs.update(_attrs(base, kind, keywords))
     ds.attrs.update(_failure_attrs(ordered))
-    ds.attrs["swept_key"] = key
+    ds.attrs["swept_key"] = dim
+    ds.attrs["input_key"] = key
     ds.attrs["order"] = f"{used[0]} runs {key} in the order given" + (
         f", {used[1]} in reverse" if reverse else "")
+    _free_amplitude(ds, base_groups)
     return ds
 
 
@@ -166,11 +172,11 @@ def _run_curves(base_groups: dict, key: str, values: list, n_modes: int, curve_p
 
 
 def _curve_dataset(ordered: list, base_config, key: str, values, curves: dict, used: tuple,
-                   jump_threshold: float):
+                   jump_threshold: float, dim: str):
     """The Dataset of the summaries ``ordered`` (direction, curve..., value): steady values,
-    ``final_state`` and ``jump``, without the attributes."""
+    ``final_state`` and ``jump``, without the attributes; the swept dimension is ``dim``."""
     import xarray as xr
-    dims = ("direction", *curves, key)
+    dims = ("direction", *curves, dim)
     shape = (len(used), *(len(v) for v in curves.values()), len(values))
     units, physical_units = _units(base_config)
     data = _steady_variables(ordered, shape, dims, units, physical_units)
@@ -182,11 +188,42 @@ def _curve_dataset(ordered: list, base_config, key: str, values, curves: dict, u
     data["jump"] = xr.Variable(dims, flags.astype(np.int8), attrs={
         "long_name": "1 where amplitude or phase jumped on arriving at this point "
                      "(tmafm.sweeps.mark_jumps)", "threshold": float(jump_threshold)})
-    coords = {key: xr.Variable((key,), np.asarray(values)),
-              "direction": xr.Variable(("direction",), np.array(used, dtype="U8"))}
+    coords = {dim: xr.Variable((dim,), np.asarray(values), attrs={
+                  "units": key_units(key),
+                  "long_name": _LONG_NAMES.get(key, key) + ("" if dim == key else f" ({key})")}),
+              "direction": xr.Variable(("direction",), np.array(used, dtype="U8"),
+                                       attrs={"long_name": "direction of travel"})}
     for ckey, cvalues in curves.items():
-        coords[ckey] = xr.Variable((ckey,), np.asarray(cvalues))
+        coords[ckey] = _coordinate(ckey, cvalues)
+    coords.update(_index_coordinates(data))
     return xr.Dataset(data, coords=coords)
+
+
+#: The long names of the swept coordinates of approach() and frequency_sweep().
+_LONG_NAMES = {"physical.tip_sample_distance": "tip-sample distance Z",
+               "physical.drive_frequency": "drive frequency",
+               "scene.delta_hat": "static offset delta_hat", "scene.omega": "drive frequency Omega"}
+
+
+def _free_amplitude(ds, base_groups: dict) -> None:
+    """A physical scene given by its free amplitude A0 (&physical free_amplitude): ``setpoint``
+    = amplitude/A0 (the setpoint A/A0 of AM-AFM) and, for one A0, the attribute
+    free_amplitude (in the amplitude's unit, nm).  A0 may be a curve key."""
+    unit = ds["amplitude"].attrs.get("units") if "amplitude" in ds else None
+    if unit != "nm":
+        return
+    if "physical.free_amplitude" in ds.coords:
+        a0_nm = ds["physical.free_amplitude"] * 1e9
+        text = "A0: the curve's free amplitude"
+    else:
+        a0 = base_groups.get("physical", {}).get("free_amplitude")
+        if not a0:
+            return
+        a0_nm = float(a0) * 1e9
+        ds.attrs["free_amplitude"] = a0_nm
+        text = f"A0: the free amplitude {a0_nm:.6g} nm"
+    ds["setpoint"] = ds["amplitude"] / a0_nm
+    ds["setpoint"].attrs = {"units": "1", "long_name": f"setpoint A/A0 ({text})"}
 
 
 def _jump_flags(data: dict, shape: tuple, reverse: bool, jump_threshold: float) -> np.ndarray:
@@ -204,24 +241,51 @@ def _jump_flags(data: dict, shape: tuple, reverse: bool, jump_threshold: float) 
     return flags
 
 
-def approach(base, delta_hat, *, retract=True, curves=None, workers=None, client=None,
-             progress=False, jump_threshold=0.2, **observe_keywords):
-    """Approach/retract: sweep scene.delta_hat through `delta_hat` (give them decreasing: the
-    tip approaches the sample), then back, each point warm-started from the previous one's final
-    state, so bistable branches show.  ``curves`` ({'group.key': values}) adds curves, run in
-    parallel.  The Dataset has dims ('direction', *curve keys, 'scene.delta_hat') with
-    direction 'approach'/'retract', the steady values, ``jump`` and ``final_state``."""
-    return _continuation(base, "scene.delta_hat", delta_hat, directions=("approach", "retract"),
+def _one_axis(kind: str, dimensionless: tuple, physical: tuple) -> tuple:
+    """(input key, values, dimension name) of the one axis given: (name, values, key, dim) of
+    the dimensionless and the physical choice; InputError unless exactly one is given."""
+    given = [axis for axis in (dimensionless, physical) if axis[1] is not None]
+    if len(given) != 1:
+        raise InputError(f"{kind}: give either {dimensionless[0]}= (dimensionless, "
+                         f"{dimensionless[2]}) or {physical[0]}= (SI, {physical[2]}), "
+                         f"{'not both' if given else 'none was given'}")
+    _, values, key, dim = given[0]
+    return key, values, dim
+
+
+def approach(base, delta_hat=None, *, z=None, retract=True, curves=None, workers=None,
+             client=None, progress=False, jump_threshold=0.2, **observe_keywords):
+    """Approach/retract: sweep the tip-sample rest distance through the values given (give them
+    decreasing: the tip approaches the sample), then back, each point warm-started from the
+    previous one's final state, so bistable branches show.
+
+    ``z`` (m) sweeps &physical tip_sample_distance Z of a physical base (the dimension ``z``,
+    units 'm'; the observables in nm, nN, degree, aJ, ...; ``setpoint`` = A/A0 when the base
+    gives free_amplitude); ``delta_hat`` sweeps &scene delta_hat of a dimensionless base (the
+    dimension 'scene.delta_hat').  ``curves`` ({'group.key': values}) adds curves, run in
+    parallel.  The Dataset has dims ('direction', *curve keys, swept) with direction
+    'approach'/'retract', the steady values, ``jump`` and ``final_state``."""
+    key, values, dim = _one_axis("approach", ("delta_hat", delta_hat, "scene.delta_hat",
+                                              "scene.delta_hat"),
+                                 ("z", z, "physical.tip_sample_distance", "z"))
+    return _continuation(base, key, values, directions=("approach", "retract"),
                          reverse=retract, curves=curves, workers=workers, client=client,
                          progress=progress, jump_threshold=jump_threshold, kind="approach",
-                         keywords=observe_keywords)
+                         keywords=observe_keywords, dim=dim)
 
 
-def frequency_sweep(base, omega, *, reverse=True, curves=None, workers=None, client=None,
-                    progress=False, jump_threshold=0.2, **observe_keywords):
-    """Frequency sweep: scene.omega through `omega` (give them increasing), then back, warm
-    started as in approach(); direction 'up'/'down'."""
-    return _continuation(base, "scene.omega", omega, directions=("up", "down"), reverse=reverse,
+def frequency_sweep(base, omega=None, *, frequency=None, reverse=True, curves=None,
+                    workers=None, client=None, progress=False, jump_threshold=0.2,
+                    **observe_keywords):
+    """Frequency sweep: the drive frequency through the values given (give them increasing),
+    then back, warm started as in approach(); direction 'up'/'down'.  ``frequency`` (Hz)
+    sweeps &physical drive_frequency of a physical base (the dimension ``frequency``, units
+    'Hz'); ``omega`` sweeps &scene omega of a dimensionless base (dimension 'scene.omega')."""
+    key, values, dim = _one_axis("frequency_sweep", ("omega", omega, "scene.omega",
+                                                     "scene.omega"),
+                                 ("frequency", frequency, "physical.drive_frequency",
+                                  "frequency"))
+    return _continuation(base, key, values, directions=("up", "down"), reverse=reverse,
                          curves=curves, workers=workers, client=client, progress=progress,
                          jump_threshold=jump_threshold, kind="frequency_sweep",
-                         keywords=observe_keywords)
+                         keywords=observe_keywords, dim=dim)

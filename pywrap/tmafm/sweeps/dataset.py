@@ -12,14 +12,25 @@ import numpy as np
 from .._namelist import shown
 from .._run import Config
 from ..errors import InputError, InputFileError, InputTypeError
-from ..observe import PHYSICAL_UNITS, UNITS
+from ..observe import _SI_VALUE, CF_UNITS, PHYSICAL_CF_UNITS, PHYSICAL_UNITS, UNITS
 from .points import _input_name
 from .runs import _names
 
 
 def _units(base_config: Config) -> tuple[dict, dict]:
-    """(units, physical units) of the observables (tmafm.observe.UNITS, PHYSICAL_UNITS)."""
-    return dict(UNITS), dict(PHYSICAL_UNITS)
+    """(model units, physical units) of the observables as ``units`` attributes: the core's
+    table (tmafm.observe.UNITS, PHYSICAL_CF_UNITS), the phase spelled 'degree' (CF)."""
+    return ({name: CF_UNITS.get(unit, unit) for name, unit in UNITS.items()},
+            dict(PHYSICAL_CF_UNITS))
+
+
+#: The units attribute and long name of the dissipated power of a &physical scene: the energy
+#: dissipated per drive period (aJ) over the period (s), in pW.
+POWER = ("pW", "steady power dissipated (dissipated_energy over the drive period)")
+#: The power dissipated in the tip-sample contact alone, as AM-AFM reads it from the phase
+#: (contact damping and friction; not the cantilever's own damping), in pW.
+TIP_SAMPLE = ("pW", "steady power dissipated in the tip-sample contact ((dissipated_contact_"
+                    "damping + dissipated_friction) over the drive period)")
 
 
 def _steady_variables(summaries: list[dict], shape: tuple, dims: tuple, units: dict,
@@ -30,55 +41,108 @@ def _steady_variables(summaries: list[dict], shape: tuple, dims: tuple, units: d
     columns = {name: np.array([s["values"].get(name, np.nan) for s in summaries], dtype=float)
                for name in names}
     physical = {}
+    harmonics = ("harmonic_amplitude", "harmonic_phase")
     for name in names:
         if good and all(name in s["physical"] for s in good):
             physical[name] = np.array([s["physical"][name] if "error" not in s else np.nan
                                        for s in summaries], dtype=float)
-    for name in ("harmonic_amplitude", "harmonic_phase"):
+    for name in harmonics:
         if good and all(name in s for s in good):
             size = len(good[0][name])
             columns[name] = np.array([s[name] if "error" not in s else np.full(size, np.nan)
                                       for s in summaries], dtype=float)
+            if all(name in s["physical"] for s in good):
+                physical[name] = np.array([s["physical"][name] if "error" not in s
+                                           else np.full(size, np.nan) for s in summaries],
+                                          dtype=float)
+    drive_period = None
+    if physical and all("drive_period_s" in s for s in good):
+        drive_period = np.array([s.get("drive_period_s", np.nan) for s in summaries])
     return _steady_columns(columns, physical, np.array([s["period"] for s in summaries]),
                            np.array([s["steady"] for s in summaries]),
                            np.array(["error" in s for s in summaries]),
                            np.array([s["periods"] for s in summaries]), shape, dims, units,
-                           physical_units)
+                           physical_units, drive_period)
 
 
 def _steady_columns(columns: dict, physical: dict, period, steady, failed, periods,
-                    shape: tuple, dims: tuple, units: dict, physical_units: dict) -> dict:
+                    shape: tuple, dims: tuple, units: dict, physical_units: dict,
+                    drive_period=None) -> dict:
     """The steady variables from arrays over the points (grid order): ``columns`` {name: (n,)
-    or (n, harmonics)}, ``physical`` {name: (n,)}, and period, steady, failed, periods (n,)."""
+    or (n, harmonics)} in model units, ``physical`` {name: (n,) or (n, harmonics)} in
+    SI-derived units (empty for a dimensionless scene), and period, steady, failed, periods
+    (n,); ``drive_period`` (n,) in s adds ``dissipated_power``.  A &physical scene's variables
+    are its SI-derived values (nm, degree, nN, us, aJ), the unit in ``units``; a dimensionless
+    scene's are in model units (d, tau, E1 I/L^2, ...)."""
     import xarray as xr
     data = {}
-    for name in _names():
+    for name in (*_names(), "harmonic_amplitude", "harmonic_phase"):
         if name not in columns:
             continue
-        data[name] = xr.Variable(dims, columns[name].reshape(shape),
-                                 attrs={"units": units.get(name, "1"),
-                                        "long_name": f"steady {name}"})
         if name in physical:
-            unit = physical_units.get(name, "")
-            data[f"{name}_{unit}" if unit else f"{name}_physical"] = xr.Variable(
-                dims, physical[name].reshape(shape),
-                attrs={"units": unit, "long_name": f"steady {name} ({unit})"})
-    for name in ("harmonic_amplitude", "harmonic_phase"):
-        if name in columns:
-            data[name] = xr.Variable((*dims, "harmonic"), columns[name].reshape(*shape, -1),
-                                     attrs={"units": units.get(name, ""),
-                                            "long_name": f"steady {name} (harmonics 1, 2, ...)"})
+            values, unit, system = physical[name], physical_units.get(name, "1"), "physical"
+        else:
+            values, unit, system = columns[name], units.get(name, "1"), "model"
+        harmonic = name.startswith("harmonic_")
+        data[name] = xr.Variable((*dims, "harmonic") if harmonic else dims,
+                                 values.reshape(*shape, -1) if harmonic else values.reshape(shape),
+                                 attrs={"units": unit, "units_system": system,
+                                        "long_name": f"steady {name}" + (
+                                            " (harmonics 1, 2, ...)" if harmonic else "")})
+    if drive_period is not None and "dissipated_energy" in physical:
+        joule = _SI_VALUE[PHYSICAL_UNITS["dissipated_energy"]]
+        per_second = 1.0 / np.asarray(drive_period, dtype=float)
+        data["dissipated_power"] = xr.Variable(
+            dims, (physical["dissipated_energy"] * joule * per_second / 1e-12).reshape(shape),
+            attrs={"units": POWER[0], "units_system": "physical", "long_name": POWER[1]})
+        if "dissipated_contact_damping" in physical and "dissipated_friction" in physical:
+            contact = physical["dissipated_contact_damping"] + physical["dissipated_friction"]
+            data["tip_sample_power"] = xr.Variable(
+                dims, (contact * joule * per_second / 1e-12).reshape(shape),
+                attrs={"units": POWER[0], "units_system": "physical", "long_name": TIP_SAMPLE[1]})
     data["period"] = xr.Variable(dims, np.asarray(period, dtype=np.int32).reshape(shape),
-                                 attrs={"units": "drive periods",
-                                        "long_name": "period of the steady motion (0: none found)"})
+                                 attrs={"units": "1", "long_name": "period of the steady motion "
+                                        "in drive periods (0: none found)"})
     data["steady"] = xr.Variable(dims, np.asarray(steady, dtype=np.int8).reshape(shape),
-                                 attrs={"long_name": "1 where steady state was reached"})
+                                 attrs={"units": "1",
+                                        "long_name": "1 where steady state was reached"})
     data["failed"] = xr.Variable(dims, np.asarray(failed, dtype=np.int8).reshape(shape),
-                                 attrs={"long_name": "1 where the run failed (SolverError); "
+                                 attrs={"units": "1",
+                                        "long_name": "1 where the run failed (SolverError); "
                                                      "its values are NaN"})
     data["periods"] = xr.Variable(dims, np.asarray(periods, dtype=np.int32).reshape(shape),
-                                  attrs={"units": "drive periods", "long_name": "periods run"})
+                                  attrs={"units": "1", "long_name": "drive periods run"})
     return data
+
+
+def key_units(key: str) -> str:
+    """The ``units`` attribute of a swept input key ('group.key'): the core's key table's unit
+    (SI for &physical keys), '1' for a dimensionless one (d, tau, a pure number)."""
+    from .._namelist import KEYS
+    group, _, name = key.partition(".")
+    unit = next((k.unit for k in KEYS if k.group == group and k.name == name), "1")
+    return "1" if unit in ("", "-", "d", "tau", "1") else unit
+
+
+def _coordinate(key: str, values, long_name: str | None = None):
+    """The coordinate of a swept key, with its ``units``."""
+    import xarray as xr
+    return xr.Variable((key,), np.asarray(values),
+                       attrs={"units": key_units(key), "long_name": long_name or key})
+
+
+def _index_coordinates(data: dict) -> dict:
+    """Coordinates 1, 2, ... (units '1') for the index dimensions of the variables
+    (harmonic, kept)."""
+    import xarray as xr
+    coords = {}
+    for dim, what in (("harmonic", "harmonic number (1: the drive frequency)"),
+                      ("kept", "section point kept (the last is the final one)")):
+        size = next((v.sizes[dim] for v in data.values() if dim in v.dims), 0)
+        if size:
+            coords[dim] = xr.Variable((dim,), np.arange(1, size + 1, dtype=np.int32),
+                                      attrs={"units": "1", "long_name": what})
+    return coords
 
 
 def _attrs(base, kind: str, keywords: dict) -> dict:
@@ -105,8 +169,8 @@ def _grid_dataset(base, base_config, axes, summaries, keywords, kind):
     shape = tuple(len(v) for v in axes.values())
     units, physical_units = _units(base_config)
     data = _steady_variables(summaries, shape, tuple(keys), units, physical_units)
-    coords = {key: xr.Variable((key,), np.asarray(values), attrs={"long_name": key})
-              for key, values in axes.items()}
+    coords = {key: _coordinate(key, values) for key, values in axes.items()}
+    coords.update(_index_coordinates(data))
     attrs = _attrs(base, kind, keywords)
     attrs.update(_failure_attrs(summaries))
     return xr.Dataset(data, coords=coords, attrs=attrs)

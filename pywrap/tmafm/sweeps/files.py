@@ -100,6 +100,19 @@ def _sweep_groups(path: Path) -> dict:
     return groups
 
 
+def _packaged_sweep(path: Path) -> Path:
+    """The packaged sweep file of a missing path named "sweeps/<stem>[.nml]" (tmafm.inputs);
+    InputFileError otherwise."""
+    from .. import inputs
+    if path.suffix in ("", ".nml") and len(path.parts) == 2 and path.parts[0] == inputs.SWEEPS:
+        try:
+            return inputs.path("/".join(path.parts))
+        except InputFileError:
+            pass
+    raise InputFileError(f"sweep file '{path}' not found, and no packaged sweep file has that "
+                         f"name ({', '.join(inputs.sweep_names())})")
+
+
 def read_sweep_file(path) -> dict:
     """The &sweep group of a sweep file, checked: a dict of its keys (docs/sweeps.md)."""
     path = _input_name(path, "sweep file")
@@ -108,7 +121,7 @@ def read_sweep_file(path) -> dict:
     except (OSError, ValueError):  # a name too long, a NUL byte
         is_file = False
     if not is_file:
-        raise InputFileError(f"sweep file '{path}' not found")
+        path = _packaged_sweep(path)
     groups = _sweep_groups(path)
     if "sweep" not in groups:
         raise InputError(f"{path}: no &sweep group")
@@ -211,13 +224,15 @@ def run_sweep_file(path, *, workers=None, client=None, progress=False):
         if "key2" in spec:
             axes[spec["key2"]] = _axis_of(spec, "2")
         return sweep(base, axes, **common, **keywords)
-    if kind == "approach":
-        return approach(base, _axis_of(spec), retract=spec.get("reverse", True), curves=curves,
-                        jump_threshold=spec.get("jump_threshold", 0.2), **common, **keywords)
-    if kind == "frequency":
-        return frequency_sweep(base, _axis_of(spec), reverse=spec.get("reverse", True),
-                               curves=curves, jump_threshold=spec.get("jump_threshold", 0.2),
-                               **common, **keywords)
+    if kind in ("approach", "frequency"):
+        # A base in SI units (&physical) sweeps Z (m) or the drive frequency (Hz).
+        physical = "physical" in (base if isinstance(base, Config) else Config(base)).to_dict()
+        name = {("approach", False): "delta_hat", ("approach", True): "z",
+                ("frequency", False): "omega", ("frequency", True): "frequency"}[kind, physical]
+        run = approach if kind == "approach" else frequency_sweep
+        back = {"retract" if kind == "approach" else "reverse": spec.get("reverse", True)}
+        return run(base, **{name: _axis_of(spec)}, **back, curves=curves,
+                   jump_threshold=spec.get("jump_threshold", 0.2), **common, **keywords)
     if kind == "bifurcation":
         if "key" not in spec:
             raise InputError(f"{spec['_file']}: &sweep key: missing (required for bifurcation)")

@@ -7,8 +7,8 @@ import math
 
 from .dataset import _grid_dataset
 from .executors import _check_run, _run_points
-from .points import (_base_config, _base_dict, _check_axes, _check_points, _observe_keywords, _raw,
-                     _sizes, _validate)
+from .points import (_base_config, _base_dict, _check_axes, _check_points, _for_keys,
+                     _observe_keywords, _raw, _sizes, _validate)
 
 
 def sweep(base, axes, *, workers=None, client=None, progress=False, chunk=None,
@@ -28,8 +28,8 @@ def sweep(base, axes, *, workers=None, client=None, progress=False, chunk=None,
     keywords = _observe_keywords(observe_keywords)
     _check_points(math.prod(len(v) for v in axes.values()), f"sweep axes {_sizes(axes)}")
     base_config = _base_config(base)
-    base_groups = _base_dict(base_config)
     keys = list(axes)
+    base_groups = _for_keys(_base_dict(base_config), keys)
     points = [dict(zip(keys, combo)) for combo in itertools.product(*map(_raw, axes.values()))]
     configs = _validate(base_groups, points)
     summaries = _run_points(base_groups, points, configs=configs, workers=workers, client=client,

@@ -22,9 +22,38 @@ def _pyplot():
     return plt
 
 
+#: How a unit is shown on an axis: (factor, shown unit).  Metres in nm, Hz in kHz, the rest as
+#: the dataset stores them (nm, nN, degree, aJ, pW, ...).
+_SHOWN = {"m": (1e9, "nm"), "Hz": (1e-3, "kHz"), "degree": (1.0, "deg"), "us": (1.0, "µs")}
+#: Axis names of the variables and coordinates of physical scenes.
+_NAMES = {"z": "Z", "frequency": "drive frequency", "amplitude": "amplitude A",
+          "setpoint": "A/A0", "peak_force": "peak force", "dissipated_power": "dissipated power",
+          "tip_sample_power": "tip-sample dissipation", "physical.tip_sample_distance": "Z",
+          "physical.drive_frequency": "drive frequency", "physical.free_amplitude": "A0",
+          "mean_deflection": "mean deflection", "min_gap": "min gap",
+          "contact_time": "contact time", "dissipated_energy": "dissipated energy"}
+
+
+def _shown(ds, name: str):
+    """(values as shown, axis label) of a variable or coordinate: its unit from ``units``
+    (a physical unit shown as _SHOWN says), the model units as stored."""
+    data = ds[name]
+    unit = data.attrs.get("units", "")
+    factor, shown = _SHOWN.get(unit, (1.0, unit))
+    label = _NAMES.get(name, name) if data.attrs.get("units_system") == "physical" \
+        or unit in _SHOWN or name in ("z", "frequency", "setpoint") else name
+    text = f"{label} [{shown}]" if shown and shown != "1" else label
+    return np.asarray(data.values) * factor, text
+
+
 def _label(ds, name: str) -> str:
-    unit = ds[name].attrs.get("units", "")
-    return f"{name} [{unit}]" if unit and unit != "1" else name
+    return _shown(ds, name)[1]
+
+
+def _title_base(ds) -> str:
+    """The base input as a short name for a title: a path's file name, a packaged name as is."""
+    base = str(ds.attrs.get("base", ""))
+    return Path(base).name if base and not base.startswith("<") else base
 
 
 class _Memory:
@@ -72,12 +101,13 @@ def _check(ds, what: str):
 def _continuation_panels(ds, path, names):
     plt = _pyplot()
     key = ds.attrs["swept_key"]
-    x = ds[key].values
+    x, xlabel = _shown(ds, key)
     curve_dims = [d for d in ds["amplitude"].dims if d not in ("direction", key)]
-    fig, axes = plt.subplots(len(names), 1, figsize=(6.4, 2.1 * len(names)), sharex=True)
+    fig, axes = plt.subplots(len(names), 1, figsize=(6.4, 1.9 * len(names) + 0.6), sharex=True)
     styles = {0: dict(marker="o", ms=3, lw=1.2), 1: dict(marker="x", ms=4, lw=1.0, ls="--")}
     for ax, name in zip(np.atleast_1d(axes), names):
-        data = ds[name]
+        values, ylabel = _shown(ds, name)
+        data = ds[name].copy(data=values)
         stacked = data.stack(curve=curve_dims) if curve_dims else data.expand_dims(curve=[0])
         jump = ds["jump"].stack(curve=curve_dims) if curve_dims else ds["jump"].expand_dims(
             curve=[0])
@@ -87,37 +117,62 @@ def _continuation_panels(ds, path, names):
                 curve_label = ""
                 if curve_dims:
                     value = stacked["curve"].values[c]
-                    curve_label = f", {curve_dims[0]} = {value if np.isscalar(value) else value[0]:g}"
+                    curve_label = _curve_label(ds, curve_dims[0],
+                                               value if np.isscalar(value) else value[0])
                 line, = ax.plot(x, y, label=f"{direction}{curve_label}", **styles[d % 2])
                 flags = jump.isel(direction=d, curve=c).transpose(key).values.astype(bool)
                 if flags.any():
                     ax.plot(x[flags], y[flags], ls="none", marker="s", mfc="none", ms=9,
                             color=line.get_color())
-        ax.set_ylabel(_label(ds, name), fontsize=8)
+        ax.set_ylabel(ylabel, fontsize=8)
         ax.grid(alpha=0.3)
+        ax.tick_params(labelsize=7)
+        if name == "amplitude" and "free_amplitude" in ds.attrs:
+            _setpoint_axis(ax, ds)
     axes = np.atleast_1d(axes)
-    axes[-1].set_xlabel(key)
+    axes[-1].set_xlabel(xlabel)
     axes[0].legend(fontsize=7, loc="best")
-    axes[0].set_title(f"{ds.attrs.get('tmafm_kind', '')}: {ds.attrs.get('base', '')} "
-                      f"(squares: jumps)", fontsize=9)
+    title = f"{ds.attrs.get('tmafm_kind', '')}: {_title_base(ds)}"
+    if "free_amplitude" in ds.attrs:
+        title += f", A0 = {float(ds.attrs['free_amplitude']):.3g} nm"
+    axes[0].set_title(f"{title} (squares: jumps)", fontsize=9)
     fig.tight_layout()
     return _save(fig, path)
 
 
+def _curve_label(ds, dim: str, value) -> str:
+    """', Z = 15 nm' for a curve of a physical key (its unit as _SHOWN shows it), ', key = value'
+    for a dimensionless one."""
+    unit = ds[dim].attrs.get("units", "")
+    factor, shown = _SHOWN.get(unit, (1.0, unit))
+    text = f"{float(value) * factor:g}" + (f" {shown}" if shown and shown != "1" else "")
+    return f", {_NAMES.get(dim, dim)} = {text}"
+
+
+def _setpoint_axis(ax, ds) -> None:
+    """A right-hand axis on the amplitude panel in A/A0 (the setpoint)."""
+    a0 = float(ds.attrs["free_amplitude"])
+    right = ax.secondary_yaxis("right", functions=(lambda a: a / a0, lambda s: s * a0))
+    right.set_ylabel("A/A0", fontsize=8)
+    right.tick_params(labelsize=7)
+
+
 def plot_approach(ds, path):
-    """Amplitude, phase, peak force and indentation (-min_gap when < 0) against delta_hat, both
+    """Amplitude (and A/A0 when the scene has a free amplitude A0), phase, peak force,
+    indentation (-min_gap when < 0) and the power dissipated in the tip-sample contact against
+    Z (or delta_hat), both
     branches, jumps marked by squares (the panels of the observables the sweep computed)."""
     _check(ds, "plot_approach")
     ds = ds.copy()
     if "min_gap" in ds:
         ds["indentation"] = (-ds["min_gap"]).clip(min=0)
-        ds["indentation"].attrs["units"] = ds["min_gap"].attrs.get("units", "")
-    return _continuation_panels(ds, path, [name for name in ("amplitude", "phase", "peak_force",
-                                                             "indentation") if name in ds])
+        ds["indentation"].attrs = dict(ds["min_gap"].attrs, long_name="indentation")
+    return _continuation_panels(ds, path, [name for name in (
+        "amplitude", "phase", "peak_force", "indentation", "tip_sample_power") if name in ds])
 
 
 def plot_frequency(ds, path):
-    """Amplitude and phase against omega, up and down sweeps, jumps marked."""
+    """Amplitude and phase against the drive frequency, up and down sweeps, jumps marked."""
     _check(ds, "plot_frequency")
     return _continuation_panels(ds, path, ["amplitude", "phase"])
 
@@ -132,14 +187,18 @@ def plot_bifurcation(ds, path, variable="vt"):
     plt = _pyplot()
     key = ds.attrs["swept_key"]
     fig, axes = plt.subplots(2, 1, figsize=(6.4, 5.2), sharex=True)
+    xs, xlabel = _shown(ds, key)
     for ax, name in zip(axes, [variable, "a1"]):
-        y = ds[name].values
-        x = np.broadcast_to(ds[key].values[:, None], y.shape)
+        y, ylabel = _shown(ds, name)
+        x = np.broadcast_to(xs[:, None], y.shape)
         ax.plot(x.ravel(), y.ravel(), "k.", ms=1.5, ls="none")
-        ax.set_ylabel(ds[name].attrs.get("long_name", name), fontsize=8)
+        unit = ds[name].attrs.get("units", "")
+        ax.set_ylabel(f"{name} at the section" + (f" [{unit}]" if unit and unit != "1" else ""),
+                      fontsize=8)
         ax.grid(alpha=0.3)
-    axes[-1].set_xlabel(key)
-    axes[0].set_title(f"bifurcation diagram: {ds.attrs.get('base', '')}", fontsize=9)
+        _tidy_ticks(ax)
+    axes[-1].set_xlabel(xlabel)
+    axes[0].set_title(f"bifurcation diagram: {_title_base(ds)}", fontsize=9)
     fig.tight_layout()
     return _save(fig, path)
 
@@ -161,14 +220,23 @@ def plot_basin(ds, path):
     bar = fig.colorbar(image, ax=axes[0], ticks=range(n))
     bar.ax.set_yticklabels(["none"] + [str(k) for k in range(n - 1)])
     axes[0].set_title(f"attractor ({ds.attrs.get('attractors', '?')} found)", fontsize=9)
-    image = axes[1].imshow(ds["period"].values, origin="lower", extent=extent, aspect="auto",
-                           interpolation="nearest", cmap="viridis")
-    fig.colorbar(image, ax=axes[1])
+    # The period is an integer: one colour per value found (a discrete bar), 0 (none) grey.
+    periods = ds["period"].values
+    found = [int(k) for k in np.unique(periods)]
+    index = np.searchsorted(found, periods)
+    colours = [("#bbbbbb" if k == 0 else plt.get_cmap("tab10")(j % 10))
+               for j, k in enumerate(found)]
+    image = axes[1].imshow(index, origin="lower", extent=extent, aspect="auto",
+                           interpolation="nearest", cmap=ListedColormap(colours),
+                           vmin=-0.5, vmax=len(found) - 0.5)
+    bar = fig.colorbar(image, ax=axes[1], ticks=range(len(found)))
+    bar.ax.set_yticklabels([str(k) if k else "none" for k in found])
     axes[1].set_title("period by the steady-state test (0: none found)", fontsize=9)
     for ax in axes:
         ax.set_xlabel("a1'(0)")
         ax.set_ylabel("a1(0)")
-    fig.suptitle(f"basin map: {ds.attrs.get('base', '')}", fontsize=10)
+        _tidy_ticks(ax)
+    fig.suptitle(f"basin map: {_title_base(ds)}", fontsize=10)
     fig.tight_layout()
     return _save(fig, path)
 
@@ -187,19 +255,40 @@ def plot_grid(ds, path, names=("amplitude", "phase", "peak_force", "min_gap")):
     dims = ds["period"].dims
     fig, axes = plt.subplots(len(names), 1, figsize=(6.4, 2.1 * len(names)), squeeze=False)
     for ax, name in zip(axes[:, 0], names):
-        data = ds[name]
+        values, label = _shown(ds, name)
         if len(dims) == 1:
-            ax.plot(ds[dims[0]].values, data.values, "o-", ms=3)
-            ax.set_xlabel(dims[0])
+            x, xlabel = _shown(ds, dims[0])
+            ax.plot(x, values, "o-", ms=3)
+            ax.set_xlabel(xlabel, fontsize=8)
         else:
-            image = ax.pcolormesh(ds[dims[1]].values, ds[dims[0]].values,
-                                  data.transpose(dims[0], dims[1], ...).values, shading="auto")
-            fig.colorbar(image, ax=ax)
-            ax.set_xlabel(dims[1])
-            ax.set_ylabel(dims[0])
-        ax.set_title(_label(ds, name), fontsize=8)
+            x, xlabel = _shown(ds, dims[1])
+            y, ylabel = _shown(ds, dims[0])
+            grid = ds[name].transpose(dims[0], dims[1], ...)
+            image = ax.pcolormesh(x, y, _shown(ds.assign({name: grid}), name)[0],
+                                  shading="auto")
+            bar = fig.colorbar(image, ax=ax)
+            bar.ax.tick_params(labelsize=7)
+            bar.formatter.set_powerlimits((-3, 4))
+            bar.update_ticks()
+            ax.set_xlabel(xlabel, fontsize=8)
+            ax.set_ylabel(ylabel, fontsize=8)
+        _tidy_ticks(ax)
+        ax.set_title(label, fontsize=8)
     fig.tight_layout()
     return _save(fig, path)
+
+
+def _tidy_ticks(ax) -> None:
+    """At most 5 ticks per axis, small, in scientific notation when the values are small or
+    large: tick labels that do not run into each other."""
+    from matplotlib.ticker import MaxNLocator
+    ax.xaxis.set_major_locator(MaxNLocator(5))
+    ax.yaxis.set_major_locator(MaxNLocator(5))
+    ax.tick_params(labelsize=7)
+    for axis in (ax.xaxis, ax.yaxis):
+        formatter = axis.get_major_formatter()
+        if hasattr(formatter, "set_powerlimits"):
+            formatter.set_powerlimits((-3, 4))
 
 
 _BY_KIND = {"approach": plot_approach, "frequency_sweep": plot_frequency,

@@ -134,6 +134,26 @@ def _base_dict(base) -> dict:
     return groups
 
 
+#: The &physical keys each &physical key given instead replaces (the core refuses both): a
+#: swept key takes the place of these in the base (docs/model.md, the physical routes).
+REPLACES = {"tip_sample_distance": ("gap", "static_offset"),
+            "gap": ("tip_sample_distance",), "static_offset": ("tip_sample_distance",),
+            "drive_frequency": ("drive_angular_frequency",),
+            "drive_angular_frequency": ("drive_frequency",),
+            "free_amplitude": ("drive_amplitude",), "drive_amplitude": ("free_amplitude",)}
+
+
+def _for_keys(base: dict, keys) -> dict:
+    """The base's groups with the &physical keys that the swept ``keys`` replace taken out
+    (sweeping physical.tip_sample_distance of a base given by gap and static_offset, say)."""
+    physical = base.get("physical")
+    drop = {old for key in keys if key.startswith("physical.")
+            for old in REPLACES.get(key.split(".", 1)[1], ())}
+    if not physical or not drop & set(physical):
+        return base
+    return dict(base, physical={k: v for k, v in physical.items() if k not in drop})
+
+
 def _merged(base: dict, overrides: Mapping) -> dict:
     groups = {g: dict(v) for g, v in base.items()}
     for group, values in overrides.items():
@@ -256,8 +276,31 @@ def _base_config(base) -> Config:
     return base if isinstance(base, Config) else observed_config(base)
 
 
+#: The swept key of a physical base that stands for each &scene key a dimensionless base sweeps.
+_PHYSICAL_FOR = {"delta_hat": "physical.tip_sample_distance (tmafm.approach(base, z=...))",
+                 "omega": "physical.drive_frequency (tmafm.frequency_sweep(base, frequency=...))",
+                 "alpha2": "physical.free_amplitude or physical.drive_amplitude"}
+
+
+def _check_groups(base: dict, points: list[dict]) -> None:
+    """InputError naming the key when a point sets a &scene key on a &physical base (or a
+    &physical key on a dimensionless one): the core takes one of the two groups, and the sweep
+    must not add the other."""
+    keys = dict.fromkeys(k for point in points[:1] for k in point)
+    for key in keys:
+        group, name = _split_key(key)
+        if group == "scene" and "physical" in base:
+            instead = _PHYSICAL_FOR.get(name, "the &physical key it derives from")
+            raise InputError(f"sweep key {shown(key)}: the base is given in &physical (SI "
+                             f"units), so &scene cannot be set; sweep {instead}")
+        if group == "physical" and "physical" not in base:
+            raise InputError(f"sweep key {shown(key)}: the base is dimensionless (&scene), so "
+                             f"&physical cannot be set; sweep its &scene key instead")
+
+
 def _validate(base: dict, points: list[dict]) -> list[Config]:
     """Every point's Config, built up front: the first bad one raises, before any run."""
+    _check_groups(base, points)
     return [_config(base, point) for point in points]
 
 

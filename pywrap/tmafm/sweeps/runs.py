@@ -10,7 +10,8 @@ import numpy as np
 
 from .._run import Config
 from ..errors import SolverError, UnsteadyWarning
-from ..observe import computed_names, observable_groups, observe_batch, observe_states
+from ..observe import (_core_scales, computed_names, observable_groups, observe_batch,
+                       observe_states)
 from .points import _config
 
 
@@ -41,7 +42,16 @@ def _summary(obs, keep: int = 0) -> dict:
     if getattr(obs, "physical", None) is not None:
         physical = obs.steady_values(physical=True)
         out["physical"] = {name: float(physical[name]) for name in names if name in physical}
+        for name in ("harmonic_amplitude", "harmonic_phase"):
+            if name in physical:
+                out["physical"][name] = np.asarray(physical[name], dtype=float).copy()
+        out["drive_period_s"] = _drive_period(obs.config)
     return out
+
+
+def _drive_period(config: Config) -> float:
+    """The drive period of a &physical Config in s: 2 pi/Omega times the core's time scale."""
+    return 2 * np.pi / float(config.scene["omega"]) * _core_scales(config)["time"]
 
 
 def _run_chunk(base: dict, points: Sequence[Mapping], threads, keywords: Mapping,

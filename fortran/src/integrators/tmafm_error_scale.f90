@@ -80,7 +80,7 @@ contains
       self%omega = model%beta**2
       self%tip = model%tip
       self%amplitude = 0
-      self%tip_amplitude = abs(model%scene%alpha2)
+      self%tip_amplitude = model%drive%size
       call self%update(y0)
       ! Whether or not y0 moved an amplitude.
       call refresh_weights(self)

@@ -27,6 +27,7 @@ module tmafm_model
       contact_forces
    use tmafm_scene, only: scene_t
    use tmafm_errata, only: errata_t
+   use tmafm_drive, only: drive_t, init_drive
    implicit none
    private
 
@@ -46,6 +47,11 @@ module tmafm_model
       integer :: law = law_hertz
       !> The dimensionless scene.
       type(scene_t) :: scene
+      !> The drive's tones and their common frequency (tmafm_drive); the phase the fast forms
+      !> take is that of drive%fundamental.
+      type(drive_t) :: drive
+      !> The right-hand side goes to general_kernel: N > rows_per_block, or a general drive.
+      logical :: general_kernel = .false.
       !> Which printed forms are corrected.
       type(errata_t) :: errata
       !> Scale of the normal force in the brackets (alpha5, or alpha5/2 under E4).
@@ -123,6 +129,8 @@ module tmafm_model
       procedure :: derivative_and_gap => model_derivative_and_gap
       !> sin(Omega tau) and cos(Omega tau), the drive phase the fast forms take.
       procedure :: phase => model_phase
+      !> The drive's Y, dY/dtau and d2Y/dtau2 from the drive phase (one tone: alpha2 sin(Omega tau)).
+      procedure :: drive_signals => model_drive_signals
       !> The tip gap V_T = p.a + alpha2 sin(Omega tau) + delta_hat.
       procedure :: tip_gap => model_tip_gap
       !> The tip gap rate dV_T/dtau = p.a' + alpha2 Omega cos(Omega tau).
@@ -170,6 +178,9 @@ contains
       model%law = law
       model%scene = scene
       model%errata = errata
+      call init_drive(scene, model%drive, ierr, errmsg)
+      if (ierr /= ok) return
+      model%general_kernel = n > rows_per_block .or. model%drive%general
 
       model%beta = beam_roots(n)
       model%eigen = model%beta**4
@@ -281,6 +292,19 @@ contains
       end associate
       model%pass_terms(1:n, 1) = model%drive_sin
       model%pass_terms(1:n, 2) = model%drive_cos
+      if (model%drive%general) then
+         ! A general drive: the kernel's two drive columns take -d2Y/dtau2 and dY/dtau, and the
+         ! contact damper's base term is -alpha4 Y (printed) or -alpha4 dY/dtau (E1).
+         model%pass_terms(1:n, 1) = model%inv_mass_inertial
+         model%pass_terms(1:n, 2) = -scene%alpha3*model%inv_mass_integral
+         model%base_sin = 0
+         model%base_cos = 0
+         if (model%has_contact_damping .and. errata%e1_base_damping_velocity) then
+            model%base_cos = -scene%alpha4
+         else if (model%has_contact_damping) then
+            model%base_sin = -scene%alpha4
+         end if
+      end if
       model%pass_terms(1:n, 3) = model%inv_mass_tip
       model%pass_terms(1:n, 4) = model%moment_force
       if (n <= rows_per_block) then
@@ -300,17 +324,33 @@ contains
       real(dp), intent(out) :: sin_phase
       real(dp), intent(out) :: cos_phase
       real(dp) :: phase
-      phase = self%scene%omega*tau
+      phase = self%drive%fundamental*tau
       sin_phase = sin(phase)
       cos_phase = cos(phase)
    end subroutine model_phase
+
+   pure subroutine model_drive_signals(self, sin_phase, cos_phase, y, ydot, yddot)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      real(dp), intent(out) :: y
+      real(dp), intent(out) :: ydot
+      real(dp), intent(out) :: yddot
+      if (self%drive%general) then
+         call self%drive%base(sin_phase, cos_phase, y, ydot, yddot)
+      else
+         y = self%scene%alpha2*sin_phase
+         ydot = self%drive_rate*cos_phase
+         yddot = -(self%scene%omega**2*y)
+      end if
+   end subroutine model_drive_signals
 
    pure function model_tip_gap(self, tau, y) result(vt)
       class(model_t), intent(in) :: self
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: y(:)
       real(dp) :: vt, vtdot
-      call self%gap_at_phase(y, sin(self%scene%omega*tau), cos(self%scene%omega*tau), vt, vtdot)
+      call self%gap_at_phase(y, sin(self%drive%fundamental*tau), cos(self%drive%fundamental*tau), vt, vtdot)
    end function model_tip_gap
 
    pure function model_tip_gap_rate(self, tau, y) result(vtdot)
@@ -318,7 +358,7 @@ contains
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: y(:)
       real(dp) :: vtdot, vt
-      call self%gap_at_phase(y, sin(self%scene%omega*tau), cos(self%scene%omega*tau), vt, vtdot)
+      call self%gap_at_phase(y, sin(self%drive%fundamental*tau), cos(self%drive%fundamental*tau), vt, vtdot)
    end function model_tip_gap_rate
 
    pure subroutine model_gap_at_phase(self, y, sin_phase, cos_phase, vt, vtdot)
@@ -336,6 +376,15 @@ contains
          vt = vt + self%tip(j)*y(j)
          vtdot = vtdot + self%tip(j)*y(n + j)
       end do
+      if (self%drive%general) then
+         block
+            real(dp) :: base, base_rate, base_accel
+            call self%drive%base(sin_phase, cos_phase, base, base_rate, base_accel)
+            vt = vt + base + self%scene%delta_hat
+            vtdot = vtdot + base_rate
+         end block
+         return
+      end if
       vt = vt + self%scene%alpha2*sin_phase + self%scene%delta_hat
       vtdot = vtdot + self%scene%alpha2*self%scene%omega*cos_phase
    end subroutine model_gap_at_phase
@@ -358,9 +407,24 @@ contains
       real(dp), intent(inout) :: vt(rows)
       real(dp), intent(inout) :: vtdot(rows)
       integer, parameter :: gap_rows_vector = 8
-      real(dp) :: p, alpha2, delta_hat, drive_rate, x, xdot
+      real(dp) :: p, alpha2, delta_hat, drive_rate, x, xdot, base, base_rate, base_accel
       integer :: i, j, last
       last = first + count - 1
+      if (self%drive%general) then
+         ! A general drive: gap_at_phase's sums, a row at a time.
+         do i = first, last
+            x = 0
+            xdot = 0
+            do j = 1, self%n_modes
+               x = x + self%tip(j)*a(i, j)
+               xdot = xdot + self%tip(j)*adot(i, j)
+            end do
+            call self%drive%base(sin_phase(i - first + 1), cos_phase(i - first + 1), base, base_rate, base_accel)
+            vt(i) = x + base + self%scene%delta_hat
+            vtdot(i) = xdot + base_rate
+         end do
+         return
+      end if
       alpha2 = self%scene%alpha2
       delta_hat = self%scene%delta_hat
       drive_rate = self%scene%alpha2*self%scene%omega
@@ -400,9 +464,15 @@ contains
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: a(:)
       type(contact_brackets_t) :: state
-      real(dp) :: vt, scaled_slope
-      vt = dot_product(self%tip, a) + self%scene%alpha2*sin(self%scene%omega*tau) &
-           + self%scene%delta_hat
+      real(dp) :: vt, scaled_slope, base, base_rate, base_accel
+      if (self%drive%general) then
+         call self%drive%base(sin(self%drive%fundamental*tau), cos(self%drive%fundamental*tau), base, base_rate, &
+                              base_accel)
+         vt = dot_product(self%tip, a) + base + self%scene%delta_hat
+      else
+         vt = dot_product(self%tip, a) + self%scene%alpha2*sin(self%scene%omega*tau) &
+              + self%scene%delta_hat
+      end if
       scaled_slope = dot_product(self%slope, a)/self%scene%l_over_d
       state = contact_brackets(vt, scaled_slope, self%scene%theta, self%scene%beta, self%law, &
                                self%kappa5, self%kappa6, self%errata%e7_signed_slope)
@@ -413,6 +483,17 @@ contains
       class(model_t), intent(in) :: self
       real(dp), intent(in) :: tau
       real(dp) :: value
+      real(dp) :: base, base_rate, base_accel
+      if (self%drive%general) then
+         call self%drive%base(sin(self%drive%fundamental*tau), cos(self%drive%fundamental*tau), base, base_rate, &
+                              base_accel)
+         if (self%errata%e1_base_damping_velocity) then
+            value = -self%scene%alpha4*base_rate
+         else
+            value = -self%scene%alpha4*base
+         end if
+         return
+      end if
       associate (s => self%scene)
          if (self%errata%e1_base_damping_velocity) then
             value = -s%alpha2*s%alpha4*s%omega*cos(s%omega*tau)
@@ -421,6 +502,38 @@ contains
          end if
       end associate
    end function base_damping
+
+   !> F's drive part at tau (Eq. 15, free): -Y'' (alpha1 m + q) - alpha3 Y' q, the base's inertia and
+   !> the beam damper on the base velocity; one tone: alpha2 Omega^2 (alpha1 m + q) sin(Omega tau)
+   !> - alpha2 alpha3 Omega q cos(Omega tau).
+   pure function drive_force(self, tau) result(force)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp) :: force(self%n_modes)
+      integer :: k
+      do k = 1, self%n_modes
+         force(k) = drive_force_of(self, tau, k)
+      end do
+   end function drive_force
+
+   !> Component k of drive_force.
+   pure real(dp) function drive_force_of(self, tau, k) result(force)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      integer, intent(in) :: k
+      real(dp) :: base, base_rate, base_accel
+      associate (s => self%scene)
+         if (self%drive%general) then
+            call self%drive%base(sin(self%drive%fundamental*tau), cos(self%drive%fundamental*tau), base, &
+                                 base_rate, base_accel)
+            force = -base_accel*(s%alpha1*self%mass_point(k) + self%integral(k)) &
+                    - s%alpha3*base_rate*self%integral(k)
+         else
+            force = s%alpha2*s%omega**2*(s%alpha1*self%mass_point(k) + self%integral(k))*sin(s%omega*tau) &
+                    - s%alpha2*s%alpha3*s%omega*self%integral(k)*cos(s%omega*tau)
+         end if
+      end associate
+   end function drive_force_of
 
    pure subroutine model_derivative(self, tau, y, in_contact, dydt)
       class(model_t), intent(in) :: self
@@ -481,7 +594,7 @@ contains
       integer :: i, j, n
 
       n = self%n_modes
-      if (n > r) then
+      if (self%general_kernel) then
          call general_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
          return
       end if
@@ -567,10 +680,24 @@ contains
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: vtdot
       real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, radius, normal, friction
-      real(dp) :: tip_push
+      real(dp) :: tip_push, base, base_rate, drive_s, drive_c, base_s, base_c, base_accel
       integer :: n, j
 
       n = self%n_modes
+      ! The drive's share: (drive_s, drive_c) weigh the two drive columns, (base_s, base_c) the
+      ! contact damper's base term; one tone: sin and cos of Omega tau (as before tones).
+      if (self%drive%general) then
+         call self%drive%base(sin_phase, cos_phase, base, base_rate, base_accel)
+         drive_s = -base_accel
+         drive_c = base_rate
+         base_s = base
+         base_c = base_rate
+      else
+         drive_s = sin_phase
+         drive_c = cos_phase
+         base_s = sin_phase
+         base_c = cos_phase
+      end if
       associate (s => self%scene)
          vt = 0
          vtdot = 0
@@ -585,8 +712,13 @@ contains
                slope_a = slope_a + self%scaled_slope(j)*y(j)
                tip_adot = tip_adot + self%tip(j)*y(n + j)
             end do
-            vt = tip_a + s%alpha2*sin_phase + s%delta_hat
-            vtdot = tip_adot + s%alpha2*s%omega*cos_phase
+            if (self%drive%general) then
+               vt = tip_a + base + s%delta_hat
+               vtdot = tip_adot + base_rate
+            else
+               vt = tip_a + s%alpha2*sin_phase + s%delta_hat
+               vtdot = tip_adot + s%alpha2*s%omega*cos_phase
+            end if
          end if
          if (in_contact) then
             call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a, &
@@ -594,11 +726,11 @@ contains
             call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
                                 transverse, axial, radius, normal, friction)
             ! Everything that acts along p: P1, the contact damping and its base term.
-            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*sin_phase &
-                       + self%base_cos*cos_phase
+            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*base_s &
+                       + self%base_cos*base_c
          end if
          call accumulate(n, self%n_padded, self%pass_terms, self%pass_a, self%pass_v, self%pass_g, y, &
-                         in_contact, sin_phase, cos_phase, tip_push, axial, dydt)
+                         in_contact, drive_s, drive_c, tip_push, axial, dydt)
       end associate
    end subroutine general_kernel
 
@@ -695,8 +827,12 @@ contains
          stiffness(j, j) = self%eigen(j)
       end do
       associate (s => self%scene)
-         force = s%alpha2*s%omega**2*(s%alpha1*self%mass_point + self%integral)*sin(s%omega*tau) &
-                 - s%alpha2*s%alpha3*s%omega*self%integral*cos(s%omega*tau)
+         if (self%drive%general) then
+            force = drive_force(self, tau)
+         else
+            force = s%alpha2*s%omega**2*(s%alpha1*self%mass_point + self%integral)*sin(s%omega*tau) &
+                    - s%alpha2*s%alpha3*s%omega*self%integral*cos(s%omega*tau)
+         end if
          if (in_contact) then
             state = self%contact(tau, a)
             damping = damping + s%alpha4*spread(self%tip, 2, n)*spread(self%tip, 1, n)
@@ -731,9 +867,15 @@ contains
          end do
          energy = 0.5_dp*energy + 0.5_dp*sum(self%eigen*a*a)
          power = 0
-         power(power_drive) = dot_product(adot, &
-            s%alpha2*s%omega**2*(s%alpha1*self%mass_point + self%integral)*sin(s%omega*tau) &
-            - s%alpha2*s%alpha3*s%omega*self%integral*cos(s%omega*tau))
+         if (self%drive%general) then
+            do k = 1, self%n_modes
+               power(power_drive) = power(power_drive) + adot(k)*drive_force_of(self, tau, k)
+            end do
+         else
+            power(power_drive) = dot_product(adot, &
+               s%alpha2*s%omega**2*(s%alpha1*self%mass_point + self%integral)*sin(s%omega*tau) &
+               - s%alpha2*s%alpha3*s%omega*self%integral*cos(s%omega*tau))
+         end if
          power(power_beam_damping) = -s%alpha3*dot_product(adot, adot)
          if (.not. in_contact) return
          tip_rate = dot_product(self%tip, adot)

@@ -43,6 +43,13 @@ module tmafm_scene
       real(dp) :: delta_hat = 0.0_dp
       !> xi0 = x0/L: tip position along the beam.
       real(dp) :: xi0 = 1.0_dp
+      !> alpha2_2 = f_2/d: the second drive tone's amplitude over gap (0: one tone; tmafm_drive).
+      real(dp) :: alpha2_2 = 0.0_dp
+      !> Omega_2: the second tone's frequency, commensurate with Omega (tmafm_drive).
+      real(dp) :: omega_2 = 0.0_dp
+      !> phi_1, phi_2: the tones' phases (rad): Y = alpha2 sin(Omega tau + phi_1) + ...
+      real(dp) :: drive_phase = 0.0_dp
+      real(dp) :: drive_phase_2 = 0.0_dp
    end type scene_t
 
    !> Physical inputs in SI units; converted to a scene_t by Eq. (12).
@@ -87,39 +94,49 @@ module tmafm_scene
       real(dp) :: drive_amplitude = 2.5e-9_dp
       !> Base drive angular frequency omega (rad/s).
       real(dp) :: drive_angular_frequency = 143751.31743848347_dp
+      !> The second drive tone's amplitude f_2 (m; 0: one tone) and angular frequency omega_2
+      !> (rad/s), and the tones' phases (rad).
+      real(dp) :: drive_amplitude_2 = 0.0_dp
+      real(dp) :: drive_angular_frequency_2 = 0.0_dp
+      real(dp) :: drive_phase = 0.0_dp
+      real(dp) :: drive_phase_2 = 0.0_dp
    end type physical_t
 
    !> The &scene keys, in the order of scene_values (their ranges: config/tmafm_keys.f90).
-   character(len=*), parameter :: scene_names(13) = [character(len=9) :: 'alpha1', 'alpha2', &
+   character(len=*), parameter :: scene_names(17) = [character(len=13) :: 'alpha1', 'alpha2', &
       'alpha3', 'alpha4', 'alpha5', 'alpha6', 'beta', 'omega', 'theta', 'l_over_d', 'g0_over_d', &
-      'delta_hat', 'xi0']
+      'delta_hat', 'xi0', 'alpha2_2', 'omega_2', 'drive_phase', 'drive_phase_2']
    !> The &physical keys, in the order of physical_values.
-   character(len=*), parameter :: physical_names(20) = [character(len=23) :: 'length', 'width', &
+   character(len=*), parameter :: physical_names(24) = [character(len=25) :: 'length', 'width', &
       'thickness', 'density', 'youngs_modulus_tip', 'poisson_ratio_tip', 'youngs_modulus_sample', &
       'poisson_ratio_sample', 'tip_radius', 'adhesion_energy', 'tilt', 'gap', 'tip_length', &
       'static_offset', 'tip_position', 'tip_mass', 'beam_damping', 'contact_damping', &
-      'drive_amplitude', 'drive_angular_frequency']
+      'drive_amplitude', 'drive_angular_frequency', 'drive_amplitude_2', 'drive_angular_frequency_2', &
+      'drive_phase', 'drive_phase_2']
 
 contains
 
    !> The groups of a scene as an array, in the order of scene_names.
    pure function scene_values(scene) result(values)
       type(scene_t), intent(in) :: scene
-      real(dp) :: values(13)
+      real(dp) :: values(17)
       values = [scene%alpha1, scene%alpha2, scene%alpha3, scene%alpha4, scene%alpha5, &
                 scene%alpha6, scene%beta, scene%omega, scene%theta, scene%l_over_d, &
-                scene%g0_over_d, scene%delta_hat, scene%xi0]
+                scene%g0_over_d, scene%delta_hat, scene%xi0, scene%alpha2_2, scene%omega_2, &
+                scene%drive_phase, scene%drive_phase_2]
    end function scene_values
 
    !> The physical inputs as an array, in the order of physical_names.
    pure function physical_values(phys) result(values)
       type(physical_t), intent(in) :: phys
-      real(dp) :: values(20)
+      real(dp) :: values(24)
       values = [phys%length, phys%width, phys%thickness, phys%density, phys%youngs_modulus_tip, &
                 phys%poisson_ratio_tip, phys%youngs_modulus_sample, phys%poisson_ratio_sample, &
                 phys%tip_radius, phys%adhesion_energy, phys%tilt, phys%gap, phys%tip_length, &
                 phys%static_offset, phys%tip_position, phys%tip_mass, phys%beam_damping, &
-                phys%contact_damping, phys%drive_amplitude, phys%drive_angular_frequency]
+                phys%contact_damping, phys%drive_amplitude, phys%drive_angular_frequency, &
+                phys%drive_amplitude_2, phys%drive_angular_frequency_2, phys%drive_phase, &
+                phys%drive_phase_2]
    end function physical_values
 
    !> Which &physical keys (indices into physical_names) scene group k depends on by Eq. (12).
@@ -127,7 +144,8 @@ contains
       integer, intent(in) :: k
       integer, allocatable :: keys(:)
       ! 1 length, 2 width, 3 thickness, 4 density, 5 E1, 6 nu1, 7 E2, 8 nu2, 9 R, 10 gamma,
-      ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega.
+      ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega, 21 f_2,
+      ! 22 omega_2, 23 phi_1, 24 phi_2.
       select case (k)
       case (1)
          keys = [16, 4, 2, 3, 1]
@@ -153,8 +171,16 @@ contains
          keys = [13, 12]
       case (12)
          keys = [14, 12, 11]
-      case default
+      case (13)
          keys = [15, 1]
+      case (14)
+         keys = [21, 12]
+      case (15)
+         keys = [22, 4, 2, 3, 1, 5]
+      case (16)
+         keys = [23]
+      case default
+         keys = [24]
       end select
    end function scene_depends_on
 
@@ -193,6 +219,10 @@ contains
       scene%g0_over_d = phys%tip_length/d
       scene%delta_hat = phys%static_offset/(d*cos(phys%tilt))
       scene%xi0 = phys%tip_position/phys%length
+      scene%alpha2_2 = phys%drive_amplitude_2/d
+      scene%omega_2 = phys%drive_angular_frequency_2*time_unit
+      scene%drive_phase = phys%drive_phase
+      scene%drive_phase_2 = phys%drive_phase_2
    end function scene_from_physical
 
 end module tmafm_scene

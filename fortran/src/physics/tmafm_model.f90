@@ -47,11 +47,6 @@ module tmafm_model
       integer :: law = law_hertz
       !> The dimensionless scene.
       type(scene_t) :: scene
-      !> The drive's tones and their common frequency (tmafm_drive); the phase the fast forms
-      !> take is that of drive%fundamental.
-      type(drive_t) :: drive
-      !> The right-hand side goes to general_kernel: N > rows_per_block, or a general drive.
-      logical :: general_kernel = .false.
       !> Which printed forms are corrected.
       type(errata_t) :: errata
       !> Scale of the normal force in the brackets (alpha5, or alpha5/2 under E4).
@@ -120,6 +115,11 @@ module tmafm_model
       real(dp) :: sin_theta = 0, cos_theta = 1
       !> The base contact-damping term is base_sin sin(Omega tau) + base_cos cos(Omega tau).
       real(dp) :: base_sin = 0, base_cos = 0
+      !> The drive's tones and their common frequency (tmafm_drive); the phase the fast forms
+      !> take is that of drive%fundamental.
+      type(drive_t) :: drive
+      !> The right-hand side goes to drive_kernel (a general drive) instead of rhs_kernel.
+      logical :: general_kernel = .false.
    contains
       !> Time derivative (a', a'') of the state y = (a, a') in a given phase.
       procedure :: derivative => model_derivative
@@ -180,7 +180,7 @@ contains
       model%errata = errata
       call init_drive(scene, model%drive, ierr, errmsg)
       if (ierr /= ok) return
-      model%general_kernel = n > rows_per_block .or. model%drive%general
+      model%general_kernel = model%drive%general
 
       model%beta = beam_roots(n)
       model%eigen = model%beta**4
@@ -543,7 +543,11 @@ contains
       real(dp), intent(out), contiguous :: dydt(:)
       real(dp) :: sin_phase, cos_phase, vt, vtdot
       call model_phase(self, tau, sin_phase, cos_phase)
-      call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+      if (self%general_kernel) then
+         call drive_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+      else
+         call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+      end if
    end subroutine model_derivative
 
    pure subroutine model_derivative_at_phase(self, y, in_contact, sin_phase, cos_phase, dydt)
@@ -554,7 +558,11 @@ contains
       real(dp), intent(in) :: cos_phase
       real(dp), intent(out), contiguous :: dydt(:)
       real(dp) :: vt, vtdot
-      call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+      if (self%general_kernel) then
+         call drive_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+      else
+         call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+      end if
    end subroutine model_derivative_at_phase
 
    pure subroutine model_derivative_and_gap(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
@@ -566,7 +574,11 @@ contains
       real(dp), intent(out), contiguous :: dydt(:)
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: vtdot
-      call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
+      if (self%general_kernel) then
+         call drive_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
+      else
+         call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
+      end if
    end subroutine model_derivative_and_gap
 
    !> The one right-hand side: (a', a'') from y = (a, a') and the drive phase, and V_T and
@@ -594,7 +606,7 @@ contains
       integer :: i, j, n
 
       n = self%n_modes
-      if (self%general_kernel) then
+      if (n > r) then
          call general_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
          return
       end if
@@ -680,24 +692,10 @@ contains
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: vtdot
       real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, radius, normal, friction
-      real(dp) :: tip_push, base, base_rate, drive_s, drive_c, base_s, base_c, base_accel
+      real(dp) :: tip_push
       integer :: n, j
 
       n = self%n_modes
-      ! The drive's share: (drive_s, drive_c) weigh the two drive columns, (base_s, base_c) the
-      ! contact damper's base term; one tone: sin and cos of Omega tau (as before tones).
-      if (self%drive%general) then
-         call self%drive%base(sin_phase, cos_phase, base, base_rate, base_accel)
-         drive_s = -base_accel
-         drive_c = base_rate
-         base_s = base
-         base_c = base_rate
-      else
-         drive_s = sin_phase
-         drive_c = cos_phase
-         base_s = sin_phase
-         base_c = cos_phase
-      end if
       associate (s => self%scene)
          vt = 0
          vtdot = 0
@@ -712,13 +710,8 @@ contains
                slope_a = slope_a + self%scaled_slope(j)*y(j)
                tip_adot = tip_adot + self%tip(j)*y(n + j)
             end do
-            if (self%drive%general) then
-               vt = tip_a + base + s%delta_hat
-               vtdot = tip_adot + base_rate
-            else
-               vt = tip_a + s%alpha2*sin_phase + s%delta_hat
-               vtdot = tip_adot + s%alpha2*s%omega*cos_phase
-            end if
+            vt = tip_a + s%alpha2*sin_phase + s%delta_hat
+            vtdot = tip_adot + s%alpha2*s%omega*cos_phase
          end if
          if (in_contact) then
             call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a, &
@@ -726,13 +719,78 @@ contains
             call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
                                 transverse, axial, radius, normal, friction)
             ! Everything that acts along p: P1, the contact damping and its base term.
-            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*base_s &
-                       + self%base_cos*base_c
+            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*sin_phase &
+                       + self%base_cos*cos_phase
          end if
          call accumulate(n, self%n_padded, self%pass_terms, self%pass_a, self%pass_v, self%pass_g, y, &
-                         in_contact, drive_s, drive_c, tip_push, axial, dydt)
+                         in_contact, sin_phase, cos_phase, tip_push, axial, dydt)
       end associate
    end subroutine general_kernel
+
+   !> The right-hand side under a general drive (tmafm_drive), for any N: general_kernel with the
+   !> drive's Y, Y' and Y'' in place of the one tone's sin and cos (its two drive columns take -Y''
+   !> and Y', the contact damper's base term Y or Y').  The entry points call it instead of
+   !> rhs_kernel, so that the one-tone kernels stay as they were.
+   pure subroutine drive_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in) :: y(2*self%n_modes)
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      logical, intent(in) :: want_gap
+      real(dp), intent(out) :: dydt(2*self%n_modes)
+      real(dp), intent(out) :: vt
+      real(dp), intent(out) :: vtdot
+      real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, radius, normal, friction
+      real(dp) :: tip_push, base, base_rate, base_accel, acc, stiff
+      integer :: n, i, j
+
+      n = self%n_modes
+      call self%drive%base(sin_phase, cos_phase, base, base_rate, base_accel)
+      associate (s => self%scene)
+         vt = 0
+         vtdot = 0
+         axial = 0
+         tip_push = 0
+         if (in_contact .or. want_gap) then
+            tip_a = 0
+            slope_a = 0
+            tip_adot = 0
+            do j = 1, n
+               tip_a = tip_a + self%tip(j)*y(j)
+               slope_a = slope_a + self%scaled_slope(j)*y(j)
+               tip_adot = tip_adot + self%tip(j)*y(n + j)
+            end do
+            vt = tip_a + base + s%delta_hat
+            vtdot = tip_adot + base_rate
+         end if
+         if (in_contact) then
+            call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a, &
+                                       self%errata%e7_signed_slope, sin1, cos1)
+            call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
+                                transverse, axial, radius, normal, friction)
+            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*base + self%base_cos*base_rate
+         end if
+      end associate
+      ! a'' = -Y'' M^-1 (alpha1 m + q) - alpha3 Y' M^-1 q + B (a, a'), and in contact
+      ! tip_push M^-1 p + P2 ((g0/d) M^-1 r + M^-1 G a).  (Its own loops, not accumulate's: the
+      ! one-tone kernels keep theirs as the compiler laid them out.)
+      do i = 1, n
+         acc = self%pass_terms(i, 1)*(-base_accel) + self%pass_terms(i, 2)*base_rate
+         do j = 1, n
+            acc = acc + (self%pass_a(i, j)*y(j) + self%pass_v(i, j)*y(n + j))
+         end do
+         if (in_contact) then
+            stiff = self%pass_terms(i, 4)
+            do j = 1, n
+               stiff = stiff + self%pass_g(i, j)*y(j)
+            end do
+            acc = acc + tip_push*self%pass_terms(i, 3) + axial*stiff
+         end if
+         dydt(i) = y(n + i)
+         dydt(n + i) = acc
+      end do
+   end subroutine drive_kernel
 
    !> dydt = (a', a'') from the folded terms: the drive and the columns of B, which do not
    !> depend on the contact forces (so that they overlap with the contact's square roots),

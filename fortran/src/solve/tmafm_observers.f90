@@ -1,6 +1,7 @@
 !> Per-drive-period observables computed during a run from the integrator's accepted steps
 !> (their dense output) or the exact free flight, split at the period boundaries tau = k T,
-!> T = 2 pi/Omega (docs/observables.md defines each one, with units and signs).
+!> T = 2 pi/Omega (docs/observables.md defines each one, with units and signs); with two drive
+!> tones T is their common period (tmafm_drive), and each tone has its own lock-in columns.
 !>
 !> A free flight of flight_exact is exact: it is cut only at the period boundaries, and over
 !> each part the Fourier sums of V_T, the mean deflection and the drive and beam-damping powers
@@ -118,6 +119,9 @@ module tmafm_observers
       integer :: attractor = 0
       !> Drive frequency Omega and period T = 2 pi/Omega.
       real(dp) :: omega = 0, period_length = 0
+      !> The longest Gauss-Legendre piece: T/pieces_per_period, or for a general drive that
+      !> fraction of its fastest tone's period.
+      real(dp) :: piece_max = 0
       !> .true. once the run may stop (steady state found, or max_periods done).
       logical :: done = .false.
       !> Periods completed, and the steady period found (0 = none).
@@ -238,6 +242,8 @@ contains
       self%omega = model%drive%fundamental
       self%period_length = 2*pi/model%drive%fundamental
       self%general_drive = model%drive%general
+      self%piece_max = self%period_length/pieces_per_period
+      if (self%general_drive) self%piece_max = 2*pi/model%drive%top_frequency/pieces_per_period
       self%n_tones = model%drive%n_tones
       self%done = .false.
       self%n_periods = 0
@@ -523,7 +529,7 @@ contains
       do while (a < t_end .and. .not. self%done)
          boundary = (self%n_periods + 1)*self%period_length
          if (pieces) then
-            b = min(t_end, boundary, a + self%period_length/pieces_per_period)
+            b = min(t_end, boundary, a + self%piece_max)
             if (b > a) call piece(self, model, a, b, in_contact, origin, h, pair, cubic)
          else
             b = min(t_end, boundary)

@@ -119,7 +119,7 @@ module tmafm_keys
             meaning='static tip-sample offset, delta/(d cos theta)'), &
       key_t('scene', 'xi0', key_real, 0, 1, .false., unit='1', meaning='tip position along the beam, x0/L'), &
       key_t('scene', 'alpha2_2', key_real, 0, 1, unit='1', &
-            meaning='second drive tone: amplitude / gap, f_2/d (0: the one tone alpha2; docs/model.md §12)'), &
+            meaning='second drive tone: amplitude / gap, f_2/d (0: the one tone alpha2; docs/model.md section 12)'), &
       key_t('scene', 'omega_2', key_real, 0, 1.0e6_dp, unit='1', &
             rule='with alpha2_2 > 0: > 0 and omega_2/omega = p/q, q <= 64, p <= 4096 (to 1e-9)', &
             meaning='second drive tone: frequency Omega_2, in units of sqrt(E1 I/(m L^4))'), &
@@ -162,7 +162,7 @@ module tmafm_keys
       key_t('physical', 'drive_angular_frequency', key_real, 0, 1.0e12_dp, unit='rad/s', &
             meaning='base drive angular frequency omega'), &
       key_t('physical', 'drive_amplitude_2', key_real, 0, 1, unit='m', &
-            meaning='second drive tone: amplitude f_2 (0: the one tone; docs/model.md §12)'), &
+            meaning='second drive tone: amplitude f_2 (0: the one tone; docs/model.md section 12)'), &
       key_t('physical', 'drive_angular_frequency_2', key_real, 0, 1.0e12_dp, unit='rad/s', &
             rule='with drive_amplitude_2 > 0: > 0 and omega_2/omega = p/q, q <= 64, p <= 4096 (to 1e-9)', &
             meaning='second drive tone: angular frequency omega_2'), &

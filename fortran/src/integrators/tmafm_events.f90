@@ -45,9 +45,10 @@ contains
    end function initial_phase
 
    !> The round-off level of V_T at a state: 64 eps times the size of the terms of V_T.  The
-   !> drive counts with its amplitude alpha2 (the tones' sum of amplitudes), not its value at tau: the margin is then never
-   !> zero (at rest at tau = 0 every term vanishes, and a zero margin let a phase end where it
-   !> began, a zero-length step, again and again: the rk4_event dtau = 1 hang).
+   !> drive counts with its amplitude alpha2 (with two tones, the sum of theirs), not its value
+   !> at tau: the margin is then never zero (at rest at tau = 0 every term vanishes, and a zero
+   !> margin let a phase end where it began, a zero-length step, again and again: the
+   !> rk4_event dtau = 1 hang).
    pure function switch_margin(model, y) result(margin)
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: y(:)

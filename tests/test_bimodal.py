@@ -1,0 +1,191 @@
+"""The multifrequency (bimodal) drive: a base driven by two commensurate tones (tmafm_drive,
+docs/model.md §12).
+
+Oracles: the one-tone runs themselves (a second tone of zero amplitude must leave every output
+bit as it was); the linear response of the free beam, computed here with numpy from the model's
+M, C, K (the core's matrices) and the documented drive force of each tone, with q and m from
+the documented closed forms (q_i = 2 sigma_i/beta_i, phi_i(1) = 2 (-1)^(i+1)); dop853 at a tight
+tolerance for a two-tone run with contacts; the energy balance of a free steady period; and the
+executable's and Python's error contract for bad drive keys.
+"""
+
+import math
+import subprocess
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+import tmafm
+
+from conftest import write_nml
+from testcore import core
+
+OMEGA, OMEGA_2 = 2.0, 12.5        # 12.5/2 = 25/4: the common period is 4 periods of tone 1
+COMMON_PERIOD = 4 * 2 * math.pi / OMEGA
+TONES = {"alpha2": 5e-4, "omega": OMEGA, "drive_phase": 0.3,
+         "alpha2_2": 2e-4, "omega_2": OMEGA_2, "drive_phase_2": -1.1}
+FREE = {**TONES, "delta_hat": 0.5}  # the tip never reaches the sample
+N = 3
+
+
+def _roots(n):
+    """beta_j of 1 + cos(beta) cosh(beta) = 0, by bracketing (independent of the core's Newton)."""
+    f = lambda b: math.cos(b) + 1 / math.cosh(b)  # noqa: E731 (same roots, no overflow)
+    return np.array([brentq(f, (j - 0.5) * math.pi - 0.5, (j - 0.5) * math.pi + 0.5, xtol=1e-15)
+                     for j in range(1, n + 1)])
+
+
+def _linear_response(path, scene):
+    """Per tone k: the complex modal amplitudes a_k (a = Re(a_k e^{i Omega_k tau})) and the
+    complex amplitude c_k of V_T against the tone's drive, V_T's tone-k part = Re(c_k e^{i psi_k}),
+    psi_k = Omega_k tau + phi_k.  M, C, K from the core; the drive force from docs/model.md §12."""
+    zero = np.zeros(N)
+    m, c, k, _, _, ierr, msg = core.model_terms(str(path), 0.0, zero, zero, False)
+    assert ierr == 0, msg
+    beta = _roots(N)
+    sigma = (np.cosh(beta) + np.cos(beta)) / (np.sinh(beta) + np.sin(beta))
+    q = 2 * sigma / beta
+    tip = np.array([2.0 * (-1) ** j for j in range(N)])      # phi_j(1) = 2 (-1)^(j+1); tip mass there too
+    out = []
+    for amp, omega, phase in ((scene["alpha2"], scene["omega"], scene["drive_phase"]),
+                              (scene["alpha2_2"], scene["omega_2"], scene["drive_phase_2"])):
+        # F = amp Omega^2 (alpha1 m + q) sin(psi) - amp alpha3 Omega q cos(psi) = Re(F_hat e^{i Omega tau}).
+        f_hat = np.exp(1j * phase) * (-1j * amp * omega**2 * (0.05 * tip + q) - amp * 0.4 * omega * q)
+        a_hat = np.linalg.solve(k - omega**2 * m + 1j * omega * c, f_hat)
+        # V_T's part: p.a + amp sin(psi) = Re((p.a_hat e^{-i phi} - i amp) e^{i psi}).
+        out.append((a_hat, omega, tip @ a_hat * np.exp(-1j * phase) - 1j * amp))
+    return out
+
+
+def _state(response, tau):
+    a = sum((a_hat * np.exp(1j * omega * tau)).real for a_hat, omega, _ in response)
+    adot = sum((1j * omega * a_hat * np.exp(1j * omega * tau)).real for a_hat, omega, _ in response)
+    return a, adot
+
+
+@pytest.fixture(scope="module")
+def free_scene(tmp_path_factory):
+    path = write_nml(tmp_path_factory.mktemp("bimodal") / "free.nml",
+                     model={"n_modes": N, "convention": "paper"}, scene=FREE)
+    return path, _linear_response(path, FREE)
+
+
+def test_a_silent_second_tone_changes_no_bit():
+    """alpha2_2 = 0 is no tone, whatever omega_2 says (even incommensurate): every array of a
+    fixed-step run and of an exact-flight run is today's, bit for bit, and so is the resolved
+    input.  Fails if the zero tone moved the period, the phase or any term."""
+    for solver in ({"method": "rk4_paper", "tau_end": 6.0}, {"method": "flight_exact", "tau_end": 20.0}):
+        base = tmafm.run("fig2_n2", solver=solver, output={"sample_dtau": 0.05})
+        silent = tmafm.run("fig2_n2", solver=solver, output={"sample_dtau": 0.05},
+                           scene={"alpha2_2": 0.0, "omega_2": 7.3})
+        for name in ("tau", "vt", "vtdot", "a", "adot", "contact"):
+            assert np.array_equal(getattr(base, name), getattr(silent, name)), (solver, name)
+    text = tmafm.Config("fig2_n2").text
+    assert "alpha2_2" not in text and "drive_phase" not in text
+
+
+def test_free_two_tone_run_is_the_linear_response(free_scene):
+    """A free run from the steady state of the linear response stays on it: each mode's
+    displacement and velocity (flight_exact, dense samples) to 1e-9 of the mode's amplitude."""
+    path, response = free_scene
+    a0, adot0 = _state(response, 0.0)
+    run = tmafm.run(str(path), initial={"a0": list(a0), "adot0": list(adot0)},
+                    solver={"method": "flight_exact", "rtol": 1e-12, "atol": 1e-20, "tau_end": 30.0},
+                    output={"sample_dtau": 0.05})
+    expected = np.array([_state(response, t)[0] for t in run.tau])
+    expected_rate = np.array([_state(response, t)[1] for t in run.tau])
+    size = np.max(np.abs(expected), axis=0)
+    assert np.max(np.abs(run.a - expected) / size) < 1e-9
+    assert np.max(np.abs(run.adot - expected_rate) / np.max(np.abs(expected_rate), axis=0)) < 1e-9
+    vt = np.array([sum((c * np.exp(1j * (w * t + ph))).real for (_, w, c), ph in
+                       zip(response, (FREE["drive_phase"], FREE["drive_phase_2"])))
+                   for t in run.tau]) + FREE["delta_hat"]
+    assert np.max(np.abs(run.vt - vt)) < 1e-9 * np.max(np.abs(vt - FREE["delta_hat"]))
+
+
+def test_each_tones_lock_in_is_the_linear_response(free_scene):
+    """Observed over the common period (4 periods of tone 1), V_T's lock-in at each tone is the
+    closed form's amplitude |c_k| (relative 1e-9) and phase atan2(Re c_k, -Im c_k) (1e-9 rad);
+    the Poincare section at the common period returns to the start (it would not at tone 1's
+    period: 25/4 turns of tone 2), and the drive work per period equals the beam's dissipation."""
+    path, response = free_scene
+    a0, adot0 = _state(response, 0.0)
+    obs = tmafm.observe(str(path), max_periods=2, stop_at_steady=False,
+                        initial={"a0": list(a0), "adot0": list(adot0)},
+                        solver={"method": "dop853", "rtol": 1e-13, "atol": 1e-20})
+    for k, (_, _, c) in enumerate(response, start=1):
+        amplitude = obs.per_period[f"tone{k}_amplitude"]
+        phase = np.radians(obs.per_period[f"tone{k}_phase"])
+        assert np.max(np.abs(amplitude / abs(c) - 1)) < 1e-9, k
+        assert np.max(np.abs(np.angle(np.exp(1j * (phase - math.atan2(c.real, -c.imag)))))) < 1e-9, k
+    start = np.concatenate([a0, adot0])
+    assert np.max(np.abs(obs.poincare[1:] - start)) < 1e-9 * np.max(np.abs(start))
+    a_quarter, _ = _state(response, COMMON_PERIOD / 4)
+    assert np.max(np.abs(a_quarter - a0)) > 1e-3 * np.max(np.abs(a0))   # not a period
+    work, lost = obs.per_period["drive_work"], obs.per_period["dissipated_energy"]
+    assert np.max(np.abs(work - lost)) < 1e-9 * np.max(np.abs(work))
+
+
+def test_two_tones_with_contacts_flight_exact_agrees_with_dop853(tmp_path):
+    """A tapping run driven by two tones: flight_exact (exact flights, dop853 in contact) and
+    dop853 throughout agree to within their tolerances over several contacts."""
+    path = write_nml(tmp_path / "tap.nml", model={"n_modes": 2, "convention": "consistent"},
+                     scene={"alpha2_2": 1e-4, "omega_2": OMEGA_2, "drive_phase_2": 0.4})
+    runs = {}
+    for method in ("flight_exact", "dop853"):
+        runs[method] = tmafm.run(str(path), solver={"method": method, "rtol": 1e-12, "atol": 1e-18,
+                                                     "tau_end": 12.0}, output={"sample_dtau": 0.02})
+    flight, ref = runs["flight_exact"], runs["dop853"]
+    assert np.count_nonzero(np.diff(ref.contact) == 1) >= 3          # the tip taps
+    scale = np.max(np.abs(ref.a), axis=0)
+    assert np.max(np.abs(flight.a - ref.a) / scale) < 1e-7
+    assert np.max(np.abs(flight.vt - ref.vt)) < 1e-7 * np.max(np.abs(ref.vt))
+    assert np.array_equal(flight.contact, ref.contact)
+
+
+@pytest.mark.parametrize("group, text, words", [
+    ("scene", "alpha2_2 = -1e-4", ["&scene alpha2_2", "-1e-4"]),
+    ("scene", "alpha2_2 = 1e-4, omega_2 = 0", ["&scene omega_2 = 0", "frequency > 0"]),
+    ("scene", "alpha2_2 = 1e-4, omega_2 = 6.283185307179586",
+     ["&scene omega_2 = 6.283185307179586", "not commensurate", "nearest 201/64: omega_2 = 6.28125"]),
+    ("scene", "alpha2_2 = 1e-4, omega_2 = 12.5, omega = 0", ["&scene omega = 0", "> 0"]),
+    ("scene", "drive_phase_2 = 7", ["&scene drive_phase_2", "7"]),
+    ("physical", "drive_amplitude_2 = 1e-10, drive_angular_frequency_2 = 1e5",
+     ["&physical drive_angular_frequency_2 = 1.0E+005", "not commensurate", "nearest 16/23"]),
+    ("physical", "drive_amplitude_2 = -1e-10", ["&physical drive_amplitude_2", "-1e-10"]),
+])
+def test_bad_drive_keys_give_one_line_errors(exe, tmp_path, group, text, words):
+    """Negative amplitude, zero frequency, incommensurate tones, a phase out of range: exit 2,
+    one line naming the key and its value; the same message as tmafm.InputError in Python."""
+    nml = tmp_path / "bad.nml"
+    nml.write_text(f"&{group} {text} /\n&solver tau_end = 1 /\n")
+    done = subprocess.run([exe, "-q", str(nml)], cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("tmafm: error:"), done.stderr
+    for word in words:
+        assert word in lines[0], (word, lines[0])
+    with pytest.raises(tmafm.InputError) as caught:
+        tmafm.run(str(nml))
+    assert "\n" not in str(caught.value) and words[0] in str(caught.value)
+
+
+def test_observing_two_tones_with_flight_exact_is_refused():
+    """flight_exact's closed-form observables are one-tone: a two-tone observed run with it is
+    an InputError that names the remedy, never numbers from the wrong formulas."""
+    with pytest.raises(tmafm.InputError, match="flight_exact.*dop853"):
+        tmafm.observe("fig2_n2", max_periods=1, scene=TONES, solver={"method": "flight_exact"})
+
+
+def test_commensurate_ratio_sets_the_common_period():
+    """omega_2/omega = 25/4 gives a common period of 4 tone-1 periods: an observed run counts
+    periods of that length (its last Poincare point is at 2 common periods)."""
+    obs = tmafm.observe("fig2_n2", max_periods=2, stop_at_steady=False, scene=TONES,
+                        solver={"method": "dop853", "rtol": 1e-10})
+    run = tmafm.run("fig2_n2", scene=TONES, solver={"method": "dop853", "rtol": 1e-10,
+                                                   "tau_end": 2 * COMMON_PERIOD},
+                    output={"sample_dtau": COMMON_PERIOD})
+    final = np.concatenate([run.a[-1], run.adot[-1]])
+    assert abs(run.tau[-1] - 2 * COMMON_PERIOD) < 1e-12
+    assert np.max(np.abs(obs.poincare[2] - final)) < 1e-6 * np.max(np.abs(final))

@@ -18,7 +18,7 @@ from scipy.optimize import brentq
 
 import tmafm
 
-from conftest import write_nml
+from conftest import REPO, write_nml
 from testcore import core
 
 OMEGA, OMEGA_2 = 2.0, 12.5        # 12.5/2 = 25/4: the common period is 4 periods of tone 1
@@ -27,6 +27,7 @@ TONES = {"alpha2": 5e-4, "omega": OMEGA, "drive_phase": 0.3,
          "alpha2_2": 2e-4, "omega_2": OMEGA_2, "drive_phase_2": -1.1}
 FREE = {**TONES, "delta_hat": 0.5}  # the tip never reaches the sample
 N = 3
+TAPPING = str(REPO / "inputs" / "bimodal" / "tapping.nml")
 
 
 def _roots(n):
@@ -171,11 +172,25 @@ def test_bad_drive_keys_give_one_line_errors(exe, tmp_path, group, text, words):
     assert "\n" not in str(caught.value) and words[0] in str(caught.value)
 
 
-def test_observing_two_tones_with_flight_exact_is_refused():
-    """flight_exact's closed-form observables are one-tone: a two-tone observed run with it is
-    an InputError that names the remedy, never numbers from the wrong formulas."""
-    with pytest.raises(tmafm.InputError, match="flight_exact.*dop853"):
-        tmafm.observe("fig2_n2", max_periods=1, scene=TONES, solver={"method": "flight_exact"})
+def test_two_tone_observables_of_flight_exact_agree_with_dop853():
+    """flight_exact's observables of a two-tone tapping run (closed forms over its flights, one
+    harmonic per tone) against dop853's Gauss-Legendre sums on its dense output at a tight
+    tolerance: every column, each tone's lock-in included, per period."""
+    runs = {}
+    for method, rtol in (("flight_exact", 1e-11), ("dop853", 1e-12)):
+        runs[method] = tmafm.observe(TAPPING, max_periods=4, stop_at_steady=False,
+                                     solver={"method": method, "rtol": rtol, "atol": 1e-20})
+    got, ref = runs["flight_exact"].per_period, runs["dop853"].per_period
+    assert np.all(ref["contacts_per_period"][1:] == 3)     # from rest: taps from period 2 on
+    for name, values in ref.items():
+        a, b = np.asarray(got[name], float), np.asarray(values, float)
+        assert np.array_equal(np.isnan(a), np.isnan(b)), name
+        # The limits of tests/test_observe_exact.py (measured: 3e-10 degrees, 3e-12 of the scale).
+        if "phase" in name:
+            assert np.nanmax(np.abs(a - b)) < 1e-7, name                      # degrees
+        else:
+            scale = np.nanmax(np.abs(b)) or 1.0
+            assert np.nanmax(np.abs(a - b)) <= 1e-9 * scale, (name, np.nanmax(np.abs(a - b)) / scale)
 
 
 def test_commensurate_ratio_sets_the_common_period():
@@ -189,3 +204,43 @@ def test_commensurate_ratio_sets_the_common_period():
     final = np.concatenate([run.a[-1], run.adot[-1]])
     assert abs(run.tau[-1] - 2 * COMMON_PERIOD) < 1e-12
     assert np.max(np.abs(obs.poincare[2] - final)) < 1e-6 * np.max(np.abs(final))
+
+
+hypothesis = pytest.importorskip("hypothesis")
+st = hypothesis.strategies
+
+
+@st.composite
+def _tone_keys(draw):
+    """The drive's keys, drawn around their edges: amplitudes 0, tiny, negative or large; a
+    second frequency commensurate (p/q omega, q up to 70) or not, zero or negative; phases in
+    and out of range; a few wrong types."""
+    omega = draw(st.sampled_from([2.0, 3.2163, 0.0, 1e-3]))
+    p, q = draw(st.integers(1, 80)), draw(st.integers(1, 70))
+    omega_2 = draw(st.one_of(st.just(omega * p / q), st.floats(-1.0, 40.0), st.just(0.0)))
+    number = st.one_of(st.floats(-1e-3, 2e-3), st.just(0.0), st.floats(-8.0, 8.0))
+    scene = {"omega": omega, "omega_2": omega_2,
+             "alpha2_2": draw(st.one_of(st.just(0.0), st.floats(-1e-4, 3e-4))),
+             "drive_phase": draw(number), "drive_phase_2": draw(number)}
+    if draw(st.integers(0, 9)) == 0:
+        scene[draw(st.sampled_from(sorted(scene)))] = draw(st.sampled_from(["x", None, [1.0, 2.0], True]))
+    return scene
+
+
+@hypothesis.settings(max_examples=60, deadline=None, derandomize=True,
+                     suppress_health_check=list(hypothesis.HealthCheck))
+@hypothesis.given(_tone_keys(), st.sampled_from(["dop853", "flight_exact", "rk4_paper"]))
+def test_fuzzed_tone_keys_give_a_result_or_one_line_error(scene, method):
+    """Every draw of the tone keys runs to finite arrays or raises a one-line tmafm error; a run
+    that succeeds with a second tone had tones commensurate to 1e-9 with q <= 64."""
+    try:
+        result = tmafm.run("fig2_n2", scene=scene, solver={"method": method, "tau_end": 0.5},
+                           output={"sample_dtau": 0.1})
+    except tmafm.TmafmError as exc:
+        assert str(exc) and "\n" not in str(exc)
+        return
+    for name in ("vt", "vtdot", "a", "adot"):
+        assert np.all(np.isfinite(getattr(result, name))), name
+    if scene["alpha2_2"] != 0:
+        ratio = scene["omega_2"] / scene["omega"]
+        assert any(abs(ratio * k - round(ratio * k)) <= 1e-9 * ratio * k for k in range(1, 65))

@@ -44,7 +44,11 @@ REAL_KEYS = {
     "scene": {"alpha1": (0.01, 0.2), "alpha2": (1e-4, 1e-3), "alpha3": (0.0, 1.0), "alpha4": (0.0, 1.0),
               "alpha5": (1e-5, 1e-4), "alpha6": (0.1, 1.0), "beta": (5e-5, 2e-4), "omega": (1.0, 3.0),
               "theta": (0.0, 1.2), "l_over_d": (20.0, 100.0), "g0_over_d": (0.5, 2.0),
-              "delta_hat": (0.0, 0.5), "xi0": (0.5, 1.0)},
+              "delta_hat": (0.0, 0.5), "xi0": (0.5, 1.0),
+              # The drive's second tone and phases (docs/model.md section 12); never 0, which the
+              # resolved input leaves out while all four are 0.
+              "alpha2_2": (1e-5, 2e-4), "omega_2": (1.0, 30.0), "drive_phase": (0.1, 3.0),
+              "drive_phase_2": (-3.0, -0.1)},
     "solver": {"dtau": (1e-3, 4e-3), "rtol": (1e-9, 1e-6), "atol": (1e-16, 1e-12), "tau_end": (0.3, 2.0),
                "blowup_limit": (0.5, 10.0)},
     "output": {"sample_dtau": (0.01, 0.1)},

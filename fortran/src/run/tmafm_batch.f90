@@ -174,13 +174,6 @@ contains
       end if
       call prepare_model(config, chosen, model, ierr, errmsg, poll)
       if (ierr /= ok) return
-      if (model%drive%general .and. trim(config%solver%method) == method_flight_exact) then
-         ierr = err_input
-         errmsg = '&solver method = ''flight_exact'': its closed-form observables take a one-tone drive '// &
-                  'at phase 0; observe a multi-tone or phased drive (&scene alpha2_2, drive_phase) with '// &
-                  '''dop853'' or ''dopri5'''
-         return
-      end if
       ! The period of the drive: the common period of its tones (one tone: 2 pi/Omega).
       period = 2*acos(-1.0_dp)/model%drive%fundamental
       settings = chosen%solver

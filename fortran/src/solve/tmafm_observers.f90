@@ -382,9 +382,15 @@ contains
       real(dp), intent(in) :: a
       real(dp), intent(in) :: b
       integer :: j
-      call self%exact%integrate(flight, a, b, self%do_lockin, self%do_energy, self%acc_sin, self%acc_cos, &
-                                self%acc_deflection, self%acc_powers(power_drive), &
-                                self%acc_powers(power_beam_damping))
+      if (self%general_drive) then
+         call self%exact%integrate(flight, a, b, self%do_lockin, self%do_energy, self%acc_sin, self%acc_cos, &
+                                   self%acc_deflection, self%acc_powers(power_drive), &
+                                   self%acc_powers(power_beam_damping), self%acc_tone_sin, self%acc_tone_cos)
+      else
+         call self%exact%integrate(flight, a, b, self%do_lockin, self%do_energy, self%acc_sin, self%acc_cos, &
+                                   self%acc_deflection, self%acc_powers(power_drive), &
+                                   self%acc_powers(power_beam_damping))
+      end if
       if (.not. self%do_extrema) return
       call self%exact%extremum(flight, channel_gap, -1.0_dp, a, b, self%min_gap)
       call self%exact%extremum(flight, channel_gap, 1.0_dp, a, b, self%max_gap)
@@ -772,9 +778,10 @@ contains
          v(obs_drive_work) = self%acc_powers(power_drive)
          v(obs_virial) = self%acc_virial/period
          v(obs_contact_normal_work) = self%acc_powers(power_contact_normal)
-         ! Each tone's lock-in (one tone at phase 0: harmonic 1; no second tone: NaN).
-         v(obs_tone_amplitude) = ieee_value(1.0_dp, ieee_quiet_nan)
-         v(obs_tone_phase) = ieee_value(1.0_dp, ieee_quiet_nan)
+         ! Each tone's lock-in (one tone at phase 0: harmonic 1; no second tone: 0 and 0, the
+         ! drive has nothing there).
+         v(obs_tone_amplitude) = 0
+         v(obs_tone_phase) = 0
          if (self%general_drive) then
             do k = 1, self%n_tones
                s = 2*self%acc_tone_sin(k)/period

@@ -244,3 +244,16 @@ def test_fuzzed_tone_keys_give_a_result_or_one_line_error(scene, method):
     if scene["alpha2_2"] != 0:
         ratio = scene["omega_2"] / scene["omega"]
         assert any(abs(ratio * k - round(ratio * k)) <= 1e-9 * ratio * k for k in range(1, 65))
+
+
+def test_steady_tone_phase_has_no_wrap():
+    """Over an orbit of two periods whose tone phase is 179 and -179 degrees, the steady phase is
+    180 (the harmonic over the periods), not their arithmetic mean 0; the amplitude is the
+    harmonic's, cos(1 degree) of the per-period ones."""
+    from tmafm.observe import Observation
+    per = {"tone2_amplitude": np.array([0.0, 1.0, 1.0]), "tone2_phase": np.array([0.0, 179.0, -179.0])}
+    obs = Observation(periods=3, period=2, steady=True, per_period=per, poincare=np.zeros((4, 2)),
+                      final_state=np.zeros(2))
+    steady = obs.steady_values()
+    assert abs(abs(steady["tone2_phase"]) - 180.0) < 1e-12
+    assert steady["tone2_amplitude"] == pytest.approx(math.cos(math.radians(1.0)), rel=1e-14)

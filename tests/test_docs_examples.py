@@ -127,6 +127,18 @@ def _check_observe_example(ns, seen, out):
     assert f"{fraction:.4f}" == "0.2312"
 
 
+def _check_bimodal_example(ns, seen, out):
+    tap, free = ns["tap"], ns["free"]
+    # "[-95.0942, 89.4918]", "[-70.3145, 111.1355]", "0.6224", "3.0"
+    assert [round(v, 4) for v in (free["tone1_phase"], free["tone2_phase"])] == [-95.0942, 89.4918]
+    assert [round(v, 4) for v in (tap["tone1_phase"], tap["tone2_phase"])] == [-70.3145, 111.1355]
+    assert round(tap["tone2_amplitude"] / free["tone2_amplitude"], 4) == 0.6224
+    assert tap["contacts_per_period"] == 3.0
+    # "tone 1 7.0985e-4", "tone 2 4.047e-5"; tapping "6.2272e-4"
+    assert f"{free['tone1_amplitude']:.4e}" == "7.0985e-04" and f"{free['tone2_amplitude']:.3e}" == "4.047e-05"
+    assert f"{tap['tone1_amplitude']:.4e}" == "6.2272e-04"
+
+
 def _check_npz_read(ns, seen, out):
     n = 4
     assert ns["a"].shape == (ns["tau"].size, n) and ns["vt"].shape == ns["tau"].shape
@@ -279,6 +291,7 @@ BLOCKS = {
               '              for name in ("fig2_n1", "fig2_n2", "fig2_n3"))',
         check=_check_readme_observe),
     ("docs/observables.md", "import tmafm"): Block(check=_check_observe_example),
+    ("docs/observables.md", "import tmafm  # two tones"): Block(check=_check_bimodal_example),
     ("docs/output-format.md", "import numpy as np"): Block(
         setup="c = tmafm.Config('fig2_n4', solver={'tau_end': 1.0}, output={'format': 'npy'})\n"
               "c.write('run.nml')\n"

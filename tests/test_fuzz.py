@@ -48,7 +48,11 @@ REAL_KEYS = {
               # a liquid (both > 0; one alone is refused, which the contract allows)
               "medium_mass": (0.1, 2.0), "medium_reynolds": (1.0, 100.0),
               "vdw_adhesion": (0.5, 2.0), "vdw_range": (1e-5, 1e-3),
-              "sls_relaxation_time": (0.05, 2.0), "sls_modulus_ratio": (0.1, 1.0)},
+              "sls_relaxation_time": (0.05, 2.0), "sls_modulus_ratio": (0.1, 1.0),
+              # The drive's second tone and phases (docs/model.md section 15); never 0, which the
+              # resolved input leaves out while all four are 0.
+              "alpha2_2": (1e-5, 2e-4), "omega_2": (1.0, 30.0), "drive_phase": (0.1, 3.0),
+              "drive_phase_2": (-3.0, -0.1)},
     "solver": {"dtau": (1e-3, 4e-3), "rtol": (1e-9, 1e-6), "atol": (1e-16, 1e-12), "tau_end": (0.3, 2.0),
                "blowup_limit": (0.5, 10.0)},
     "output": {"sample_dtau": (0.01, 0.1)},
@@ -499,7 +503,7 @@ def test_generator_is_reproducible_and_covers_every_kind():
     assert generate(123).text == generate(123).text
     kinds = {generate(seed).kind for seed in range(400)}
     assert kinds == set(KINDS)
-    legal = generate(101049)   # junk ',' right after a0's only value, before '/'
+    legal = generate(136343)   # junk ',' into '16' at 2: a legal separator
     assert legal.kind == "junk_in_token" and legal.must_fail is False, legal.describe()
 
 

@@ -21,7 +21,8 @@ module tmafm
    ! Observed runs and the steady-state rule (what tmafm_api's batches and tests call).
    use tmafm_batch, only: observe_options_t, observe_batch, observe_states, config_scales, steady_harmonics, &
       steady_evidence
-   use tmafm_observers, only: observer_t, n_observables, observable_factors, obs_amplitude, obs_phase
+   use tmafm_observers, only: observer_t, n_observables, observable_factors, obs_amplitude, obs_phase, &
+      obs_tone_amplitude, obs_tone_phase
    ! The observable table (what Python's observable tables and docs/observables.md come from).
    use tmafm_observable_table, only: observable_row_t, observable_rows, n_observable_rows, &
       observable_group_name, observable_si_factor, observable_kind_names, observable_scale_names
@@ -65,7 +66,7 @@ module tmafm
    public :: read_config_document, patch_document, commit_output
    public :: observe_options_t, observe_batch, observe_states, config_scales, steady_harmonics, &
              steady_evidence, observer_t, n_observables, observable_factors, obs_amplitude, obs_phase, &
-             scales_t, steady_test, repeat_steps, steady_harmonic
+             scales_t, steady_test, repeat_steps, steady_harmonic, obs_tone_amplitude, obs_tone_phase
    public :: observable_row_t, observable_rows, n_observable_rows, observable_group_name, &
              observable_si_factor, observable_kind_names, observable_scale_names
    public :: write_trajectory_file, output_sink_t, prepare_output, check_output_size, begin_output, &

@@ -223,6 +223,14 @@ class Observation:
             out["harmonic_phase"] = phase.copy()
             out["amplitude"] = float(amplitude[0] * factor)
             out["phase"] = float(phase[0])
+        # Each drive tone's lock-in: the harmonic over those periods, as the core's steady values
+        # (observe_states) take it: mean A cos(phi), mean A sin(phi), free of the +-180 wrap.
+        for k in (1, 2):
+            amp, ph = f"tone{k}_amplitude", f"tone{k}_phase"
+            if amp in source and ph in source:
+                a, p = np.asarray(source[amp][-last:]), np.radians(np.asarray(source[ph][-last:]))
+                s, c = np.sum(a * np.cos(p)) / a.size, np.sum(a * np.sin(p)) / a.size
+                out[amp], out[ph] = float(np.hypot(s, c)), float(np.degrees(np.arctan2(c, s)))
         return out
 
 

@@ -21,7 +21,7 @@ module tmafm_api
       observable_group_name, observable_si_factor, observable_kind_names, observable_scale_names, &
       physical_derived, derived_names, derived_units, derived_meanings, n_derived, config_errata, &
       physical_series, n_series, series_names, series_units, &
-      stroboscopic_map, n_orbit_stats
+      stroboscopic_map, n_orbit_stats, obs_tone_amplitude, obs_tone_phase
    ! The types Python sees are named from the modules that define them, not the facade: f90wrap
    ! reads only the wrapped modules' sources and resolves a type through its defining module.
    use tmafm_config, only: config_t
@@ -723,7 +723,7 @@ contains
       type(observe_options_t) :: options
       type(scales_t) :: scales
       character(len=api_errmsg_len), allocatable :: messages(:)
-      integer :: n, s, k, m, last, kept
+      integer :: n, s, k, m, last, kept, j
 
       ierr = ok
       errmsg = ''
@@ -787,6 +787,12 @@ contains
                if (.not. ieee_is_nan(steady(k, obs_phase))) then
                   steady(k, obs_amplitude) = steady_harmonic_amplitude(k, 1)
                   steady(k, obs_phase) = steady_harmonic_phase(k, 1)
+                  ! Each drive tone's lock-in: its steady harmonic too (free of the +-180 wrap).
+                  do j = 1, size(obs_tone_phase)
+                     call steady_harmonic(o%values(m - last + 1:m, obs_tone_amplitude(j)), &
+                                          o%values(m - last + 1:m, obs_tone_phase(j)), &
+                                          steady(k, obs_tone_amplitude(j)), steady(k, obs_tone_phase(j)))
+                  end do
                end if
             end if
             reason(k) = o%reason

@@ -57,7 +57,7 @@ module tmafm_keys
    type :: key_t
       !> Its group (without the &) and name.
       character(len=8) :: group = ''
-      character(len=23) :: name = ''
+      character(len=25) :: name = ''
       !> key_integer, key_real, key_string or key_list.
       integer :: kind = 0
       !> Numbers (a list's every value): lower and upper bound; an integer key's are whole.
@@ -137,7 +137,16 @@ module tmafm_keys
             meaning='viscoelastic (standard linear solid) sample: stress relaxation time T of the contact; '// &
             '0 = elastic sample (docs/model.md, section 14)'), &
       key_t('scene', 'sls_modulus_ratio', key_real, 0, 1, .false., unit='1', omit_default=.true., &
-            meaning='viscoelastic sample: relaxed over instantaneous reduced modulus, E*_inf/E*_0')]
+            meaning='viscoelastic sample: relaxed over instantaneous reduced modulus, E*_inf/E*_0'), &
+      key_t('scene', 'alpha2_2', key_real, 0, 1, unit='1', &
+            meaning='second drive tone: amplitude / gap, f_2/d (0: the one tone alpha2; docs/model.md section 15)'), &
+      key_t('scene', 'omega_2', key_real, 0, 1.0e6_dp, unit='1', &
+            rule='with alpha2_2 > 0: > 0 and omega_2/omega = p/q, q <= 64, p <= 4096 (to 1e-9)', &
+            meaning='second drive tone: frequency Omega_2, in units of sqrt(E1 I/(m L^4))'), &
+      key_t('scene', 'drive_phase', key_real, -2*half_pi, 2*half_pi, unit='rad', &
+            meaning='phase phi_1 of the drive tone alpha2 sin(Omega tau + phi_1)'), &
+      key_t('scene', 'drive_phase_2', key_real, -2*half_pi, 2*half_pi, unit='rad', &
+            meaning='phase phi_2 of the second tone alpha2_2 sin(Omega_2 tau + phi_2)')]
 
    type(key_t), parameter :: physical_rows(*) = [ &
       key_t('physical', 'length', key_real, 0, 1, .false., unit='m', meaning='beam length L'), &
@@ -208,7 +217,16 @@ module tmafm_keys
             '0 = elastic sample (docs/model.md, section 14)'), &
       key_t('physical', 'sample_modulus_relaxed', key_real, 0, 1.0e13_dp, unit='Pa', omit_default=.true., &
             rule='0 (= youngs_modulus_sample) or <= youngs_modulus_sample', &
-            meaning="viscoelastic sample: its relaxed Young's modulus E2_inf")]
+            meaning="viscoelastic sample: its relaxed Young's modulus E2_inf"), &
+      key_t('physical', 'drive_amplitude_2', key_real, 0, 1, unit='m', &
+            meaning='second drive tone: amplitude f_2 (0: the one tone; docs/model.md section 15)'), &
+      key_t('physical', 'drive_angular_frequency_2', key_real, 0, 1.0e12_dp, unit='rad/s', &
+            rule='with drive_amplitude_2 > 0: > 0 and omega_2/omega = p/q, q <= 64, p <= 4096 (to 1e-9)', &
+            meaning='second drive tone: angular frequency omega_2'), &
+      key_t('physical', 'drive_phase', key_real, -2*half_pi, 2*half_pi, unit='rad', &
+            meaning='phase phi_1 of the drive tone f sin(omega t + phi_1)'), &
+      key_t('physical', 'drive_phase_2', key_real, -2*half_pi, 2*half_pi, unit='rad', &
+            meaning='phase phi_2 of the second tone f_2 sin(omega_2 t + phi_2)')]
 
    type(key_t), parameter :: initial_rows(*) = [ &
       key_t('initial', 'a0', key_list, -1, 1, unit='d', &

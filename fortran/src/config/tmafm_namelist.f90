@@ -22,6 +22,7 @@ module tmafm_namelist
    use tmafm_settings, only: run_settings_t, check_run_size, comparison_intervals, comparison_points, &
       mode_digits, comparison_rtol, vdw_method_refused
    use tmafm_errata, only: errata_t, errata_for_convention, parse_errata, errata_label
+   use tmafm_drive, only: drive_t, init_drive
    use tmafm_config, only: config_t
    use tmafm_keys, only: keys, key_groups, key_row, group_index, key_in_range, key_range_text, &
       key_choices_text, key_is_word, group_keys_text, key_value_text, range_text, physical_key_given
@@ -719,6 +720,7 @@ contains
       type(run_settings_t) :: trial
       type(nml_entry_t) :: e
       type(physical_t) :: default_physical
+      type(drive_t) :: drive
       character(len=:), allocatable :: as_written, range
 
       ierr = ok
@@ -763,6 +765,17 @@ contains
       end if
       call check_vdw(label, config, ierr, errmsg)
       if (ierr /= ok) return
+      ! The drive's tones: a second tone needs a frequency commensurate with the first.
+      if (config%from_physical) then
+         call init_drive(config%scene, drive, ierr, errmsg, 'physical', &
+                         [config%physical%drive_angular_frequency, config%physical%drive_angular_frequency_2])
+      else
+         call init_drive(config%scene, drive, ierr, errmsg)
+      end if
+      if (ierr /= ok) then
+         errmsg = label//': '//trim(errmsg)
+         return
+      end if
       call check_run_size(config%solver, max(config%n_modes, 1), ierr, errmsg)
       if (ierr /= ok) then
          errmsg = label//': '//trim(errmsg)
@@ -775,7 +788,7 @@ contains
          trial%method = 'dopri5'
          trial%tau_end = config%mode_horizon
          trial%sample_dtau = config%mode_horizon/comparison_intervals(config%mode_horizon, max_modes, &
-                                                                      config%scene%omega)
+                                                                      drive%top_frequency)
          call check_run_size(trial, max_modes, ierr, errmsg)
          if (ierr /= ok) then
             errmsg = label//': the automatic-N comparison runs (&model mode_horizon = '// &
@@ -1218,6 +1231,7 @@ contains
             if (name == 'physical') then
                if (.not. physical_key_given(config%physical, group_index(row))) cycle
             end if
+            if (quiet_drive_key(config, row)) cycle
             call key_value_text(config, row, value)
             if (keys(row)%omit_default) then
                ! An optional physics switch that is off (at its default) is left out.
@@ -1283,5 +1297,28 @@ contains
          end do
       end subroutine differences_text
    end subroutine config_text
+
+   !> Whether key `row` is one of the drive's tone keys (the second tone and the phases) while
+   !> all of them are 0: the resolved text of a one-tone drive at phase 0 leaves them out, and
+   !> is then what it was before the drive had tones (reading it back gives the same defaults).
+   pure logical function quiet_drive_key(config, row) result(quiet)
+      type(config_t), intent(in) :: config
+      integer, intent(in) :: row
+      quiet = .false.
+      select case (trim(keys(row)%name))
+      case ('alpha2_2', 'omega_2', 'drive_phase', 'drive_phase_2', 'drive_amplitude_2', &
+            'drive_angular_frequency_2')
+         if (keys(row)%group == 'physical') then
+            associate (f => config%physical)
+               quiet = all([f%drive_amplitude_2, f%drive_angular_frequency_2, f%drive_phase, &
+                            f%drive_phase_2] == 0)
+            end associate
+         else
+            associate (s => config%scene)
+               quiet = all([s%alpha2_2, s%omega_2, s%drive_phase, s%drive_phase_2] == 0)
+            end associate
+         end if
+      end select
+   end function quiet_drive_key
 
 end module tmafm_namelist

@@ -200,7 +200,7 @@ contains
       real(dp), intent(out) :: cos_phase(:)
       real(dp) :: omega, sin0, cos0
       integer :: i
-      omega = model%scene%omega
+      omega = model%drive%fundamental
       if (abs(omega*h)*maxval(abs(nodes)) <= taylor_limit) then
          call model%phase(tau, sin0, cos0)
          do i = 1, size(nodes)
@@ -231,7 +231,7 @@ contains
          call stage_phases(model, map%s0, map%h, nodes, sin_phase, cos_phase)
          return
       end if
-      omega = model%scene%omega
+      omega = model%drive%fundamental
       tau0 = map%time_at(0.0_dp)
       factor = 2*(map%s0 + nodes*map%h)
       ! The largest offset is the last node's (the nodes lie in [0, 1]).

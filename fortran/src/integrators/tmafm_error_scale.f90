@@ -93,7 +93,7 @@ contains
       self%weight = 0
       self%dashpot_amplitude = 1
       self%amplitude = 0
-      self%tip_amplitude = abs(model%scene%alpha2)
+      self%tip_amplitude = model%drive%size
       call self%update(y0)
       ! Whether or not y0 moved an amplitude.
       call refresh_weights(self)

@@ -45,15 +45,16 @@ contains
    end function initial_phase
 
    !> The round-off level of V_T at a state: 64 eps times the size of the terms of V_T.  The
-   !> drive counts with its amplitude alpha2, not its value at tau: the margin is then never
-   !> zero (at rest at tau = 0 every term vanishes, and a zero margin let a phase end where it
-   !> began, a zero-length step, again and again: the rk4_event dtau = 1 hang).
+   !> drive counts with its amplitude alpha2 (with two tones, the sum of theirs), not its value
+   !> at tau: the margin is then never zero (at rest at tau = 0 every term vanishes, and a zero
+   !> margin let a phase end where it began, a zero-length step, again and again: the
+   !> rk4_event dtau = 1 hang).
    pure function switch_margin(model, y) result(margin)
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: y(:)
       real(dp) :: margin
       margin = 64*epsilon(1.0_dp)*(sum(abs(model%tip*y(1:model%n_modes))) &
-               + abs(model%scene%alpha2) + abs(model%scene%delta_hat)) + tiny(1.0_dp)
+               + model%drive%size + abs(model%scene%delta_hat)) + tiny(1.0_dp)
    end function switch_margin
 
    !> +1 out of contact and -1 in contact: G = sign V_T is positive inside the phase.

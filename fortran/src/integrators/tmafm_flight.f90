@@ -39,6 +39,7 @@ module tmafm_flight
    use tmafm_errors, only: ok, err_input, err_runtime
    use tmafm_model, only: model_t
    use tmafm_viscoelastic, only: sls_free_relaxation
+   use tmafm_drive, only: drive_t, max_tones
    use tmafm_events, only: hermite_minimum, switch_margin
    use tmafm_roots, only: bracketed_root_t
    implicit none
@@ -66,6 +67,15 @@ module tmafm_flight
       complex(dp), allocatable :: tip_of_vector(:)
       !> Particular V_T: tip_sin sin(Omega tau) + tip_cos cos(Omega tau) (drive included).
       real(dp) :: tip_sin = 0, tip_cos = 0
+      !> A general drive (tmafm_drive; model%drive%general): the particular solution is a sum over
+      !> the tones, y_p = sum_k tone_u(:, k) sin(Omega_k tau + phi_k) + tone_v(:, k) cos(..), and
+      !> so is the particular V_T (tone_tip_sin, tone_tip_cos); u, v, tip_sin, tip_cos are tone
+      !> 1's, and the samples and the modal start take the other tones off first.
+      logical :: general = .false.
+      integer :: n_tones = 1
+      type(drive_t) :: drive
+      real(dp), allocatable :: tone_u(:, :), tone_v(:, :)
+      real(dp) :: tone_tip_sin(max_tones) = 0, tone_tip_cos(max_tones) = 0, tone_frequency(max_tones) = 0
       !> Omega^4 times the amplitude of the particular V_T: its share of |d^4 V_T/ds^4|.
       real(dp) :: harmonic_bound = 0
       !> Start of the flight under way.
@@ -206,6 +216,14 @@ contains
       rhs = 0
       rhs(n + 1:m) = -model%drive_sin
       rhs(m + n + 1:2*m) = -model%drive_cos
+      self%general = model%drive%general
+      self%n_tones = model%drive%n_tones
+      self%drive = model%drive
+      if (self%general) then
+         ! Tone 1 here (at its own frequency and phase); the other tones below.
+         call tone_particular(1, ierr, errmsg)
+         if (ierr /= ok) return
+      end if
       ! LAPACK is given finite numbers only: on infinities or NaN it reports illegal values
       ! through XERBLA, and dgeev then runs on and corrupts the heap.
       if (.not. (all(ieee_is_finite(system)) .and. all(ieee_is_finite(rhs)))) then
@@ -227,6 +245,34 @@ contains
       self%tip_sin = dot_product(model%tip, self%u(1:n)) + model%scene%alpha2
       self%tip_cos = dot_product(model%tip, self%v(1:n))
       self%harmonic_bound = omega**4*hypot(self%tip_sin, self%tip_cos)
+      if (self%general) then
+         allocate (self%tone_u(m, max_tones), self%tone_v(m, max_tones), source=0.0_dp)
+         self%tone_u(:, 1) = self%u
+         self%tone_v(:, 1) = self%v
+         do k = 2, self%n_tones
+            call tone_particular(k, ierr, errmsg)
+            if (ierr /= ok) return
+            call dgesv(2*m, 1, system, 2*m, ipiv, rhs, 2*m, info)
+            if (info /= 0 .or. .not. all(ieee_is_finite(rhs))) then
+               ierr = err_runtime
+               write (errmsg, '(a,es12.4e3,a)') 'flight_exact: the drive tone &scene omega_2 = ', &
+                  model%drive%frequency(k), ' is at an undamped resonance of the free beam (alpha3 = 0?)'
+               return
+            end if
+            self%tone_u(:, k) = rhs(1:m)
+            self%tone_v(:, k) = rhs(m + 1:2*m)
+         end do
+         self%tip_sin = dot_product(model%tip, self%u(1:n)) + model%drive%amplitude(1)
+         self%harmonic_bound = 0
+         self%drive_size = 0
+         do k = 1, self%n_tones
+            self%tone_frequency(k) = model%drive%frequency(k)
+            self%tone_tip_sin(k) = dot_product(model%tip, self%tone_u(1:n, k)) + model%drive%amplitude(k)
+            self%tone_tip_cos(k) = dot_product(model%tip, self%tone_v(1:n, k))
+            self%harmonic_bound = self%harmonic_bound &
+                                  + self%tone_frequency(k)**4*hypot(self%tone_tip_sin(k), self%tone_tip_cos(k))
+         end do
+      end if
 
       lwork = 8*m
       allocate (work(lwork))
@@ -302,14 +348,49 @@ contains
          end do
       end block
       self%sample_weights = 0
-      self%min_step = 0.25_dp/max(maxval(abs(self%eigenvalue)), omega, tiny(1.0_dp))/1024
+      self%min_step = 0.25_dp/max(maxval(abs(self%eigenvalue)), model%drive%top_frequency, tiny(1.0_dp))/1024
       self%rate4 = abs(self%eigenvalue)**4
       self%eigen_re = real(self%eigenvalue, dp)
       self%eigen_im = aimag(self%eigenvalue)
-      self%rate_max = max(maxval(abs(self%eigenvalue)), omega)
-      self%drive_size = hypot(self%tip_sin, self%tip_cos)
+      self%rate_max = max(maxval(abs(self%eigenvalue)), model%drive%top_frequency)
+      if (self%general) then
+         self%drive_size = sum(hypot(self%tone_tip_sin(1:self%n_tones), self%tone_tip_cos(1:self%n_tones)))
+      else
+         self%drive_size = hypot(self%tip_sin, self%tip_cos)
+      end if
       self%term_size = 0
-      call build_ladder(self, omega)
+      call build_ladder(self, model%drive%fundamental)
+
+   contains
+
+      !> The system and right-hand side of tone k's particular solution (general drive): the
+      !> forcing alpha_k Omega_k^2 M^-1 (alpha1 m + q) sin(..) - alpha_k alpha3 Omega_k M^-1 q cos(..)
+      !> at Omega_k, the phase phi_k in the sin and cos.
+      subroutine tone_particular(k, ierr, errmsg)
+         integer, intent(in) :: k
+         integer, intent(out) :: ierr
+         character(len=*), intent(out) :: errmsg
+         real(dp) :: w, amp
+         ierr = ok
+         errmsg = ''
+         w = model%drive%frequency(k)
+         amp = model%drive%amplitude(k)
+         system = 0
+         system(1:m, 1:m) = a
+         system(m + 1:2*m, m + 1:2*m) = a
+         do j = 1, m
+            system(j, m + j) = w
+            system(m + j, j) = -w
+         end do
+         rhs = 0
+         rhs(n + 1:m) = -amp*w**2*model%inv_mass_inertial
+         rhs(m + n + 1:2*m) = amp*model%scene%alpha3*w*model%inv_mass_integral
+         if (.not. (all(ieee_is_finite(system)) .and. all(ieee_is_finite(rhs)))) then
+            ierr = err_input
+            write (errmsg, '(a,i0,a,es12.4e3)') 'flight_exact: the free beam equations overflow for drive tone ', &
+               k, ' at frequency ', w
+         end if
+      end subroutine tone_particular
    end subroutine flight_init
 
    !> The scan ladder, from h0 = the power of two just above min_step up past 64 drive periods
@@ -370,11 +451,25 @@ contains
 
       self%tau0 = tau
       if (size(y) > self%n_state) self%dashpot0 = y(self%n_state + 1)
-      phase = model%scene%omega*tau
+      phase = model%drive%fundamental*tau
       sin_phase = sin(phase)
       cos_phase = cos(phase)
-      call modal_coefficients(self%n_state, self%n_terms, self%inverse, self%u, self%v, y, sin_phase, cos_phase, &
-                              self%z)
+      if (self%general) then
+         block
+            real(dp) :: sin_tone(max_tones), cos_tone(max_tones), rest(self%n_state)
+            integer :: k
+            call model%drive%tones(sin_phase, cos_phase, sin_tone, cos_tone)
+            rest = y
+            do k = 2, self%n_tones
+               rest = rest - self%tone_u(:, k)*sin_tone(k) - self%tone_v(:, k)*cos_tone(k)
+            end do
+            call modal_coefficients(self%n_state, self%n_terms, self%inverse, self%u, self%v, rest, &
+                                    sin_tone(1), cos_tone(1), self%z)
+         end block
+      else
+         call modal_coefficients(self%n_state, self%n_terms, self%inverse, self%u, self%v, y, sin_phase, &
+                                 cos_phase, self%z)
+      end if
       self%tip_weight = self%z*self%tip_of_vector
       self%term_size = self%multiplicity*abs(self%tip_weight)
       self%weight4 = self%term_size*self%rate4
@@ -425,10 +520,14 @@ contains
          self%since_anchor = anchor_every
       n = self%n_state/2
       ! y = (a, a') is a table of one row.
-      call sample_run(self%n_state, self%n_terms, self%sample_blocks, 1, 0.0_dp, [s], &
-                      [sin_phase], [cos_phase], self%multiplicity, self%z, self%eigenvalue, self%rotor_re, &
-                      self%rotor_im, self%sample_matrix, self%sample_weights, self%since_anchor, 1, 1, y(1:n), &
-                      y(n + 1:2*n))
+      if (self%general) then
+         call general_samples(self, 1, 0.0_dp, [s], [sin_phase], [cos_phase], 1, 1, y(1:n), y(n + 1:2*n))
+      else
+         call sample_run(self%n_state, self%n_terms, self%sample_blocks, 1, 0.0_dp, [s], &
+                         [sin_phase], [cos_phase], self%multiplicity, self%z, self%eigenvalue, self%rotor_re, &
+                         self%rotor_im, self%sample_matrix, self%sample_weights, self%since_anchor, 1, 1, y(1:n), &
+                         y(n + 1:2*n))
+      end if
       self%s_last = s
    end subroutine flight_sample
 
@@ -452,12 +551,46 @@ contains
       real(dp), intent(inout) :: a(rows, self%n_state/2)
       real(dp), intent(inout) :: adot(rows, self%n_state/2)
       if (count < 1) return
-      call sample_run(self%n_state, self%n_terms, self%sample_blocks, count, self%tau0, &
-                      tau, sin_phase, cos_phase, self%multiplicity, self%z, self%eigenvalue, self%rotor_re, &
-                      self%rotor_im, self%sample_matrix, self%sample_weights, self%since_anchor, rows, first, a, &
-                      adot)
+      if (self%general) then
+         call general_samples(self, count, self%tau0, tau, sin_phase, cos_phase, rows, first, a, adot)
+      else
+         call sample_run(self%n_state, self%n_terms, self%sample_blocks, count, self%tau0, &
+                         tau, sin_phase, cos_phase, self%multiplicity, self%z, self%eigenvalue, self%rotor_re, &
+                         self%rotor_im, self%sample_matrix, self%sample_weights, self%since_anchor, rows, first, &
+                         a, adot)
+      end if
       self%s_last = tau(count) - self%tau0
    end subroutine flight_samples
+
+   !> flight_samples for a general drive, a sample at a time: sample_run with tone 1's phase
+   !> (u, v are tone 1's), then the other tones' particular parts added to the row.
+   pure subroutine general_samples(self, count, origin, tau, sin_phase, cos_phase, rows, first, a, adot)
+      type(free_flight_t), intent(inout) :: self
+      integer, intent(in) :: count
+      !> tau - origin is the time in the flight.
+      real(dp), intent(in) :: origin
+      real(dp), intent(in) :: tau(count)
+      real(dp), intent(in) :: sin_phase(count)
+      real(dp), intent(in) :: cos_phase(count)
+      integer, intent(in) :: rows
+      integer, intent(in) :: first
+      real(dp), intent(inout) :: a(rows, self%n_state/2)
+      real(dp), intent(inout) :: adot(rows, self%n_state/2)
+      real(dp) :: sin_tone(max_tones), cos_tone(max_tones)
+      integer :: i, k, n, row
+      n = self%n_state/2
+      do i = 1, count
+         call self%drive%tones(sin_phase(i), cos_phase(i), sin_tone, cos_tone)
+         row = first + i - 1
+         call sample_run(self%n_state, self%n_terms, self%sample_blocks, 1, origin, tau(i:i), &
+                         sin_tone(1:1), cos_tone(1:1), self%multiplicity, self%z, self%eigenvalue, self%rotor_re, &
+                         self%rotor_im, self%sample_matrix, self%sample_weights, self%since_anchor, rows, row, a, adot)
+         do k = 2, self%n_tones
+            a(row, :) = a(row, :) + self%tone_u(1:n, k)*sin_tone(k) + self%tone_v(1:n, k)*cos_tone(k)
+            adot(row, :) = adot(row, :) + self%tone_u(n + 1:2*n, k)*sin_tone(k) + self%tone_v(n + 1:2*n, k)*cos_tone(k)
+         end do
+      end do
+   end subroutine general_samples
 
    !> The sample loop on explicit shapes: per sample the weights [sin, cos, Re running, Im
    !> running] (the terms turned, or anchored: running = multiplicity z exp(lambda s), s =
@@ -611,12 +744,23 @@ contains
       real(dp) :: phase, sin_phase, cos_phase
       complex(dp) :: w
       integer :: i, k
-      phase = model%scene%omega*(self%tau0 + s)
+      phase = model%drive%fundamental*(self%tau0 + s)
       sin_phase = sin(phase)
       cos_phase = cos(phase)
-      do i = 1, self%n_state
-         y(i) = self%u(i)*sin_phase + self%v(i)*cos_phase
-      end do
+      if (self%general) then
+         block
+            real(dp) :: sin_tone(max_tones), cos_tone(max_tones)
+            call model%drive%tones(sin_phase, cos_phase, sin_tone, cos_tone)
+            y(1:self%n_state) = 0
+            do k = 1, self%n_tones
+               y(1:self%n_state) = y(1:self%n_state) + self%tone_u(:, k)*sin_tone(k) + self%tone_v(:, k)*cos_tone(k)
+            end do
+         end block
+      else
+         do i = 1, self%n_state
+            y(i) = self%u(i)*sin_phase + self%v(i)*cos_phase
+         end do
+      end if
       ! The real part of each product V(i, k) w written out: a complex product also forms the
       ! imaginary part, and tests both for NaN.
       do k = 1, self%n_terms
@@ -667,7 +811,7 @@ contains
       real(dp), intent(in) :: s
       real(dp), intent(out) :: cos_phase, sin_phase
       real(dp) :: phase
-      phase = model%scene%omega*(self%tau0 + s)
+      phase = model%drive%fundamental*(self%tau0 + s)
       sin_phase = sin(phase)
       cos_phase = cos(phase)
    end subroutine drive_at
@@ -695,6 +839,21 @@ contains
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: cos_phase, sin_phase
       real(dp), intent(out) :: vt, vtdot, bound(2), size
+      real(dp) :: sin_tone(max_tones), cos_tone(max_tones)
+      integer :: k
+      if (self%general) then
+         call model%drive%tones(sin_phase, cos_phase, sin_tone, cos_tone)
+         vt = model%scene%delta_hat
+         vtdot = 0
+         do k = 1, self%n_tones
+            vt = vt + (self%tone_tip_sin(k)*sin_tone(k) + self%tone_tip_cos(k)*cos_tone(k))
+            vtdot = vtdot + self%tone_frequency(k)*(self%tone_tip_sin(k)*cos_tone(k) - self%tone_tip_cos(k)*sin_tone(k))
+         end do
+         bound(1) = self%harmonic_bound
+         bound(2) = 0
+         size = self%drive_size
+         return
+      end if
       vt = self%tip_sin*sin_phase + self%tip_cos*cos_phase + model%scene%delta_hat
       vtdot = model%scene%omega*(self%tip_sin*cos_phase - self%tip_cos*sin_phase)
       bound(1) = self%harmonic_bound
@@ -757,6 +916,8 @@ contains
       first_evaluation = evaluations
       every = scan_anchor_every
       if (present(anchor)) every = max(1, anchor)
+      ! A general drive's tones are not turned by the ladder: every scan point is direct.
+      if (self%general) every = 1
       il = 1
       ir = 2
       left = 0

@@ -39,6 +39,7 @@ module tmafm_flight_observables
    use tmafm_kinds, only: dp
    use tmafm_model, only: model_t
    use tmafm_flight, only: free_flight_t
+   use tmafm_drive, only: max_tones
    use tmafm_events, only: hermite_minimum
    use tmafm_roots, only: bracketed_root_t
    implicit none
@@ -106,6 +107,23 @@ module tmafm_flight_observables
       !> its particular part and its share of the bound on |f''''|.
       complex(dp) :: c_part = 0
       real(dp) :: c_const = 0, sigma = 1, part_size = 0, part_bound = 0
+      !> A general drive (tmafm_drive): the particular parts are one harmonic per tone, tone k
+      !> at h_k Omega_0 (omega is then Omega_0): V_T's tone_tip(k), the base's tone_base(k), the
+      !> state's tone_state(:, k) (the complex amplitudes of e^{i h_k Omega_0 tau}), the drive force's
+      !> tone_force(:, k); the sums of their velocity rows with V' (n_terms x tones) and with each
+      !> other (tones x tones).  The one-tone forms above are then unused.
+      logical :: general = .false.
+      integer :: n_tones = 0
+      integer :: tone_harmonic(max_tones) = 0
+      real(dp) :: tone_frequency(max_tones) = 0
+      complex(dp) :: tone_tip(max_tones) = 0, tone_base(max_tones) = 0, tone_phase(max_tones) = 0
+      complex(dp), allocatable :: tone_state(:, :), tone_force(:, :)
+      complex(dp), allocatable :: tone_drive_plus(:, :), tone_drive_minus(:, :), tone_part_plus(:, :), &
+         tone_part_minus(:, :)
+      complex(dp) :: tone_qg(max_tones, max_tones) = 0, tone_qcg(max_tones, max_tones) = 0, &
+         tone_qq(max_tones, max_tones) = 0, tone_qcq(max_tones, max_tones) = 0
+      !> A channel's particular part per tone (general drive).
+      complex(dp) :: c_tone(max_tones) = 0
       !> Points evaluated by the scans since init (for measurements).
       integer :: scan_points = 0
       !> Stack of intervals of a scan.
@@ -226,7 +244,62 @@ contains
       self%tip_part = cmplx(flight%tip_cos, -flight%tip_sin, dp)
       self%deflection_part = cmplx(flight%tip_cos, -(flight%tip_sin - self%alpha2), dp)
       self%particular_size = hypot(flight%u(1:n), flight%v(1:n))
+      self%general = flight%general
+      if (self%general) call init_general(self, model, flight)
    end subroutine observables_init
+
+   !> The particular parts of a general drive, tone by tone: A sin(psi_k) + B cos(psi_k) with
+   !> psi_k = h_k Omega_0 tau + phi_k is Re((B - i A) e^{i phi_k} e^{i h_k Omega_0 tau}).
+   subroutine init_general(self, model, flight)
+      type(flight_observables_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      type(free_flight_t), intent(in) :: flight
+      integer :: n, nt, k, l, t, m
+      complex(dp) :: rot
+      n = self%n_modes
+      nt = self%n_terms
+      m = 2*n
+      self%n_tones = model%drive%n_tones
+      self%omega = model%drive%fundamental
+      if (allocated(self%tone_state)) deallocate (self%tone_state, self%tone_force, self%tone_drive_plus, &
+                                                  self%tone_drive_minus, self%tone_part_plus, self%tone_part_minus)
+      allocate (self%tone_state(m, max_tones), self%tone_force(n, max_tones), self%tone_drive_plus(nt, max_tones), &
+                self%tone_drive_minus(nt, max_tones), self%tone_part_plus(nt, max_tones), &
+                self%tone_part_minus(nt, max_tones), source=(0.0_dp, 0.0_dp))
+      self%particular_size = 0
+      do t = 1, self%n_tones
+         associate (s => model%scene, a => model%drive%amplitude(t), w => model%drive%frequency(t))
+            rot = cmplx(cos(model%drive%phase(t)), sin(model%drive%phase(t)), dp)
+            self%tone_harmonic(t) = model%drive%harmonic(t)
+            self%tone_frequency(t) = w
+            self%tone_phase(t) = rot
+            self%tone_tip(t) = cmplx(flight%tone_tip_cos(t), -flight%tone_tip_sin(t), dp)*rot
+            self%tone_base(t) = cmplx(0.0_dp, -a, dp)*rot
+            self%tone_state(:, t) = cmplx(flight%tone_v(:, t), -flight%tone_u(:, t), dp)*rot
+            self%tone_force(:, t) = cmplx(-a*s%alpha3*w*model%integral, &
+                                          -a*w**2*(s%alpha1*model%mass_point + model%integral), dp)*rot
+         end associate
+         self%particular_size = self%particular_size + abs(self%tone_state(1:n, t))
+      end do
+      do t = 1, self%n_tones
+         do k = 1, nt
+            associate (vk => flight%vectors(n + 1:m, k))
+               self%tone_drive_plus(k, t) = sum(vk*self%tone_force(:, t))
+               self%tone_drive_minus(k, t) = sum(vk*conjg(self%tone_force(:, t)))
+               self%tone_part_plus(k, t) = sum(vk*self%tone_state(n + 1:m, t))
+               self%tone_part_minus(k, t) = sum(vk*conjg(self%tone_state(n + 1:m, t)))
+            end associate
+         end do
+         do l = 1, self%n_tones
+            associate (ql => self%tone_state(n + 1:m, l))
+               self%tone_qg(l, t) = sum(ql*self%tone_force(:, t))
+               self%tone_qcg(l, t) = sum(ql*conjg(self%tone_force(:, t)))
+               self%tone_qq(l, t) = sum(ql*self%tone_state(n + 1:m, t))
+               self%tone_qcq(l, t) = sum(ql*conjg(self%tone_state(n + 1:m, t)))
+            end associate
+         end do
+      end do
+   end subroutine init_general
 
    !> 1/x elementwise, 0 where x = 0 (an exponent that is exactly zero only ever takes the series).
    pure elemental function reciprocal(x) result(r)
@@ -266,7 +339,7 @@ contains
    end function segment
 
    subroutine observables_integrate(self, flight, tau_a, tau_b, lockin, energy, acc_sin, acc_cos, deflection, &
-                                    drive, beam)
+                                    drive, beam, tone_sin, tone_cos)
       class(flight_observables_t), intent(inout) :: self
       type(free_flight_t), intent(in) :: flight
       real(dp), intent(in) :: tau_a, tau_b
@@ -275,12 +348,20 @@ contains
       real(dp), intent(inout) :: acc_sin(:), acc_cos(:), deflection
       !> int of the drive power and of the beam-damping power.
       real(dp), intent(inout) :: drive, beam
+      !> A general drive: int V_T sin(psi_k) and cos(psi_k) per tone (and p.a less nothing: the
+      !> deflection is p.a as above).
+      real(dp), intent(inout), optional :: tone_sin(:), tone_cos(:)
       real(dp) :: h, sa, sb, sq
       complex(dp) :: x, zk, l_int, m_int, pa1, pb1, pa, pb, pa_next, pb_next, k_prev, k_now, k_next, k1, k2
       complex(dp) :: i_omega, jp, jm
       integer :: k, l, m, top, nt
 
       if (.not. (lockin .or. energy)) return
+      if (self%general) then
+         call integrate_general(self, flight, tau_a, tau_b, lockin, energy, acc_sin, acc_cos, deflection, &
+                                drive, beam, tone_sin, tone_cos)
+         return
+      end if
       nt = self%n_terms
       h = tau_b - tau_a
       sa = tau_a - flight%tau0
@@ -374,6 +455,132 @@ contains
 
    end subroutine observables_integrate
 
+   !> observables_integrate for a general drive: the particular parts are one harmonic per tone
+   !> (h_k Omega_0), so every integrand is still a short sum of e^{mu s}, with mu = lambda_k + i j
+   !> Omega_0 for the integer j the products give (K(j) = int e^{i j Omega_0 tau} dtau, J(k, j) =
+   !> int e^{lambda_k s} e^{i j Omega_0 tau} dtau; segment's difference or series form).
+   subroutine integrate_general(self, flight, tau_a, tau_b, lockin, energy, acc_sin, acc_cos, deflection, &
+                                drive, beam, tone_sin, tone_cos)
+      type(flight_observables_t), intent(inout) :: self
+      type(free_flight_t), intent(in) :: flight
+      real(dp), intent(in) :: tau_a, tau_b
+      logical, intent(in) :: lockin, energy
+      real(dp), intent(inout) :: acc_sin(:), acc_cos(:), deflection, drive, beam
+      real(dp), intent(inout), optional :: tone_sin(:), tone_cos(:)
+      real(dp) :: h, sa, sb, sq
+      complex(dp) :: x, w, zk, l_int, m_int
+      integer :: k, l, m, t, u, nt, top
+
+      nt = self%n_terms
+      h = tau_b - tau_a
+      sa = tau_a - flight%tau0
+      sb = tau_b - flight%tau0
+      do k = 1, nt
+         self%e_a(k) = exp(self%lambda(k)*sa)
+         self%e_b(k) = exp(self%lambda(k)*sb)
+      end do
+      if (lockin) then
+         top = size(acc_sin)
+         do m = 1, top
+            x = lockin_sum(m)
+            acc_cos(m) = acc_cos(m) + real(x, dp)
+            acc_sin(m) = acc_sin(m) + aimag(x)
+         end do
+         if (present(tone_sin) .and. present(tone_cos)) then
+            do t = 1, self%n_tones
+               ! int V_T e^{i psi_t} = e^{i phi_t} int V_T e^{i h_t Omega_0 tau}.
+               x = self%tone_phase(t)*lockin_sum(self%tone_harmonic(t))
+               tone_cos(t) = tone_cos(t) + real(x, dp)
+               tone_sin(t) = tone_sin(t) + aimag(x)
+            end do
+         end if
+         ! int p.a = int (V_T - Y - delta_hat).
+         x = 0
+         do t = 1, self%n_tones
+            x = x + (self%tone_tip(t) - self%tone_base(t))*k_int(self%tone_harmonic(t))
+         end do
+         do k = 1, nt
+            x = x + self%mult(k)*flight%tip_weight(k)*j_of(k, 0)
+         end do
+         deflection = deflection + real(x, dp)
+      end if
+      if (energy) then
+         ! a' = sum_t Re(Q'_t e^{i h_t Omega_0 tau}) + sum_k mult_k Re(z_k V'_k e^{lambda_k s}),
+         ! F = sum_t Re(g_t e^{i h_t Omega_0 tau}); Re(A).Re(B) = Re(A.B + A.conj(B))/2.
+         x = 0
+         sq = 0
+         do t = 1, self%n_tones
+            do u = 1, self%n_tones
+               x = x + 0.5_dp*(self%tone_qg(t, u)*k_int(self%tone_harmonic(t) + self%tone_harmonic(u)) &
+                               + self%tone_qcg(t, u)*k_int(self%tone_harmonic(t) - self%tone_harmonic(u)))
+               sq = sq + 0.5_dp*real(self%tone_qq(t, u)*k_int(self%tone_harmonic(t) + self%tone_harmonic(u)) &
+                                     + self%tone_qcq(t, u)*k_int(self%tone_harmonic(t) - self%tone_harmonic(u)), dp)
+            end do
+            do k = 1, nt
+               x = x + (0.5_dp*self%mult(k))*flight%z(k)*(self%tone_drive_plus(k, t)*j_of(k, self%tone_harmonic(t)) &
+                                                          + self%tone_drive_minus(k, t)*j_of(k, -self%tone_harmonic(t)))
+            end do
+         end do
+         drive = drive + real(x, dp)
+         x = 0
+         do k = 1, nt
+            zk = flight%z(k)
+            do t = 1, self%n_tones
+               x = x + self%mult(k)*zk*(self%tone_part_plus(k, t)*j_of(k, self%tone_harmonic(t)) &
+                                        + self%tone_part_minus(k, t)*j_of(k, -self%tone_harmonic(t)))
+            end do
+            do l = k, nt
+               l_int = segment(self%e_a(k)*self%e_a(l), self%e_b(k)*self%e_b(l), self%mu_pair(k, l), h, &
+                               self%inv_pair(k, l))
+               m_int = segment(self%e_a(k)*conjg(self%e_a(l)), self%e_b(k)*conjg(self%e_b(l)), &
+                               self%mu_herm(k, l), h, self%inv_herm(k, l))
+               x = x + (merge(0.5_dp, 1.0_dp, l == k)*self%mult(k)*self%mult(l)) &
+                   *(zk*flight%z(l)*self%gram(k, l)*l_int + zk*conjg(flight%z(l))*self%herm(k, l)*m_int)
+            end do
+         end do
+         sq = sq + real(x, dp)
+         beam = beam - self%alpha3*sq
+      end if
+
+   contains
+
+      !> e^{i j Omega_0 tau} at tau.
+      complex(dp) function turn_at(j, tau)
+         integer, intent(in) :: j
+         real(dp), intent(in) :: tau
+         turn_at = cmplx(cos(j*self%omega*tau), sin(j*self%omega*tau), dp)
+      end function turn_at
+
+      !> K(j) = int_a^b e^{i j Omega_0 tau} dtau.
+      complex(dp) function k_int(j)
+         integer, intent(in) :: j
+         k_int = segment(turn_at(j, tau_a), turn_at(j, tau_b), cmplx(0.0_dp, j*self%omega, dp), h)
+      end function k_int
+
+      !> J(k, j) = int_a^b e^{lambda_k s} e^{i j Omega_0 tau} dtau.
+      complex(dp) function j_of(k, j)
+         integer, intent(in) :: k, j
+         j_of = segment(self%e_a(k)*turn_at(j, tau_a), self%e_b(k)*turn_at(j, tau_b), &
+                        self%lambda(k) + cmplx(0.0_dp, j*self%omega, dp), h)
+      end function j_of
+
+      !> int V_T e^{i m Omega_0 tau} dtau: Re(c e^{i h Omega_0 tau}) e^{i m ..} integrates to
+      !> (c K(m + h) + conj(c) K(m - h))/2, Re(w e^{lambda s}) e^{i m ..} to (w J(k, m) + conj(w J(k, -m)))/2.
+      complex(dp) function lockin_sum(m)
+         integer, intent(in) :: m
+         integer :: tt, kk
+         lockin_sum = self%delta_hat*k_int(m)
+         do tt = 1, self%n_tones
+            lockin_sum = lockin_sum + 0.5_dp*(self%tone_tip(tt)*k_int(m + self%tone_harmonic(tt)) &
+                                              + conjg(self%tone_tip(tt))*k_int(m - self%tone_harmonic(tt)))
+         end do
+         do kk = 1, nt
+            w = flight%tip_weight(kk)
+            lockin_sum = lockin_sum + (0.5_dp*self%mult(kk))*(w*j_of(kk, m) + conjg(w*j_of(kk, -m)))
+         end do
+      end function lockin_sum
+   end subroutine integrate_general
+
    !> Set the channel (mode j > 0, or V_T) of the flight under way, for sigma f.
    subroutine set_channel(self, flight, channel, sigma)
       class(flight_observables_t), intent(inout) :: self
@@ -397,6 +604,19 @@ contains
       end do
       self%part_size = abs(self%c_part) + abs(self%c_const)
       self%part_bound = self%omega**4*abs(self%c_part)
+      if (self%general) then
+         self%part_size = abs(self%c_const)
+         self%part_bound = 0
+         do k = 1, self%n_tones
+            if (channel == channel_gap) then
+               self%c_tone(k) = self%tone_tip(k)
+            else
+               self%c_tone(k) = self%tone_state(channel, k)
+            end if
+            self%part_size = self%part_size + abs(self%c_tone(k))
+            self%part_bound = self%part_bound + self%tone_frequency(k)**4*abs(self%c_tone(k))
+         end do
+      end if
    end subroutine set_channel
 
    !> The channel at s (time since the flight's start): sigma f, f', f'' (and f''' if asked),
@@ -410,12 +630,29 @@ contains
       complex(dp) :: x, e, le, l2e
       real(dp) :: phase, decay, angle, f, d1, d2, d3
       integer :: k
-      phase = self%omega*(flight%tau0 + s)
-      x = self%c_part*cmplx(cos(phase), sin(phase), dp)
-      f = real(x, dp) + self%c_const
-      d1 = -self%omega*aimag(x)
-      d2 = -self%omega**2*real(x, dp)
-      d3 = self%omega**3*aimag(x)
+      if (self%general) then
+         f = self%c_const
+         d1 = 0
+         d2 = 0
+         d3 = 0
+         do k = 1, self%n_tones
+            associate (w => self%tone_frequency(k))
+               phase = self%tone_harmonic(k)*self%omega*(flight%tau0 + s)
+               x = self%c_tone(k)*cmplx(cos(phase), sin(phase), dp)
+               f = f + real(x, dp)
+               d1 = d1 - w*aimag(x)
+               d2 = d2 - w**2*real(x, dp)
+               d3 = d3 + w**3*aimag(x)
+            end associate
+         end do
+      else
+         phase = self%omega*(flight%tau0 + s)
+         x = self%c_part*cmplx(cos(phase), sin(phase), dp)
+         f = real(x, dp) + self%c_const
+         d1 = -self%omega*aimag(x)
+         d2 = -self%omega**2*real(x, dp)
+         d3 = self%omega**3*aimag(x)
+      end if
       point%s = s
       point%size = self%part_size
       point%decaying = self%part_bound

@@ -32,6 +32,7 @@ module tmafm_model
    use tmafm_errata, only: errata_t
    use tmafm_hydrodynamics, only: modal_fluid_loads
    use tmafm_vdw, only: law_dmt_vdw, vdw_forces, vdw_brackets
+   use tmafm_drive, only: drive_t, init_drive
    implicit none
    private
 
@@ -137,6 +138,11 @@ module tmafm_model
       !> (alpha3 without a liquid), and in a liquid the frequency omega_j there and its Reynolds
       !> number R0 omega_j (0 without).
       real(dp), allocatable :: added_mass(:), modal_damping(:), medium_frequency(:), medium_reynolds(:)
+      !> The drive's tones and their common frequency (tmafm_drive); the phase the fast forms
+      !> take is that of drive%fundamental.
+      type(drive_t) :: drive
+      !> The right-hand side goes to drive_kernel (a general drive) instead of rhs_kernel.
+      logical :: general_kernel = .false.
    contains
       !> Time derivative (a', a'') of the state y = (a, a') in a given phase.
       procedure :: derivative => model_derivative
@@ -146,6 +152,8 @@ module tmafm_model
       procedure :: derivative_and_gap => model_derivative_and_gap
       !> sin(Omega tau) and cos(Omega tau), the drive phase the fast forms take.
       procedure :: phase => model_phase
+      !> The drive's Y, dY/dtau and d2Y/dtau2 from the drive phase (one tone: alpha2 sin(Omega tau)).
+      procedure :: drive_signals => model_drive_signals
       !> The tip gap V_T = p.a + alpha2 sin(Omega tau) + delta_hat.
       procedure :: tip_gap => model_tip_gap
       !> The tip gap rate dV_T/dtau = p.a' + alpha2 Omega cos(Omega tau).
@@ -201,6 +209,9 @@ contains
       model%law = law
       model%scene = scene
       model%errata = errata
+      call init_drive(scene, model%drive, ierr, errmsg)
+      if (ierr /= ok) return
+      model%general_kernel = model%drive%general
 
       model%beta = beam_roots(n)
       model%eigen = model%beta**4
@@ -273,6 +284,15 @@ contains
             end do
             model%modal_damping = scene%alpha3 + fluid_damping
          end block
+      end if
+      ! A general drive (two tones, or a drive phase) has its own kernel and closed forms, written
+      ! for the elastic contact in air: the combinations are refused, not approximated.
+      if (model%drive%general .and. (model%has_medium .or. model%sls%on .or. law == law_dmt_vdw)) then
+         ierr = err_input
+         write (errmsg, '(a,g0,a,g0,a)') '&scene alpha2_2 = ', scene%alpha2_2, ', drive_phase = ', &
+            scene%drive_phase, ': a second drive tone or a drive phase is not combined with a liquid, '// &
+            "a viscoelastic sample or contact_law = 'dmt_vdw'"
+         return
       end if
 
       ! Columns: I | Lambda | G | p | r | alpha1 m + q | q, all solved with one factorisation.
@@ -348,6 +368,19 @@ contains
       end associate
       model%pass_terms(1:n, 1) = model%drive_sin
       model%pass_terms(1:n, 2) = model%drive_cos
+      if (model%drive%general) then
+         ! A general drive: the kernel's two drive columns take -d2Y/dtau2 and dY/dtau, and the
+         ! contact damper's base term is -alpha4 Y (printed) or -alpha4 dY/dtau (E1).
+         model%pass_terms(1:n, 1) = model%inv_mass_inertial
+         model%pass_terms(1:n, 2) = -scene%alpha3*model%inv_mass_integral
+         model%base_sin = 0
+         model%base_cos = 0
+         if (model%has_contact_damping .and. errata%e1_base_damping_velocity) then
+            model%base_cos = -scene%alpha4
+         else if (model%has_contact_damping) then
+            model%base_sin = -scene%alpha4
+         end if
+      end if
       model%pass_terms(1:n, 3) = model%inv_mass_tip
       model%pass_terms(1:n, 4) = model%moment_force
       if (n <= rows_per_block) then
@@ -367,17 +400,33 @@ contains
       real(dp), intent(out) :: sin_phase
       real(dp), intent(out) :: cos_phase
       real(dp) :: phase
-      phase = self%scene%omega*tau
+      phase = self%drive%fundamental*tau
       sin_phase = sin(phase)
       cos_phase = cos(phase)
    end subroutine model_phase
+
+   pure subroutine model_drive_signals(self, sin_phase, cos_phase, y, ydot, yddot)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      real(dp), intent(out) :: y
+      real(dp), intent(out) :: ydot
+      real(dp), intent(out) :: yddot
+      if (self%drive%general) then
+         call self%drive%base(sin_phase, cos_phase, y, ydot, yddot)
+      else
+         y = self%scene%alpha2*sin_phase
+         ydot = self%drive_rate*cos_phase
+         yddot = -(self%scene%omega**2*y)
+      end if
+   end subroutine model_drive_signals
 
    pure function model_tip_gap(self, tau, y) result(vt)
       class(model_t), intent(in) :: self
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: y(:)
       real(dp) :: vt, vtdot
-      call self%gap_at_phase(y, sin(self%scene%omega*tau), cos(self%scene%omega*tau), vt, vtdot)
+      call self%gap_at_phase(y, sin(self%drive%fundamental*tau), cos(self%drive%fundamental*tau), vt, vtdot)
    end function model_tip_gap
 
    pure function model_tip_gap_rate(self, tau, y) result(vtdot)
@@ -385,7 +434,7 @@ contains
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: y(:)
       real(dp) :: vtdot, vt
-      call self%gap_at_phase(y, sin(self%scene%omega*tau), cos(self%scene%omega*tau), vt, vtdot)
+      call self%gap_at_phase(y, sin(self%drive%fundamental*tau), cos(self%drive%fundamental*tau), vt, vtdot)
    end function model_tip_gap_rate
 
    pure subroutine model_gap_at_phase(self, y, sin_phase, cos_phase, vt, vtdot)
@@ -403,6 +452,15 @@ contains
          vt = vt + self%tip(j)*y(j)
          vtdot = vtdot + self%tip(j)*y(n + j)
       end do
+      if (self%drive%general) then
+         block
+            real(dp) :: base, base_rate, base_accel
+            call self%drive%base(sin_phase, cos_phase, base, base_rate, base_accel)
+            vt = vt + base + self%scene%delta_hat
+            vtdot = vtdot + base_rate
+         end block
+         return
+      end if
       vt = vt + self%scene%alpha2*sin_phase + self%scene%delta_hat
       vtdot = vtdot + self%scene%alpha2*self%scene%omega*cos_phase
    end subroutine model_gap_at_phase
@@ -425,9 +483,24 @@ contains
       real(dp), intent(inout) :: vt(rows)
       real(dp), intent(inout) :: vtdot(rows)
       integer, parameter :: gap_rows_vector = 8
-      real(dp) :: p, alpha2, delta_hat, drive_rate, x, xdot
+      real(dp) :: p, alpha2, delta_hat, drive_rate, x, xdot, base, base_rate, base_accel
       integer :: i, j, last
       last = first + count - 1
+      if (self%drive%general) then
+         ! A general drive: gap_at_phase's sums, a row at a time.
+         do i = first, last
+            x = 0
+            xdot = 0
+            do j = 1, self%n_modes
+               x = x + self%tip(j)*a(i, j)
+               xdot = xdot + self%tip(j)*adot(i, j)
+            end do
+            call self%drive%base(sin_phase(i - first + 1), cos_phase(i - first + 1), base, base_rate, base_accel)
+            vt(i) = x + base + self%scene%delta_hat
+            vtdot(i) = xdot + base_rate
+         end do
+         return
+      end if
       alpha2 = self%scene%alpha2
       delta_hat = self%scene%delta_hat
       drive_rate = self%scene%alpha2*self%scene%omega
@@ -467,9 +540,15 @@ contains
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: a(:)
       type(contact_brackets_t) :: state
-      real(dp) :: vt, scaled_slope
-      vt = dot_product(self%tip, a) + self%scene%alpha2*sin(self%scene%omega*tau) &
-           + self%scene%delta_hat
+      real(dp) :: vt, scaled_slope, base, base_rate, base_accel
+      if (self%drive%general) then
+         call self%drive%base(sin(self%drive%fundamental*tau), cos(self%drive%fundamental*tau), base, base_rate, &
+                              base_accel)
+         vt = dot_product(self%tip, a) + base + self%scene%delta_hat
+      else
+         vt = dot_product(self%tip, a) + self%scene%alpha2*sin(self%scene%omega*tau) &
+              + self%scene%delta_hat
+      end if
       scaled_slope = dot_product(self%slope, a)/self%scene%l_over_d
       if (self%long_range) then
          ! The phase by the sign of V_T (a run's located switches put it there).
@@ -543,6 +622,17 @@ contains
       class(model_t), intent(in) :: self
       real(dp), intent(in) :: tau
       real(dp) :: value
+      real(dp) :: base, base_rate, base_accel
+      if (self%drive%general) then
+         call self%drive%base(sin(self%drive%fundamental*tau), cos(self%drive%fundamental*tau), base, base_rate, &
+                              base_accel)
+         if (self%errata%e1_base_damping_velocity) then
+            value = -self%scene%alpha4*base_rate
+         else
+            value = -self%scene%alpha4*base
+         end if
+         return
+      end if
       associate (s => self%scene)
          if (self%errata%e1_base_damping_velocity) then
             value = -s%alpha2*s%alpha4*s%omega*cos(s%omega*tau)
@@ -551,6 +641,38 @@ contains
          end if
       end associate
    end function base_damping
+
+   !> F's drive part at tau (Eq. 15, free): -Y'' (alpha1 m + q) - alpha3 Y' q, the base's inertia and
+   !> the beam damper on the base velocity; one tone: alpha2 Omega^2 (alpha1 m + q) sin(Omega tau)
+   !> - alpha2 alpha3 Omega q cos(Omega tau).
+   pure function drive_force(self, tau) result(force)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp) :: force(self%n_modes)
+      integer :: k
+      do k = 1, self%n_modes
+         force(k) = drive_force_of(self, tau, k)
+      end do
+   end function drive_force
+
+   !> Component k of drive_force.
+   pure real(dp) function drive_force_of(self, tau, k) result(force)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      integer, intent(in) :: k
+      real(dp) :: base, base_rate, base_accel
+      associate (s => self%scene)
+         if (self%drive%general) then
+            call self%drive%base(sin(self%drive%fundamental*tau), cos(self%drive%fundamental*tau), base, &
+                                 base_rate, base_accel)
+            force = -base_accel*(s%alpha1*self%mass_point(k) + self%integral(k)) &
+                    - s%alpha3*base_rate*self%integral(k)
+         else
+            force = s%alpha2*s%omega**2*(s%alpha1*self%mass_point(k) + self%integral(k))*sin(s%omega*tau) &
+                    - s%alpha2*s%alpha3*s%omega*self%integral(k)*cos(s%omega*tau)
+         end if
+      end associate
+   end function drive_force_of
 
    pure subroutine model_derivative(self, tau, y, in_contact, dydt)
       class(model_t), intent(in) :: self
@@ -562,6 +684,8 @@ contains
       call model_phase(self, tau, sin_phase, cos_phase)
       if (self%sls%on) then
          call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
+      else if (self%general_kernel) then
+         call drive_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
       else
          call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
       end if
@@ -577,6 +701,8 @@ contains
       real(dp) :: vt, vtdot
       if (self%sls%on) then
          call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
+      else if (self%general_kernel) then
+         call drive_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
       else
          call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
       end if
@@ -593,6 +719,8 @@ contains
       real(dp), intent(out) :: vtdot
       if (self%sls%on) then
          call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
+      else if (self%general_kernel) then
+         call drive_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
       else
          call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
       end if
@@ -818,6 +946,71 @@ contains
       end associate
    end subroutine sls_kernel
 
+   !> The right-hand side under a general drive (tmafm_drive), for any N: general_kernel with the
+   !> drive's Y, Y' and Y'' in place of the one tone's sin and cos (its two drive columns take -Y''
+   !> and Y', the contact damper's base term Y or Y').  The entry points call it instead of
+   !> rhs_kernel, so that the one-tone kernels stay as they were.
+   pure subroutine drive_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in) :: y(2*self%n_modes)
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      logical, intent(in) :: want_gap
+      real(dp), intent(out) :: dydt(2*self%n_modes)
+      real(dp), intent(out) :: vt
+      real(dp), intent(out) :: vtdot
+      real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, radius, normal, friction
+      real(dp) :: tip_push, base, base_rate, base_accel, acc, stiff
+      integer :: n, i, j
+
+      n = self%n_modes
+      call self%drive%base(sin_phase, cos_phase, base, base_rate, base_accel)
+      associate (s => self%scene)
+         vt = 0
+         vtdot = 0
+         axial = 0
+         tip_push = 0
+         if (in_contact .or. want_gap) then
+            tip_a = 0
+            slope_a = 0
+            tip_adot = 0
+            do j = 1, n
+               tip_a = tip_a + self%tip(j)*y(j)
+               slope_a = slope_a + self%scaled_slope(j)*y(j)
+               tip_adot = tip_adot + self%tip(j)*y(n + j)
+            end do
+            vt = tip_a + base + s%delta_hat
+            vtdot = tip_adot + base_rate
+         end if
+         if (in_contact) then
+            call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a, &
+                                       self%errata%e7_signed_slope, sin1, cos1)
+            call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
+                                transverse, axial, radius, normal, friction)
+            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*base + self%base_cos*base_rate
+         end if
+      end associate
+      ! a'' = -Y'' M^-1 (alpha1 m + q) - alpha3 Y' M^-1 q + B (a, a'), and in contact
+      ! tip_push M^-1 p + P2 ((g0/d) M^-1 r + M^-1 G a).  (Its own loops, not accumulate's: the
+      ! one-tone kernels keep theirs as the compiler laid them out.)
+      do i = 1, n
+         acc = self%pass_terms(i, 1)*(-base_accel) + self%pass_terms(i, 2)*base_rate
+         do j = 1, n
+            acc = acc + (self%pass_a(i, j)*y(j) + self%pass_v(i, j)*y(n + j))
+         end do
+         if (in_contact) then
+            stiff = self%pass_terms(i, 4)
+            do j = 1, n
+               stiff = stiff + self%pass_g(i, j)*y(j)
+            end do
+            acc = acc + tip_push*self%pass_terms(i, 3) + axial*stiff
+         end if
+         dydt(i) = y(n + i)
+         dydt(n + i) = acc
+      end do
+   end subroutine drive_kernel
+
    !> dydt = (a', a'') from the folded terms: the drive and the columns of B, which do not
    !> depend on the contact forces (so that they overlap with the contact's square roots),
    !> then, in contact, tip_push M^-1 p + P2 ((g0/d) M^-1 r + M^-1 G a), for general_kernel
@@ -911,7 +1104,9 @@ contains
          stiffness(j, j) = self%eigen(j)
       end do
       associate (s => self%scene)
-         if (self%has_medium) then
+         if (self%drive%general) then
+            force = drive_force(self, tau)
+         else if (self%has_medium) then
             force = s%alpha2*s%omega**2*(s%alpha1*self%mass_point + (1 + self%added_mass)*self%integral) &
                     *sin(s%omega*tau) - s%alpha2*s%omega*self%modal_damping*self%integral*cos(s%omega*tau)
          else
@@ -962,7 +1157,12 @@ contains
          end do
          energy = 0.5_dp*energy + 0.5_dp*sum(self%eigen*a*a)
          power = 0
-         if (self%has_medium) then
+         if (self%drive%general) then
+            do k = 1, self%n_modes
+               power(power_drive) = power(power_drive) + adot(k)*drive_force_of(self, tau, k)
+            end do
+            power(power_beam_damping) = -s%alpha3*dot_product(adot, adot)
+         else if (self%has_medium) then
             ! The liquid's load as a damper and a drive (docs/model.md): the same sums, C per mode.
             power(power_drive) = 0
             power(power_beam_damping) = 0

@@ -60,6 +60,13 @@ module tmafm_scene
       real(dp) :: sls_relaxation_time = 0.0_dp
       !> The relaxed over the instantaneous reduced modulus, E*_inf/E*_0, in (0, 1].
       real(dp) :: sls_modulus_ratio = 1.0_dp
+      !> alpha2_2 = f_2/d: the second drive tone's amplitude over gap (0: one tone; tmafm_drive).
+      real(dp) :: alpha2_2 = 0.0_dp
+      !> Omega_2: the second tone's frequency, commensurate with Omega (tmafm_drive).
+      real(dp) :: omega_2 = 0.0_dp
+      !> phi_1, phi_2: the tones' phases (rad): Y = alpha2 sin(Omega tau + phi_1) + ...
+      real(dp) :: drive_phase = 0.0_dp
+      real(dp) :: drive_phase_2 = 0.0_dp
    end type scene_t
 
    !> Physical inputs in SI units; converted to a scene_t by Eq. (12).
@@ -147,16 +154,22 @@ module tmafm_scene
       real(dp) :: sample_relaxation_time = 0.0_dp
       !> The sample's relaxed Young's modulus E2_inf (Pa); 0: equal to youngs_modulus_sample.
       real(dp) :: sample_modulus_relaxed = 0.0_dp
+      !> The second drive tone's amplitude f_2 (m; 0: one tone) and angular frequency omega_2
+      !> (rad/s), and the tones' phases (rad).
+      real(dp) :: drive_amplitude_2 = 0.0_dp
+      real(dp) :: drive_angular_frequency_2 = 0.0_dp
+      real(dp) :: drive_phase = 0.0_dp
+      real(dp) :: drive_phase_2 = 0.0_dp
    end type physical_t
 
    !> The &scene keys, in the order of scene_values (their ranges: config/tmafm_keys.f90).
-   character(len=*), parameter :: scene_names(19) = [character(len=19) :: 'alpha1', 'alpha2', &
+   character(len=*), parameter :: scene_names(23) = [character(len=19) :: 'alpha1', 'alpha2', &
       'alpha3', 'alpha4', 'alpha5', 'alpha6', 'beta', 'omega', 'theta', 'l_over_d', 'g0_over_d', &
       'delta_hat', 'xi0', &
       'medium_mass', 'medium_reynolds', 'vdw_adhesion', 'vdw_range', 'sls_relaxation_time', &
-      'sls_modulus_ratio']
+      'sls_modulus_ratio', 'alpha2_2', 'omega_2', 'drive_phase', 'drive_phase_2']
    !> The &physical keys, in the order of physical_values.
-   character(len=*), parameter :: physical_names(33) = [character(len=23) :: 'length', 'width', &
+   character(len=*), parameter :: physical_names(37) = [character(len=25) :: 'length', 'width', &
       'thickness', 'density', 'youngs_modulus_tip', 'poisson_ratio_tip', 'youngs_modulus_sample', &
       'poisson_ratio_sample', 'tip_radius', 'adhesion_energy', 'tilt', 'gap', 'tip_length', &
       'static_offset', 'tip_position', 'tip_mass', 'beam_damping', 'contact_damping', &
@@ -164,7 +177,8 @@ module tmafm_scene
       'spring_constant', 'resonance_frequency', 'quality_factor', 'tip_mass_ratio', &
       'drive_frequency', 'free_amplitude', 'tip_sample_distance', &
       'medium_density', 'medium_viscosity', 'hamaker', 'intermolecular_distance', &
-      'sample_relaxation_time', 'sample_modulus_relaxed']
+      'sample_relaxation_time', 'sample_modulus_relaxed', 'drive_amplitude_2', &
+      'drive_angular_frequency_2', 'drive_phase', 'drive_phase_2']
 
 contains
 
@@ -176,7 +190,8 @@ contains
                 scene%alpha6, scene%beta, scene%omega, scene%theta, scene%l_over_d, &
                 scene%g0_over_d, scene%delta_hat, scene%xi0, &
                 scene%medium_mass, scene%medium_reynolds, scene%vdw_adhesion, scene%vdw_range, &
-                scene%sls_relaxation_time, scene%sls_modulus_ratio]
+                scene%sls_relaxation_time, scene%sls_modulus_ratio, scene%alpha2_2, scene%omega_2, &
+                scene%drive_phase, scene%drive_phase_2]
    end function scene_values
 
    !> The physical inputs as an array, in the order of physical_names.
@@ -191,7 +206,8 @@ contains
                 phys%spring_constant, phys%resonance_frequency, phys%quality_factor, &
                 phys%tip_mass_ratio, phys%drive_frequency, phys%free_amplitude, phys%tip_sample_distance, &
                 phys%medium_density, phys%medium_viscosity, phys%hamaker, phys%intermolecular_distance, &
-                phys%sample_relaxation_time, phys%sample_modulus_relaxed]
+                phys%sample_relaxation_time, phys%sample_modulus_relaxed, phys%drive_amplitude_2, &
+                phys%drive_angular_frequency_2, phys%drive_phase, phys%drive_phase_2]
    end function physical_values
 
    !> The scene whose groups are `values`, in the order of scene_names (scene_values' inverse).
@@ -217,6 +233,10 @@ contains
       scene%vdw_range = values(17)
       scene%sls_relaxation_time = values(18)
       scene%sls_modulus_ratio = values(19)
+      scene%alpha2_2 = values(20)
+      scene%omega_2 = values(21)
+      scene%drive_phase = values(22)
+      scene%drive_phase_2 = values(23)
    end function scene_from_values
 
    !> The physical inputs whose values are `v`, in the order of physical_names (physical_values'
@@ -257,6 +277,10 @@ contains
       phys%intermolecular_distance = v(31)
       phys%sample_relaxation_time = v(32)
       phys%sample_modulus_relaxed = v(33)
+      phys%drive_amplitude_2 = v(34)
+      phys%drive_angular_frequency_2 = v(35)
+      phys%drive_phase = v(36)
+      phys%drive_phase_2 = v(37)
    end function physical_from_values
 
    !> Which &physical keys (indices into physical_names) scene group k depends on by Eq. (12).
@@ -266,7 +290,7 @@ contains
       ! 1 length, 2 width, 3 thickness, 4 density, 5 E1, 6 nu1, 7 E2, 8 nu2, 9 R, 10 gamma,
       ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega,
       ! 21 k, 22 f0, 23 Q, 24 M/(m L), 25 omega/(2 pi), 26 A0, 27 Z, 28 rho_f, 29 eta, 30 H, 31 a0,
-      ! 32 T2, 33 E2_inf.
+      ! 32 T2, 33 E2_inf, 34 f_2, 35 omega_2, 36 phi_1, 37 phi_2.
       select case (k)
       case (1)
          keys = [16, 4, 2, 3, 1, 24]
@@ -304,8 +328,16 @@ contains
          keys = [31, 12, 27]
       case (18)
          keys = [32, 33, 7, 5, 6, 8, 4, 2, 3, 1, 21, 22]
-      case default
+      case (19)
          keys = [33, 7, 5, 6, 8]
+      case (20)
+         keys = [34, 12, 27]
+      case (21)
+         keys = [35, 4, 2, 3, 1, 5, 21, 22]
+      case (22)
+         keys = [36]
+      case default
+         keys = [37]
       end select
    end function scene_depends_on
 
@@ -386,6 +418,10 @@ contains
       scene%sls_modulus_ratio = e_star_relaxed/e_star
       scene%sls_relaxation_time = phys%sample_relaxation_time*(phys%youngs_modulus_sample/sample_relaxed) &
                                   *scene%sls_modulus_ratio/time_unit
+      scene%alpha2_2 = phys%drive_amplitude_2/d
+      scene%omega_2 = phys%drive_angular_frequency_2*time_unit
+      scene%drive_phase = phys%drive_phase
+      scene%drive_phase_2 = phys%drive_phase_2
    end function scene_from_physical
 
 end module tmafm_scene

@@ -174,7 +174,8 @@ contains
       end if
       call prepare_model(config, chosen, model, ierr, errmsg, poll)
       if (ierr /= ok) return
-      period = 2*acos(-1.0_dp)/model%scene%omega
+      ! The period of the drive: the common period of its tones (one tone: 2 pi/Omega).
+      period = 2*acos(-1.0_dp)/model%drive%fundamental
       settings = chosen%solver
       ! No samples kept: the run ends at the last period boundary, or when the observer stops it.
       settings%tau_end = options%max_periods*period

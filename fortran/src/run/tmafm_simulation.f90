@@ -7,6 +7,7 @@ module tmafm_simulation
    use tmafm_contact, only: law_hertz, law_dmt
    use tmafm_vdw, only: law_dmt_vdw
    use tmafm_model, only: model_t, init_model
+   use tmafm_drive, only: drive_t, init_drive
    use tmafm_driver, only: run_trajectory
    use tmafm_trajectory, only: trajectory_t, stop_poll
    use tmafm_config, only: config_t
@@ -79,12 +80,17 @@ contains
       type(config_t) :: trial
       type(trajectory_t) :: upper
       real(dp), allocatable :: lower_vt(:), lower_rate(:)
-      real(dp) :: difference
+      real(dp) :: difference, fastest
+      type(drive_t) :: drive
       integer :: n, intervals
 
       ierr = ok
       errmsg = ''
       if (.not. config%auto_modes .or. config%n_mode_differences > 0) return
+      ! The grids resolve the fastest drive tone (one tone: omega).
+      call init_drive(config%scene, drive, ierr, errmsg)
+      if (ierr /= ok) return
+      fastest = drive%top_frequency
       trial = config
       trial%auto_modes = .false.
       trial%solver%tau_end = config%mode_horizon
@@ -96,14 +102,14 @@ contains
       ! N+1's grid (where it is the lower run); the grids nest (powers of two), so the upper
       ! run's finer grid holds every point of the lower's.
       n = 1
-      call sampled_run(n, comparison_intervals(config%mode_horizon, n + 1, config%scene%omega))
+      call sampled_run(n, comparison_intervals(config%mode_horizon, n + 1, fastest))
       if (ierr /= ok) return
       do while (n < max_modes)
          call move_alloc(upper%vt, lower_vt)
          call move_alloc(upper%vtdot, lower_rate)
          intervals = size(lower_vt) - 1
          call sampled_run(n + 1, comparison_intervals(config%mode_horizon, min(n + 2, max_modes), &
-                                                      config%scene%omega))
+                                                      fastest))
          if (ierr /= ok) return
          difference = located_difference(lower_vt, lower_rate, upper%vt, upper%vtdot, &
                                          config%mode_horizon/intervals)

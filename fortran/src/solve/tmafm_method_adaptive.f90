@@ -174,10 +174,11 @@ contains
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: rate
       real(dp), intent(out) :: margin
-      !> The drive term alpha2 sin(Omega tau) of V_T.
+      !> The drive's part d2Y/dtau2 of V_T'' (one tone: -Omega^2 alpha2 sin(Omega tau)).
       real(dp), intent(out) :: drive
+      real(dp) :: base, base_rate
       call model%gap_at_phase(y, sin_phase, cos_phase, vt, rate)
-      drive = model%scene%alpha2*sin_phase
+      call model%drive_signals(sin_phase, cos_phase, base, base_rate, drive)
       margin = switch_margin(model, y)
    end subroutine gap_state
 
@@ -196,6 +197,7 @@ contains
       type(bracketed_root_t) :: root
       type(time_map_t) :: map
       real(dp) :: h, h_time, norm, side, s_test, theta, step_taken, drive, drive1, sin_test, cos_test
+      real(dp) :: base1, base_rate1
       real(dp) :: ds0, ds1, tau_end, sigma_end, h_next, theta_low, g_low, g_test
       ! V_T, its rate and the margin at the step start (0) and end (1); G = side V_T + margin0.
       real(dp) :: vt0, rate0, margin0, vt1, rate1, margin1, vt_test, rate_test, margin_test
@@ -277,7 +279,7 @@ contains
             ! (no sin/cos and no dot products here).
             vt1 = pair%vt_end
             rate1 = pair%rate_end
-            drive1 = model%scene%alpha2*pair%sin_end
+            call model%drive_signals(pair%sin_end, pair%cos_end, base1, base_rate1, drive1)
             margin1 = switch_margin(model, y_new)
             ! G's rates per unit of the step variable: dtau/ds = 1, or 2 sigma when warped.
             ds0 = 1
@@ -545,24 +547,25 @@ contains
 
    !> A bound on |d^4 V_T/dtau^4| out of contact from the running amplitudes S_j of the modes
    !> (tmafm_error_scale): sum_j |p_j| omega_j^4 S_j, doubled for the mass coupling and the
-   !> damping that the free frequencies omega_j leave out, plus the drive's alpha2 Omega^4.
+   !> damping that the free frequencies omega_j leave out, plus the drive's alpha2 Omega^4
+   !> (sum_k alpha_k Omega_k^4 over the tones).
    pure function free_fourth_derivative_bound(self, model) result(bound)
       type(adaptive_state_t), intent(in) :: self
       type(model_t), intent(in) :: model
       real(dp) :: bound
       bound = 2*sum(abs(model%tip)*self%scale%omega**4*self%scale%amplitude) &
-              + abs(model%scene%alpha2)*model%scene%omega**4
+              + model%drive%bound4
    end function free_fourth_derivative_bound
 
    !> V_T'' from the derivative f = (a', a'') times scale (1, or 1/(2 sigma) for dy/dsigma) and
-   !> the drive term of V_T (Omega the drive's).
+   !> the drive's part d2Y/dtau2 of V_T''.
    pure function gap_acceleration(model, f, scale, drive) result(accel)
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: f(:)
       real(dp), intent(in) :: scale
       real(dp), intent(in) :: drive
       real(dp) :: accel
-      accel = tip_dot(model%n_modes, model%tip, f)*scale - model%scene%omega**2*drive
+      accel = tip_dot(model%n_modes, model%tip, f)*scale + drive
    end function gap_acceleration
 
    !> p . (second half of f), f = (a', a''): dot_product's sum, in order from the first term, on

@@ -107,6 +107,12 @@ contains
                   'Jacobian and saltation matrix are derived)'
          return
       end if
+      if (model%drive%general) then
+         ierr = err_input
+         errmsg = 'stroboscopic map: &scene alpha2_2 or drive_phase is not 0: the map is built for one '// &
+                  'drive tone with no phase (the period 2 pi/Omega)'
+         return
+      end if
       if (model%sls%on) then
          ierr = err_input
          errmsg = 'stroboscopic map: &scene sls_relaxation_time > 0: the viscoelastic sample''s '// &

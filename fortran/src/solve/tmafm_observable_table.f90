@@ -12,7 +12,7 @@ module tmafm_observable_table
       obs_contacts, obs_dissipated, obs_dissipated_beam, obs_dissipated_contact_damping, &
       obs_dissipated_friction, obs_drive_work, obs_virial, obs_contact_normal_work, &
       obs_dissipated_viscoelastic, ext_max_contact, &
-      ext_min_contact, ext_max_free, ext_min_free
+      ext_min_contact, ext_max_free, ext_min_free, obs_tone_amplitude, obs_tone_phase
    implicit none
    private
 
@@ -81,6 +81,12 @@ module tmafm_observable_table
                        obs_contact_normal_work), &
       observable_row_t('dissipated_viscoelastic', group_energy, energy_unit, 'aJ', scale_energy, kind_column, &
                        obs_dissipated_viscoelastic), &
+      observable_row_t('tone1_amplitude', group_lockin, 'd', 'nm', scale_length, kind_column, &
+                       obs_tone_amplitude(1)), &
+      observable_row_t('tone1_phase', group_lockin, 'deg', 'deg', scale_one, kind_column, obs_tone_phase(1)), &
+      observable_row_t('tone2_amplitude', group_lockin, 'd', 'nm', scale_length, kind_column, &
+                       obs_tone_amplitude(2)), &
+      observable_row_t('tone2_phase', group_lockin, 'deg', 'deg', scale_one, kind_column, obs_tone_phase(2)), &
       observable_row_t('harmonic_amplitude', group_lockin, 'd', 'nm', scale_length, kind_harmonic, 0), &
       observable_row_t('harmonic_phase', group_lockin, 'deg', 'deg', scale_one, kind_harmonic, 0), &
       observable_row_t('poincare', 0, '(d, d/tau)', '', scale_none, kind_points, 0), &

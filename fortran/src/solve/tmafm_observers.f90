@@ -1,6 +1,7 @@
 !> Per-drive-period observables computed during a run from the integrator's accepted steps
 !> (their dense output) or the exact free flight, split at the period boundaries tau = k T,
-!> T = 2 pi/Omega (docs/observables.md defines each one, with units and signs).
+!> T = 2 pi/Omega (docs/observables.md defines each one, with units and signs); with two drive
+!> tones T is their common period (tmafm_drive), and each tone has its own lock-in columns.
 !>
 !> A free flight of flight_exact is exact: it is cut only at the period boundaries, and over
 !> each part the Fourier sums of V_T, the mean deflection and the drive and beam-damping powers
@@ -24,6 +25,7 @@
 !> repeat a known orbit (docs/sweeps.md, "Stopping at a known attractor").
 module tmafm_observers
    use tmafm_kinds, only: dp
+   use tmafm_drive, only: max_tones
    use tmafm_model, only: model_t, n_powers, power_drive, power_beam_damping, &
       power_contact_damping, power_contact_normal, power_contact_friction, power_contact_viscoelastic
    use tmafm_contact, only: contact_brackets_t
@@ -44,14 +46,16 @@ module tmafm_observers
       obs_contact_time, obs_contacts, obs_dissipated, obs_dissipated_beam, &
       obs_dissipated_contact_damping, obs_dissipated_friction, obs_drive_work, obs_virial, &
       obs_contact_normal_work, obs_dissipated_viscoelastic, ext_max_contact, ext_min_contact, ext_max_free, &
-      ext_min_free
+      ext_min_free, obs_tone_amplitude, obs_tone_phase
 
    !> Columns of observer_t%values.
    integer, parameter :: obs_amplitude = 1, obs_phase = 2, obs_mean_deflection = 3, obs_min_gap = 4, &
       obs_peak_force = 5, obs_contact_time = 6, obs_contacts = 7, obs_dissipated = 8, &
       obs_dissipated_beam = 9, obs_dissipated_contact_damping = 10, obs_dissipated_friction = 11, &
       obs_drive_work = 12, obs_virial = 13, obs_contact_normal_work = 14, &
-      obs_dissipated_viscoelastic = 15, n_observables = 15
+      obs_dissipated_viscoelastic = 15, n_observables = 19
+   !> Columns of each drive tone's lock-in amplitude and phase (tone k: obs_tone_amplitude(k)).
+   integer, parameter :: obs_tone_amplitude(max_tones) = [16, 18], obs_tone_phase(max_tones) = [17, 19]
    !> Observable groups, bits of observer_t%groups: V_T's harmonics, phase and mean deflection;
    !> the located extrema (min_gap, max V_T, modal extrema); the peak force; the energies and
    !> the virial.  contact_time, contacts_per_period and the Poincare points are always computed.
@@ -118,6 +122,9 @@ module tmafm_observers
       integer :: attractor = 0
       !> Drive frequency Omega and period T = 2 pi/Omega.
       real(dp) :: omega = 0, period_length = 0
+      !> The longest Gauss-Legendre piece: T/pieces_per_period, or for a general drive that
+      !> fraction of its fastest tone's period.
+      real(dp) :: piece_max = 0
       !> .true. once the run may stop (steady state found, or max_periods done).
       logical :: done = .false.
       !> Periods completed, and the steady period found (0 = none).
@@ -125,6 +132,11 @@ module tmafm_observers
       !> Accumulators of the current period.
       real(dp), allocatable :: acc_sin(:), acc_cos(:)
       real(dp) :: acc_deflection = 0, acc_contact_time = 0, acc_virial = 0
+      !> A general drive (tmafm_drive): V_T's lock-in sums at each tone, against sin and cos of
+      !> Omega_k tau + phi_k.  (One tone at phase 0: tone 1 is harmonic 1.)
+      logical :: general_drive = .false.
+      integer :: n_tones = 1
+      real(dp) :: acc_tone_sin(max_tones) = 0, acc_tone_cos(max_tones) = 0
       real(dp) :: acc_powers(n_powers) = 0
       real(dp) :: min_gap = huge(1.0_dp), peak_force = -huge(1.0_dp), max_gap = -huge(1.0_dp)
       !> The current period's located extrema of each mode (mode, ext_* column).
@@ -182,7 +194,8 @@ contains
       logical :: computed(n_observables)
       computed = .false.
       computed([obs_contact_time, obs_contacts]) = .true.
-      if (iand(groups, group_lockin) /= 0) computed([obs_amplitude, obs_phase, obs_mean_deflection]) = .true.
+      if (iand(groups, group_lockin) /= 0) computed([obs_amplitude, obs_phase, obs_mean_deflection, &
+                                                     obs_tone_amplitude, obs_tone_phase]) = .true.
       if (iand(groups, group_extrema) /= 0) computed(obs_min_gap) = .true.
       if (iand(groups, group_peak_force) /= 0) computed(obs_peak_force) = .true.
       if (iand(groups, group_energy) /= 0) computed([obs_dissipated, obs_dissipated_beam, &
@@ -231,8 +244,12 @@ contains
       self%reason = unsteady_short
       self%closest = huge(1.0_dp)
       self%closest_lag = 0
-      self%omega = model%scene%omega
-      self%period_length = 2*pi/model%scene%omega
+      self%omega = model%drive%fundamental
+      self%period_length = 2*pi/model%drive%fundamental
+      self%general_drive = model%drive%general
+      self%piece_max = self%period_length/pieces_per_period
+      if (self%general_drive) self%piece_max = 2*pi/model%drive%top_frequency/pieces_per_period
+      self%n_tones = model%drive%n_tones
       self%done = .false.
       self%n_periods = 0
       self%found_period = 0
@@ -298,6 +315,8 @@ contains
       self%acc_sin = 0
       self%acc_cos = 0
       self%acc_deflection = 0
+      self%acc_tone_sin = 0
+      self%acc_tone_cos = 0
       self%acc_contact_time = 0
       self%acc_virial = 0
       self%acc_powers = 0
@@ -368,9 +387,15 @@ contains
       real(dp), intent(in) :: a
       real(dp), intent(in) :: b
       integer :: j
-      call self%exact%integrate(flight, a, b, self%do_lockin, self%do_energy, self%acc_sin, self%acc_cos, &
-                                self%acc_deflection, self%acc_powers(power_drive), &
-                                self%acc_powers(power_beam_damping))
+      if (self%general_drive) then
+         call self%exact%integrate(flight, a, b, self%do_lockin, self%do_energy, self%acc_sin, self%acc_cos, &
+                                   self%acc_deflection, self%acc_powers(power_drive), &
+                                   self%acc_powers(power_beam_damping), self%acc_tone_sin, self%acc_tone_cos)
+      else
+         call self%exact%integrate(flight, a, b, self%do_lockin, self%do_energy, self%acc_sin, self%acc_cos, &
+                                   self%acc_deflection, self%acc_powers(power_drive), &
+                                   self%acc_powers(power_beam_damping))
+      end if
       if (.not. self%do_extrema) return
       call self%exact%extremum(flight, channel_gap, -1.0_dp, a, b, self%min_gap)
       call self%exact%extremum(flight, channel_gap, 1.0_dp, a, b, self%max_gap)
@@ -514,7 +539,7 @@ contains
       do while (a < t_end .and. .not. self%done)
          boundary = (self%n_periods + 1)*self%period_length
          if (pieces) then
-            b = min(t_end, boundary, a + self%period_length/pieces_per_period)
+            b = min(t_end, boundary, a + self%piece_max)
             if (b > a) call piece(self, model, a, b, in_contact, origin, h, pair, cubic)
          else
             b = min(t_end, boundary)
@@ -581,7 +606,7 @@ contains
          call state_at(origin, h, t(i), self%y, pair, cubic)
          if ((i == 0 .or. i == m + 1) .and. present(pair)) then
             ! A pair's piece ends also give the rates: whether an extremum may lie just inside.
-            call model%gap_at_phase(self%y, sin(model%scene%omega*t(i)), cos(model%scene%omega*t(i)), gap(i), &
+            call model%gap_at_phase(self%y, sin(self%omega*t(i)), cos(self%omega*t(i)), gap(i), &
                                     gap_rate(min(i, 1)))
             self%modal_rates(min(i, 1), :) = self%y(n + 1:2*n)
          else
@@ -613,7 +638,11 @@ contains
                ck = ck*c1 - sk*s1
                sk = next
             end do
-            self%acc_deflection = self%acc_deflection + weight*(tip_u - model%scene%alpha2*s1)
+            if (self%general_drive) then
+               call tone_sums(model, s1, c1, weight*gap(i), tip_u, weight)
+            else
+               self%acc_deflection = self%acc_deflection + weight*(tip_u - model%scene%alpha2*s1)
+            end if
          end if
          if (self%do_energy) then
             if (self%n_state > 2*n) then
@@ -650,6 +679,18 @@ contains
       end do
 
    contains
+
+      !> A general drive's lock-in sums at each tone, and the mean deflection less Y.
+      subroutine tone_sums(model, s1, c1, weighted_gap, tip_u, weight)
+         type(model_t), intent(in) :: model
+         real(dp), intent(in) :: s1, c1, weighted_gap, tip_u, weight
+         real(dp) :: sin_tone(max_tones), cos_tone(max_tones), base, base_rate, base_accel
+         call model%drive%tones(s1, c1, sin_tone, cos_tone)
+         self%acc_tone_sin = self%acc_tone_sin + weighted_gap*sin_tone
+         self%acc_tone_cos = self%acc_tone_cos + weighted_gap*cos_tone
+         call model%drive%base(s1, c1, base, base_rate, base_accel)
+         self%acc_deflection = self%acc_deflection + weight*(tip_u - base)
+      end subroutine tone_sums
 
       !> Raise the running peak force by the nodes' best, located by a golden-section search.
       subroutine locate_peak_force()
@@ -753,6 +794,21 @@ contains
          v(obs_drive_work) = self%acc_powers(power_drive)
          v(obs_virial) = self%acc_virial/period
          v(obs_contact_normal_work) = self%acc_powers(power_contact_normal)
+         ! Each tone's lock-in (one tone at phase 0: harmonic 1; no second tone: 0 and 0, the
+         ! drive has nothing there).
+         v(obs_tone_amplitude) = 0
+         v(obs_tone_phase) = 0
+         if (self%general_drive) then
+            do k = 1, self%n_tones
+               s = 2*self%acc_tone_sin(k)/period
+               c = 2*self%acc_tone_cos(k)/period
+               v(obs_tone_amplitude(k)) = hypot(s, c)
+               v(obs_tone_phase(k)) = atan2(c, s)*180/pi
+            end do
+         else
+            v(obs_tone_amplitude(1)) = v(obs_amplitude)
+            v(obs_tone_phase(1)) = v(obs_phase)
+         end if
       end associate
       self%max_gap_values(m) = self%max_gap
       self%modal_extrema(m, :, :) = self%acc_modal
@@ -854,6 +910,8 @@ contains
       factors(obs_contact_time) = scales%time*1.0e6_dp
       factors(obs_contacts) = 1
       factors(obs_virial) = scales%force_length*1.0e18_dp
+      factors(obs_tone_amplitude) = nm
+      factors(obs_tone_phase) = 1
    end function observable_factors
 
 end module tmafm_observers

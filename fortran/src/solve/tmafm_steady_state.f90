@@ -71,7 +71,12 @@ contains
       jitter%h_entry = h_entry
       jitter%h_exit = h_exit
       jitter%alpha4 = model%scene%alpha4
-      jitter%base = model%scene%alpha2*model%scene%alpha4*max(1.0_dp, model%scene%omega)
+      if (model%drive%general) then
+         jitter%base = sum(model%drive%amplitude(1:model%drive%n_tones)*model%scene%alpha4 &
+                           *max(1.0_dp, model%drive%frequency(1:model%drive%n_tones)))
+      else
+         jitter%base = model%scene%alpha2*model%scene%alpha4*max(1.0_dp, model%scene%omega)
+      end if
       jitter%tip_norm = dot_product(model%tip, model%inv_mass_tip)
       jitter%tip = abs(model%inv_mass_tip)
       allocate (jitter%pull_off(n), jitter%axial(n, n))

@@ -55,7 +55,7 @@ def _input_path(nml) -> Path:
             if path.is_symlink():
                 raise InputFileError(f"input file {name} is a symbolic link to a missing file") from None
         if path.suffix in ("", ".nml") and (len(path.parts) == 1 or (
-                len(path.parts) == 2 and path.parts[0] == _inputs.SWEEPS)):
+                len(path.parts) == 2 and path.parts[0] in _inputs.SUBFOLDERS)):
             try:
                 return _inputs.path("/".join(path.parts))
             except InputFileError:

@@ -2,7 +2,8 @@
 
 The run inputs are named by their stem (``"fig2_n4"``); the sweep files of docs/sweeps.md and
 their bases, from inputs/sweeps/, by ``"sweeps/<stem>"`` (``"sweeps/approach"``,
-``"sweeps/bistable_n2"``), so that every example of the docs runs after ``pip install``.
+``"sweeps/bistable_n2"``), and the bimodal example by ``"bimodal/tapping"``, so that every
+example of the docs runs after ``pip install``.
 
 >>> import tmafm
 >>> "fig2_n4" in tmafm.inputs.names()
@@ -25,6 +26,8 @@ __all__ = ["folder", "names", "path", "sweep_names", "SWEEPS"]
 
 #: The subfolder of the sweep files (and their bases): names "sweeps/<stem>".
 SWEEPS = "sweeps"
+#: Every subfolder of packaged inputs: names "<subfolder>/<stem>".
+SUBFOLDERS = (SWEEPS, "bimodal")
 
 
 def folder() -> Path:
@@ -43,7 +46,8 @@ def sweep_names() -> list[str]:
 
 
 def path(name: str) -> Path:
-    """The packaged input `name` (with or without .nml; "sweeps/<stem>" for inputs/sweeps/);
+    """The packaged input `name` (with or without .nml; "<subfolder>/<stem>" for inputs/sweeps/
+    and inputs/bimodal/);
     InputFileError if there is none."""
     if not isinstance(name, str):
         raise InputFileError(f"no packaged input named {shown(name)}: a name is a str (known: "
@@ -52,11 +56,16 @@ def path(name: str) -> Path:
     sub, _, leaf = stem.rpartition("/")
     candidate = folder() / (sub or ".") / f"{leaf}.nml"
     try:
-        found = sub in ("", SWEEPS) and leaf not in ("", ".", "..") and "\0" not in stem \
+        found = sub in ("", *SUBFOLDERS) and leaf not in ("", ".", "..") and "\0" not in stem \
             and candidate.is_file()
     except (OSError, ValueError):  # a name too long
         found = False
     if not found:
         raise InputFileError(f"no packaged input named {name!r} (known: "
-                             f"{', '.join(names() + sweep_names())})")
+                             f"{', '.join(names() + _subfolder_names())})")
     return candidate
+
+
+def _subfolder_names() -> list[str]:
+    """Names of the inputs of every subfolder ("<subfolder>/<stem>"), sorted."""
+    return sorted(f"{sub}/{p.stem}" for sub in SUBFOLDERS for p in (folder() / sub).glob("*.nml"))

@@ -143,6 +143,9 @@ module tmafm_model
       type(drive_t) :: drive
       !> The right-hand side goes to drive_kernel (a general drive) instead of rhs_kernel.
       logical :: general_kernel = .false.
+      !> The right-hand side goes to other_kernel (a viscoelastic sample or a general drive): the
+      !> one test the derivative entry points make before rhs_kernel.
+      logical :: other_kernel = .false.
    contains
       !> Time derivative (a', a'') of the state y = (a, a') in a given phase.
       procedure :: derivative => model_derivative
@@ -212,6 +215,7 @@ contains
       call init_drive(scene, model%drive, ierr, errmsg)
       if (ierr /= ok) return
       model%general_kernel = model%drive%general
+      model%other_kernel = model%sls%on .or. model%general_kernel
 
       model%beta = beam_roots(n)
       model%eigen = model%beta**4
@@ -453,17 +457,26 @@ contains
          vtdot = vtdot + self%tip(j)*y(n + j)
       end do
       if (self%drive%general) then
-         block
-            real(dp) :: base, base_rate, base_accel
-            call self%drive%base(sin_phase, cos_phase, base, base_rate, base_accel)
-            vt = vt + base + self%scene%delta_hat
-            vtdot = vtdot + base_rate
-         end block
+         call add_general_drive(self, sin_phase, cos_phase, vt, vtdot)
          return
       end if
       vt = vt + self%scene%alpha2*sin_phase + self%scene%delta_hat
       vtdot = vtdot + self%scene%alpha2*self%scene%omega*cos_phase
    end subroutine model_gap_at_phase
+
+   !> gap_at_phase's drive terms for a general drive (tmafm_drive): kept out of line, so that the
+   !> one-tone path stays as small as before tones existed.
+   pure subroutine add_general_drive(self, sin_phase, cos_phase, vt, vtdot)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      real(dp), intent(inout) :: vt
+      real(dp), intent(inout) :: vtdot
+      real(dp) :: base, base_rate, base_accel
+      call self%drive%base(sin_phase, cos_phase, base, base_rate, base_accel)
+      vt = vt + base + self%scene%delta_hat
+      vtdot = vtdot + base_rate
+   end subroutine add_general_drive
 
    !> V_T and dV_T/dtau at rows first .. first + count - 1 of a table of states, one sample per
    !> row (a and adot: rows x N), whose drive phases are sin_phase(i), cos_phase(i): gap_at_phase's
@@ -682,10 +695,8 @@ contains
       real(dp), intent(out), contiguous :: dydt(:)
       real(dp) :: sin_phase, cos_phase, vt, vtdot
       call model_phase(self, tau, sin_phase, cos_phase)
-      if (self%sls%on) then
-         call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
-      else if (self%general_kernel) then
-         call drive_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+      if (self%other_kernel) then
+         call other_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
       else
          call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
       end if
@@ -699,10 +710,8 @@ contains
       real(dp), intent(in) :: cos_phase
       real(dp), intent(out), contiguous :: dydt(:)
       real(dp) :: vt, vtdot
-      if (self%sls%on) then
-         call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
-      else if (self%general_kernel) then
-         call drive_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+      if (self%other_kernel) then
+         call other_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
       else
          call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
       end if
@@ -717,10 +726,8 @@ contains
       real(dp), intent(out), contiguous :: dydt(:)
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: vtdot
-      if (self%sls%on) then
-         call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
-      else if (self%general_kernel) then
-         call drive_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
+      if (self%other_kernel) then
+         call other_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
       else
          call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
       end if
@@ -886,6 +893,25 @@ contains
    !> rhs_kernel with a viscoelastic sample: y = (a, a', w, 0), dydt = (a', a'', w', 0).  The normal
    !> force group is the SLS's (tmafm_viscoelastic) on the Hertz variable X = A^3, DMT's pull-off
    !> added; the rest as general_kernel.  V_T and its rate are always returned.
+   !> The right-hand side of a viscoelastic sample (sls_kernel) or of a general drive
+   !> (drive_kernel): out of the entry points, so that rhs_kernel's callers test one flag.
+   pure subroutine other_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in), contiguous :: y(:)
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      logical, intent(in) :: want_gap
+      real(dp), intent(out), contiguous :: dydt(:)
+      real(dp), intent(out) :: vt
+      real(dp), intent(out) :: vtdot
+      if (self%sls%on) then
+         call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
+      else
+         call drive_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
+      end if
+   end subroutine other_kernel
+
    pure subroutine sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
       type(model_t), intent(in) :: self
       real(dp), intent(in) :: y(2*self%n_modes + 2)

@@ -178,3 +178,45 @@ def test_product_eigenvalues_of_known_small_cases():
     assert np.max(np.abs(np.sort_complex(got) - np.sort_complex(np.exp([-1.2j, 1.2j])))) <= 1e-14
     got = product_eigenvalues([np.diag([1.0, 2.0, 3.0]), np.diag([3.0, 2.0, 1.0])])
     assert np.array_equal(np.sort(got.real), [3.0, 3.0, 4.0]) and np.all(got.imag == 0)
+
+
+def test_a_stalled_first_attempt_is_rerun_in_another_basis(monkeypatch):
+    """The fallback when the shifted sweeps stall: the same product in a fixed random orthogonal
+    basis gives the same multipliers (here forced by failing the first attempt)."""
+    from tmafm.continuation import periodic_schur
+
+    rng = np.random.default_rng(5)
+    factors = [rng.standard_normal((7, 7)) for _ in range(3)]
+    expected = product_eigenvalues(factors)
+    real = periodic_schur._periodic_qr
+    calls = []
+
+    def first_fails(t):
+        calls.append(1)
+        if len(calls) == 1:
+            raise periodic_schur._NoConvergence("forced")
+        return real(t)
+
+    monkeypatch.setattr(periodic_schur, "_periodic_qr", first_fails)
+    got = product_eigenvalues(factors)
+    assert len(calls) == 2
+    scale = np.max(np.abs(expected))
+    assert np.max(np.abs(np.sort_complex(got) - np.sort_complex(expected))) <= 1e-13 * scale
+    monkeypatch.setattr(periodic_schur, "_periodic_qr",
+                        lambda t: (_ for _ in ()).throw(periodic_schur._NoConvergence("x")))
+    with pytest.raises(tmafm.SolverError):
+        product_eigenvalues(factors)
+
+
+def test_repeated_multipliers_of_commuting_factors():
+    """Factors Q D_k Q^T sharing one orthogonal basis, D_k with entries 0.5, 1, 2: the product
+    is normal, its multipliers prod_k D_k (many repeated) are perfectly conditioned, and come
+    out real to 1e-13 (a double multiplier must not turn into a complex pair sqrt(u) apart)."""
+    rng = np.random.default_rng(10)
+    n, k_factors = 12, 6
+    q = np.linalg.qr(rng.standard_normal((n, n)))[0]
+    diagonals = rng.choice([0.5, 1.0, 2.0], size=(k_factors, n))
+    factors = [q @ np.diag(d) @ q.T for d in diagonals]
+    expected = np.sort(np.prod(diagonals, axis=0))[::-1]
+    mu = cont.floquet_multipliers(factors)
+    assert np.max(np.abs(mu - expected)) <= 1e-13 * expected[0]

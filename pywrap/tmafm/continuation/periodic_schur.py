@@ -68,23 +68,26 @@ def _hessenberg_triangular(t: list[np.ndarray]) -> None:
 def _sweep(t: list[np.ndarray], lo: int, hi: int, x: np.ndarray) -> None:
     """One implicitly shifted periodic QR sweep on rows/columns lo..hi, started by the first
     column x (length m + 1) of the shift polynomial of the product: a bulge chased down the
-    Hessenberg factor, each triangular factor restored by a small QR as the bulge passes."""
+    Hessenberg factor, each triangular factor restored by Householder reflections of its small
+    block as the bulge passes through it."""
     h = t[-1]
     m = len(x) - 1
     for i in range(lo, hi):
         r = min(m, hi - i) + 1
         rows = slice(i, i + r)
-        v = x[:r] if i == lo else h[rows, i - 1]
-        q = np.linalg.qr(v.reshape(-1, 1), mode="complete")[0]
-        h[rows, :] = q.T @ h[rows, :]
+        v, tau = _householder(np.array(x[:r], dtype=float) if i == lo else h[rows, i - 1].copy())
+        _reflect_rows(h, rows, v, tau)
         if i > lo:
             h[i + 1:i + r, i - 1] = 0.0
-        t[0][:, rows] = t[0][:, rows] @ q
+        _reflect_cols(t[0], rows, v, tau)
         for k in range(len(t) - 1):
-            q = np.linalg.qr(t[k][rows, rows])[0]
-            t[k][rows, :] = q.T @ t[k][rows, :]
-            t[k][rows, rows] = np.triu(t[k][rows, rows])
-            t[k + 1][:, rows] = t[k + 1][:, rows] @ q
+            tk = t[k]
+            for c in range(i, i + r - 1):
+                part = slice(c, i + r)
+                v, tau = _householder(tk[part, c].copy())
+                _reflect_rows(tk, part, v, tau)
+                tk[c + 1:i + r, c] = 0.0
+                _reflect_cols(t[k + 1], part, v, tau)
 
 
 def _column_rotation(a: float, b: float) -> np.ndarray:
@@ -170,48 +173,60 @@ def _negligible(h: np.ndarray, i: int) -> bool:
     return sub <= _EPS * near or sub <= _TINY
 
 
-def _pair(t: list[np.ndarray], l: int):
-    """The two eigenvalues of the 2x2 block l, l+1: a complex pair (modulus from the factors'
-    determinants, argument from the block's trace), or None when the pair is real."""
-    idx = slice(l, l + 2)
-    b = t[-1][idx, idx] @ _triangular_product(t, idx) if len(t) > 1 else t[-1][idx, idx]
-    tr = b[0, 0] + b[1, 1]
-    det = b[0, 0] * b[1, 1] - b[0, 1] * b[1, 0]
-    disc = 0.25 * tr * tr - det
-    if disc >= 0.0:
-        return None
-    h = t[-1][idx, idx]
-    modulus = np.sqrt(abs(h[0, 0] * h[1, 1] - h[0, 1] * h[1, 0])
-                      * np.prod([abs(tk[l, l] * tk[l + 1, l + 1]) for tk in t[:-1]]))
-    z = complex(0.5 * tr, np.sqrt(-disc))
-    z *= modulus / abs(z)
-    return z, z.conjugate()
-
-
 def _diagonal(t: list[np.ndarray], i: int) -> float:
     return float(np.prod([tk[i, i] for tk in t]))
 
 
-def _split_real_pair(t: list[np.ndarray], l: int) -> None:
-    """Single-shift periodic QR steps on the 2x2 block l, l+1 with real eigenvalues until it
-    splits into two 1x1 blocks."""
+def _block_product(t: list[np.ndarray], l: int):
+    """The 2x2 product of the factors' blocks l, l+1: its trace, determinant, discriminant."""
+    idx = slice(l, l + 2)
+    b = t[-1][idx, idx] @ _triangular_product(t, idx)
+    tr = b[0, 0] + b[1, 1]
+    det = b[0, 0] * b[1, 1] - b[0, 1] * b[1, 0]
+    disc = (0.5 * (b[0, 0] - b[1, 1])) ** 2 + b[0, 1] * b[1, 0]
+    return tr, det, disc
+
+
+def _roots(t: list[np.ndarray], l: int):
+    """The eigenvalues of the 2x2 product of block l, l+1: a complex pair with its modulus
+    sqrt(prod |det B_k|) from the factors' own determinants, or two real roots."""
+    tr, det, disc = _block_product(t, l)
+    if disc < 0.0:
+        h = t[-1]
+        modulus = np.sqrt(abs(h[l, l] * h[l + 1, l + 1] - h[l, l + 1] * h[l + 1, l])
+                          * np.prod([abs(tk[l, l] * tk[l + 1, l + 1]) for tk in t[:-1]]))
+        z = complex(0.5 * tr, np.sqrt(-disc))
+        z *= modulus / abs(z)
+        return z, z.conjugate()
+    big = 0.5 * tr + np.copysign(np.sqrt(disc), tr)
+    return big, (det / big if big != 0.0 else 0.0)
+
+
+def _two_by_two(t: list[np.ndarray], l: int):
+    """The two eigenvalues of the deflated 2x2 block l, l+1.  A clearly complex pair (argument
+    above 1e-3 from the real axis) comes from the block's product (_roots).  Otherwise single-
+    shift periodic QR steps split the block into two 1x1 blocks (quadratic convergence), whose
+    multipliers are the products of the factors' diagonals, accurate however far apart the two
+    are; a pair that does not split in 30 steps (a double or nearly double multiplier, or a
+    complex pair within 1e-3 of the real axis) comes from the block's product."""
+    tr, _, disc = _block_product(t, l)
+    if disc < 0.0 and -disc > 1e-6 * (0.5 * tr) ** 2:
+        return _roots(t, l)
     h = t[-1]
-    for _ in range(60):
+    idx = slice(l, l + 2)
+    for _ in range(30):
         if _negligible(h, l + 1):
             h[l + 1, l] = 0.0
-            return
+            return _diagonal(t, l), _diagonal(t, l + 1)
         b = _bottom_2x2(t, l + 1)
         tr = b[0, 0] + b[1, 1]
         disc = max((0.5 * (b[0, 0] - b[1, 1])) ** 2 + b[0, 1] * b[1, 0], 0.0)
         roots = (0.5 * tr + np.sqrt(disc), 0.5 * tr - np.sqrt(disc))
         sigma = min(roots, key=lambda z: abs(z - b[1, 1]))
-        idx = slice(l, l + 2)
-        r = _triangular_product(t, idx)
-        x = h[idx, idx] @ r[:, 0]
+        x = h[idx, idx] @ _triangular_product(t, idx)[:, 0]
         x[0] -= sigma
         _sweep(t, l, l + 1, x)
-    raise _NoConvergence("product_eigenvalues: a real 2x2 block of the periodic Schur form did "
-                      "not split in 60 iterations")
+    return _roots(t, l)
 
 
 class _NoConvergence(Exception):
@@ -274,13 +289,7 @@ def _periodic_qr(t: list[np.ndarray]) -> np.ndarray:
             iterations = 0
             continue
         if lo == hi - 1:
-            pair = _pair(t, lo)
-            if pair is None:
-                _split_real_pair(t, lo)
-                mu[lo] = _diagonal(t, lo)
-                mu[hi] = _diagonal(t, hi)
-            else:
-                mu[lo], mu[hi] = pair
+            mu[lo], mu[hi] = _two_by_two(t, lo)
             hi -= 2
             iterations = 0
             continue

@@ -235,11 +235,11 @@ class _NoConvergence(Exception):
 
 def product_eigenvalues(factors) -> np.ndarray:
     """The eigenvalues of A_K ... A_1 for factors = [A_1, ..., A_K] (square, same size, finite),
-    by the periodic QR algorithm: unordered, complex.  Should the shifted sweeps stall (exact
-    zeros on a triangular factor's diagonal inside an unreduced block, as for A_2 A_1 = N^T N with
-    N a shift matrix), the algorithm is run once more on the factors brought to a fixed random
-    orthogonal basis Q (A_1 Q, Q^T A_K: the same product eigenvalues), where such exact zeros are
-    not generic."""
+    by the periodic QR algorithm: unordered, complex.  Should the shifted sweeps stall (a cycle
+    of shifts: not met on the random, singular, orthogonal and commuting products of
+    tests/test_floquet.py), the algorithm
+    is run once more on the factors in a fixed random orthogonal basis Q (A_1 Q, Q^T A_K: the
+    same product), then raises SolverError."""
     t = [np.array(a, dtype=float) for a in factors]
     try:
         return _periodic_qr([tk.copy() for tk in t])

@@ -23,28 +23,33 @@ _TINY = np.finfo(float).tiny
 
 
 def _householder(x: np.ndarray):
-    """v, tau with (I - tau v v^T) x = (beta, 0, ..., 0); tau = 0 when x is already so."""
-    sigma = float(np.dot(x[1:], x[1:]))
-    if sigma == 0.0:
+    """v, tau with (I - tau v v^T) x = (beta, 0, ..., 0); v None when x is already so.  Scaled
+    by max |x_i| first, so that no square under- or overflows."""
+    tail = np.abs(x[1:])
+    big = float(tail.max()) if tail.size else 0.0
+    if big == 0.0:
         return None, 0.0
-    alpha = float(x[0])
-    norm = np.sqrt(alpha * alpha + sigma)
+    xs = x / max(big, abs(float(x[0])))
+    alpha = float(xs[0])
+    norm = np.sqrt(alpha * alpha + float(xs[1:] @ xs[1:]))
     beta = -norm if alpha >= 0 else norm
-    v = x / (alpha - beta)
+    v = xs / (alpha - beta)
     v[0] = 1.0
     return v, (beta - alpha) / beta
 
 
 def _reflect_rows(a: np.ndarray, rows: slice, v, tau) -> None:
+    """a[rows, :] = (I - tau v v^T) a[rows, :]."""
     if v is not None:
         block = a[rows, :]
-        block -= np.outer(tau * v, v @ block)
+        block -= (tau * v)[:, None] * (v @ block)
 
 
 def _reflect_cols(a: np.ndarray, cols: slice, v, tau) -> None:
+    """a[:, cols] = a[:, cols] (I - tau v v^T)."""
     if v is not None:
         block = a[:, cols]
-        block -= np.outer(block @ v, tau * v)
+        block -= (block @ v)[:, None] * (tau * v)
 
 
 def _hessenberg_triangular(t: list[np.ndarray]) -> None:

@@ -15,6 +15,7 @@ from .._model import Model
 from .._namelist import shown
 from .._run import Config
 from ..errors import InputError, InputTypeError, SolverError, raise_for
+from .periodic_schur import product_eigenvalues
 
 __all__ = ["periodic_map", "periodic_orbit", "floquet_multipliers", "MapResult", "Orbit",
            "STAT_NAMES"]
@@ -117,13 +118,49 @@ def _text(errmsg) -> str:
 
 def floquet_multipliers(monodromies) -> np.ndarray:
     """The Floquet multipliers of an orbit from the monodromy matrices of its segments (in
-    order): the eigenvalues of their product M_n ... M_1, largest modulus first."""
-    product = None
-    for m in monodromies:
-        product = m if product is None else m @ product
-    mu = np.linalg.eigvals(product)
+    order, M_1 first): the eigenvalues of M_n ... M_1, largest modulus first.  One segment: the
+    eigenvalues of M_1.  Several: the periodic Schur decomposition of the segments
+    (periodic_schur.product_eigenvalues), which never forms the product, so multipliers many
+    decades below the largest keep their accuracy (docs/continuation.md, section 4)."""
+    factors = _monodromy_list(monodromies)
+    if len(factors) == 1:
+        mu = np.linalg.eigvals(factors[0])
+    else:
+        mu = product_eigenvalues(factors)
     order = np.lexsort((-mu.imag, -np.abs(mu)))
     return mu[order]
+
+
+def _monodromy_list(monodromies) -> list[np.ndarray]:
+    """The segments' monodromy matrices as real square arrays of one size, or InputError."""
+    if isinstance(monodromies, np.ndarray) and monodromies.ndim == 2:
+        raise InputError(f"monodromies must be a sequence of square matrices (one per segment), "
+                         f"got one array of shape {monodromies.shape}")
+    try:
+        items = list(monodromies)
+    except TypeError:
+        raise InputError(f"monodromies must be a sequence of square matrices, got "
+                         f"{shown(monodromies)}") from None
+    if not items:
+        raise InputError("monodromies must hold at least one matrix, got none")
+    factors = []
+    for i, item in enumerate(items):
+        if np.iscomplexobj(item):
+            raise InputError(f"monodromies[{i}] must be real, got complex values")
+        try:
+            a = np.asarray(item, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"monodromies[{i}] must be real numbers, got {shown(item)}") from None
+        if a.ndim != 2 or a.shape[0] != a.shape[1] or a.shape[0] == 0:
+            raise InputError(f"monodromies[{i}] must be a non-empty square matrix, got shape "
+                             f"{a.shape}")
+        if factors and a.shape != factors[0].shape:
+            raise InputError(f"monodromies[{i}] has shape {a.shape}, monodromies[0] "
+                             f"{factors[0].shape}: all segments must have the same size")
+        if not np.all(np.isfinite(a)):
+            raise InputError(f"monodromies[{i}] must be finite, got a non-finite entry")
+        factors.append(a)
+    return factors
 
 
 def _segments(model: Model, states: np.ndarray, rtol: float) -> list[MapResult]:

@@ -1029,6 +1029,19 @@ def check_am_afm(ck, group="am_afm"):
             [f"{am['cpu_s']:.1f}"], "Quick start")
 
 
+def check_off_cost(ck, group="off_cost"):
+    """docs/performance.md's cost of the optional physics when off against
+    benchmarks/results/off_cost.json (`python benchmarks/off_cost.py --base 615b428`)."""
+    off = load(result_path("off_cost.json"))
+    doc, sec = "docs/performance.md", "Optional physics when it is off"
+    for name, label in (("fig2", "Fig. 2 by `flight_exact`, 100 periods"),
+                        ("tilted_hertz_3", "3-mode tilted scene, rtol 1e-10, 200 periods"),
+                        ("fig2_n4_rk4_paper", "`inputs/fig2_n4.nml` as packaged (`rk4_paper`)")):
+        run = off["runs"][name]
+        ck.text(group, doc, f"| {label} | {{}} | {{}} | +{{}} % |",
+                [f"{run['base']:,}", f"{run['head']:,}", f"{run['change_percent']:.3f}"], sec)
+
+
 # ----------------------------------------------------------------------------- main
 GROUPS = {
     "figures": lambda ck: check_figures(ck, load(SUMMARY)),
@@ -1038,6 +1051,7 @@ GROUPS = {
     "docs": check_other_docs,
     "errata": check_errata,
     "am_afm": check_am_afm,
+    "off_cost": check_off_cost,
 }
 
 

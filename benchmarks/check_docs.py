@@ -673,6 +673,7 @@ def check_performance(ck, group="performance"):
     ck.text(group, doc, "Each run is exactly {} periods", [st["periods_per_run"]], "Throughput by backend")
 
     _etd_table(ck, group, doc)
+    check_off_cost(ck, group)
     _inventory(ck, group, doc)
 
 
@@ -1051,7 +1052,6 @@ GROUPS = {
     "docs": check_other_docs,
     "errata": check_errata,
     "am_afm": check_am_afm,
-    "off_cost": check_off_cost,
 }
 
 

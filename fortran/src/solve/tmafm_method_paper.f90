@@ -31,7 +31,7 @@ contains
 
       type(rk4_stepper_t) :: stepper
       real(dp) :: y(size(y0)), y_new(size(y0)), f0(size(y0)), f_end(size(y0)), y_sample(size(y0))
-      real(dp) :: tau, tau_new, h
+      real(dp) :: tau, tau_new, h, sin_phase, cos_phase
       logical :: in_contact, was_in_contact, have_f_end, f_end_contact
 
       ierr = ok
@@ -65,7 +65,8 @@ contains
          if (have_f_end .and. (f_end_contact .eqv. in_contact)) then
             f0 = f_end
          else
-            call model%derivative(tau, y, in_contact, f0)
+            call model%phase(tau, sin_phase, cos_phase)
+            call model%derivative_at_phase(y, in_contact, sin_phase, cos_phase, f0)
             traj%rhs_evaluations = traj%rhs_evaluations + 1
          end if
          call stepper%step(model, tau, y, h, in_contact, f0, y_new)
@@ -79,7 +80,8 @@ contains
 
          do while (traj%next_time() <= tau_new .or. present(observer))
             if (.not. have_f_end) then
-               call model%derivative(tau_new, y_new, in_contact, f_end)
+               call model%phase(tau_new, sin_phase, cos_phase)
+               call model%derivative_at_phase(y_new, in_contact, sin_phase, cos_phase, f_end)
                traj%rhs_evaluations = traj%rhs_evaluations + 1
                have_f_end = .true.
                f_end_contact = in_contact

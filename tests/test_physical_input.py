@@ -342,3 +342,30 @@ def test_the_largest_tip_mass_ratio_is_taken_as_given():
     config = tmafm.Config({"model": {"n_modes": 3}, "physical": {**CANTILEVER, "tip_mass_ratio": 1e3}})
     assert config.scene["alpha1"] == 1e3
     assert config.derived["resonance_frequency"] == pytest.approx(300e3, rel=1e-12)
+
+
+def test_in_a_liquid_the_derived_resonance_and_q_are_those_of_the_model_that_runs():
+    """The header's f0 and Q of a scene in water are the model's own first eigenvalue, with each
+    mode's added mass and fluid damping (model.matrices, numpy), not the beam's in air (which
+    gave Q = 22.6 here against the model's 2.86)."""
+    water = {"medium_density": 997.0, "medium_viscosity": 8.9e-4}
+    config = tmafm.Config("physical_polystyrene", physical=water, model={"n_modes": 2})
+    lam = _first_mode(tmafm.Model(config))
+    t0 = config.derived["time_scale"]
+    assert config.derived["resonance_frequency"] == pytest.approx(abs(lam) / (2 * math.pi * t0), rel=1e-9)
+    assert config.derived["quality_factor"] == pytest.approx(abs(lam) / (2 * abs(lam.real)), rel=1e-9)
+    air = tmafm.Config("physical_polystyrene", model={"n_modes": 2})
+    assert config.derived["quality_factor"] < air.derived["quality_factor"]
+
+
+@pytest.mark.parametrize("key", ["spring_constant", "free_amplitude"])
+def test_the_calibration_and_the_free_amplitude_are_refused_in_a_liquid(key):
+    extra = dict(CANTILEVER) if key == "spring_constant" else {"free_amplitude": 10e-9}
+    extra.update({"medium_density": 997.0, "medium_viscosity": 8.9e-4})
+    base = "physical_polystyrene"
+    if key == "spring_constant":
+        with pytest.raises(tmafm.InputError, match="spring_constant.*not combined with medium_density"):
+            tmafm.Config(base, physical=extra)
+    else:
+        with pytest.raises(tmafm.InputError, match="free_amplitude.*not combined with medium_density"):
+            tmafm.Config(base, physical=extra)

@@ -419,6 +419,14 @@ contains
       end if
       call check_pair(p, g, 'medium_density', v(28), 'medium_viscosity', v(29), ierr, errmsg)
       if (ierr /= ok) return
+      ! The calibration and the free amplitude are solved for the beam in air (tmafm_calibration):
+      ! with a liquid they would describe another model than the one that runs.
+      if (v(28) > 0 .and. (given(21) .or. given(26))) then
+         call key_error(p, g%entries(entry_at(merge('spring_constant', 'free_amplitude ', given(21)))), &
+                        'is not combined with medium_density > 0 (a liquid): give the cantilever by its '// &
+                        'geometry and the drive by drive_amplitude', ierr, errmsg)
+         return
+      end if
       ! A viscoelastic sample relaxes to a modulus no higher than its instantaneous one.
       if (v(33) > v(7)) then
          fixed = entry_or_default(g, 'sample_modulus_relaxed', v(33))

@@ -67,7 +67,8 @@ contains
       tip_compliance = sum(model%tip**2/model%eigen)
    end function tip_compliance
 
-   !> lambda1 (module comment) of the model's free phase with beam damping alpha3: the
+   !> lambda1 (module comment) of the model's free phase with beam damping alpha3 (plus, in a
+   !> liquid, each mode's fluid damping: model_t%modal_damping - alpha3 of the model): the
    !> companion matrix's eigenvalues (LAPACK dgeev) give the start, Newton's method on
    !> T(lambda) v = 0 (nonlinear inverse iteration, complex LU) refines it to the last bits.
    !> `underdamped` is .false. when the eigenvalue of least modulus is real.
@@ -82,6 +83,7 @@ contains
       real(dp) :: dummy(1, 1), work(8*model%n_modes + 64)
       complex(dp) :: t(model%n_modes, model%n_modes), x(model%n_modes), v(model%n_modes), u(model%n_modes)
       complex(dp) :: step
+      real(dp) :: damping(model%n_modes)
       integer :: n, j, k, info, pivots(model%n_modes), it
 
       ierr = ok
@@ -92,7 +94,11 @@ contains
          companion(j, n + j) = 1
       end do
       companion(n + 1:, 1:n) = -model%inv_mass_eigen
-      companion(n + 1:, n + 1:) = -alpha3*model%inv_mass
+      ! C = diag(alpha3 + the liquid's damping), alpha3 I without a liquid (the same bits).
+      damping = alpha3 + (model%modal_damping - model%scene%alpha3)
+      do j = 1, n
+         companion(n + 1:, n + j) = -damping(j)*model%inv_mass(:, j)
+      end do
       call dgeev('N', 'N', 2*n, companion, 2*n, wr, wi, dummy, 1, dummy, 1, work, size(work), info)
       if (info /= 0) then
          ierr = err_input
@@ -109,7 +115,7 @@ contains
       if (info /= 0) return
       u = v/sum(abs(v)**2)
       do it = 1, 30
-         x = (2*lambda)*matmul(model%mass, v) + alpha3*v
+         x = (2*lambda)*matmul(model%mass, v) + damping*v
          call solve(lambda, x, info)
          if (info /= 0) exit
          step = 1/dot_product(u, x)
@@ -119,7 +125,7 @@ contains
       end do
       underdamped = aimag(lambda) > 0
    contains
-      !> rhs <- T(lam)^-1 rhs, T(lam) = lam^2 M + lam alpha3 I + Lambda (info > 0: singular).
+      !> rhs <- T(lam)^-1 rhs, T(lam) = lam^2 M + lam C + Lambda (info > 0: singular).
       subroutine solve(lam, rhs, info)
          complex(dp), intent(in) :: lam
          complex(dp), intent(inout) :: rhs(:)
@@ -127,7 +133,7 @@ contains
          integer :: i
          t = lam**2*model%mass
          do i = 1, n
-            t(i, i) = t(i, i) + lam*alpha3 + model%eigen(i)
+            t(i, i) = t(i, i) + lam*damping(i) + model%eigen(i)
          end do
          call zgesv(n, 1, t, n, pivots, rhs, n, info)
       end subroutine solve

@@ -141,11 +141,9 @@ module tmafm_model
       !> The drive's tones and their common frequency (tmafm_drive); the phase the fast forms
       !> take is that of drive%fundamental.
       type(drive_t) :: drive
-      !> The right-hand side goes to drive_kernel (a general drive) instead of rhs_kernel.
-      logical :: general_kernel = .false.
       !> The right-hand side goes to other_kernel (a viscoelastic sample or a general drive): the
       !> one test the derivative entry points make before rhs_kernel.
-      logical :: other_kernel = .false.
+      logical :: special_rhs = .false.
    contains
       !> Time derivative (a', a'') of the state y = (a, a') in a given phase.
       procedure :: derivative => model_derivative
@@ -214,8 +212,7 @@ contains
       model%errata = errata
       call init_drive(scene, model%drive, ierr, errmsg)
       if (ierr /= ok) return
-      model%general_kernel = model%drive%general
-      model%other_kernel = model%sls%on .or. model%general_kernel
+      model%special_rhs = model%sls%on .or. model%drive%general
 
       model%beta = beam_roots(n)
       model%eigen = model%beta**4
@@ -464,8 +461,7 @@ contains
       vtdot = vtdot + self%scene%alpha2*self%scene%omega*cos_phase
    end subroutine model_gap_at_phase
 
-   !> gap_at_phase's drive terms for a general drive (tmafm_drive): kept out of line, so that the
-   !> one-tone path stays as small as before tones existed.
+   !> gap_at_phase's drive terms for a general drive (tmafm_drive): the base motion and its rate.
    pure subroutine add_general_drive(self, sin_phase, cos_phase, vt, vtdot)
       class(model_t), intent(in) :: self
       real(dp), intent(in) :: sin_phase
@@ -695,7 +691,7 @@ contains
       real(dp), intent(out), contiguous :: dydt(:)
       real(dp) :: sin_phase, cos_phase, vt, vtdot
       call model_phase(self, tau, sin_phase, cos_phase)
-      if (self%other_kernel) then
+      if (self%special_rhs) then
          call other_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
       else
          call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
@@ -710,7 +706,7 @@ contains
       real(dp), intent(in) :: cos_phase
       real(dp), intent(out), contiguous :: dydt(:)
       real(dp) :: vt, vtdot
-      if (self%other_kernel) then
+      if (self%special_rhs) then
          call other_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
       else
          call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
@@ -726,7 +722,7 @@ contains
       real(dp), intent(out), contiguous :: dydt(:)
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: vtdot
-      if (self%other_kernel) then
+      if (self%special_rhs) then
          call other_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
       else
          call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
@@ -890,9 +886,6 @@ contains
       end associate
    end subroutine general_kernel
 
-   !> rhs_kernel with a viscoelastic sample: y = (a, a', w, 0), dydt = (a', a'', w', 0).  The normal
-   !> force group is the SLS's (tmafm_viscoelastic) on the Hertz variable X = A^3, DMT's pull-off
-   !> added; the rest as general_kernel.  V_T and its rate are always returned.
    !> The right-hand side of a viscoelastic sample (sls_kernel) or of a general drive
    !> (drive_kernel): out of the entry points, so that rhs_kernel's callers test one flag.
    pure subroutine other_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
@@ -912,6 +905,9 @@ contains
       end if
    end subroutine other_kernel
 
+   !> rhs_kernel with a viscoelastic sample: y = (a, a', w, 0), dydt = (a', a'', w', 0).  The normal
+   !> force group is the SLS's (tmafm_viscoelastic) on the Hertz variable X = A^3, DMT's pull-off
+   !> added; the rest as general_kernel.  V_T and its rate are always returned.
    pure subroutine sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
       type(model_t), intent(in) :: self
       real(dp), intent(in) :: y(2*self%n_modes + 2)

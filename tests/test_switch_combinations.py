@@ -1,7 +1,7 @@
-"""Optional physics that is not combined (docs/model.md sections 6a, 13-15): a two-tone drive or a
-drive phase with a liquid, a viscoelastic sample or 'dmt_vdw'; a viscoelastic sample under
-'dmt_vdw'; the stroboscopic map of a viscoelastic sample or of a general drive.  Each is refused
-in one line naming the key and its value, never run with a kernel that leaves a term out."""
+"""Optional physics that is not combined (docs/model.md sections 6a, 13-15): the stroboscopic map
+of a viscoelastic sample or of a general drive.  Each is refused in one line naming the key and
+its value, never run with a kernel that leaves a term out.  (The parts themselves compose:
+tests/test_compose.py.)"""
 
 import pytest
 
@@ -9,26 +9,6 @@ import tmafm
 from tmafm import continuation as cont
 
 TONE = {"alpha2_2": 1e-5, "omega_2": 6.0}
-
-
-@pytest.mark.parametrize("overrides", [
-    {"scene": {**TONE, "medium_mass": 0.1, "medium_reynolds": 10.0}},
-    {"scene": {**TONE, "sls_relaxation_time": 1.0, "sls_modulus_ratio": 0.5}, "solver": {"method": "dop853"}},
-    {"scene": {"drive_phase": 0.3, "sls_relaxation_time": 1.0, "sls_modulus_ratio": 0.5},
-     "solver": {"method": "dop853"}},
-    {"scene": TONE, "model": {"contact_law": "dmt_vdw"}, "solver": {"method": "dop853"}},
-], ids=["tone+liquid", "tone+sls", "phase+sls", "tone+vdw"])
-def test_a_general_drive_with_other_physics_is_refused(overrides):
-    with pytest.raises(tmafm.InputError, match="not combined") as info:
-        tmafm.run("fig2_n4", **overrides)
-    message = str(info.value)
-    assert "\n" not in message and ("alpha2_2 = " in message and "drive_phase = " in message)
-
-
-def test_a_viscoelastic_sample_under_dmt_vdw_is_refused():
-    with pytest.raises(tmafm.InputError, match="sls_relaxation_time = .*dmt_vdw"):
-        tmafm.run("fig2_n4", model={"contact_law": "dmt_vdw"}, solver={"method": "dop853"},
-                  scene={"sls_relaxation_time": 1.0, "sls_modulus_ratio": 0.5})
 
 
 @pytest.mark.parametrize("scene", [{"sls_relaxation_time": 1.0, "sls_modulus_ratio": 0.5}, TONE],

@@ -694,13 +694,6 @@ contains
          end if
          return
       end if
-      if (config%scene%sls_relaxation_time > 0) then
-         ierr = err_input
-         errmsg = label//': &scene sls_relaxation_time = '//real_text(config%scene%sls_relaxation_time)// &
-                  ": a viscoelastic sample is not combined with &model contact_law = 'dmt_vdw' (its "// &
-                  "relaxation acts on the contact force only); use 'hertz' or 'dmt'"
-         return
-      end if
       if (vdw_method_refused(config%solver%method)) then
          ierr = err_input
          errmsg = label//": &solver method = '"//trim(config%solver%method)// &

@@ -364,7 +364,7 @@ contains
    contains
 
       !> The system and right-hand side of tone k's particular solution (general drive): the
-      !> forcing alpha_k Omega_k^2 M^-1 (alpha1 m + q) sin(..) - alpha_k alpha3 Omega_k M^-1 q cos(..)
+      !> forcing alpha_k Omega_k^2 M^-1 (alpha1 m + (1 + mu) q) sin(..) - alpha_k Omega_k M^-1 C q cos(..)
       !> at Omega_k, the phase phi_k in the sin and cos.
       subroutine tone_particular(k, ierr, errmsg)
          integer, intent(in) :: k
@@ -384,7 +384,12 @@ contains
          end do
          rhs = 0
          rhs(n + 1:m) = -amp*w**2*model%inv_mass_inertial
-         rhs(m + n + 1:2*m) = amp*model%scene%alpha3*w*model%inv_mass_integral
+         ! The base velocity through the damping: alpha3 M^-1 q in air, M^-1 C q in a liquid.
+         if (model%has_medium) then
+            rhs(m + n + 1:2*m) = amp*w*model%inv_mass_damped_integral
+         else
+            rhs(m + n + 1:2*m) = amp*model%scene%alpha3*w*model%inv_mass_integral
+         end if
          if (.not. (all(ieee_is_finite(system)) .and. all(ieee_is_finite(rhs)))) then
             ierr = err_input
             write (errmsg, '(a,i0,a,es12.4e3)') 'flight_exact: the free beam equations overflow for drive tone ', &
@@ -459,7 +464,7 @@ contains
             real(dp) :: sin_tone(max_tones), cos_tone(max_tones), rest(self%n_state)
             integer :: k
             call model%drive%tones(sin_phase, cos_phase, sin_tone, cos_tone)
-            rest = y
+            rest = y(1:self%n_state)
             do k = 2, self%n_tones
                rest = rest - self%tone_u(:, k)*sin_tone(k) - self%tone_v(:, k)*cos_tone(k)
             end do

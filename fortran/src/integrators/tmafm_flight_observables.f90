@@ -276,8 +276,12 @@ contains
             self%tone_tip(t) = cmplx(flight%tone_tip_cos(t), -flight%tone_tip_sin(t), dp)*rot
             self%tone_base(t) = cmplx(0.0_dp, -a, dp)*rot
             self%tone_state(:, t) = cmplx(flight%tone_v(:, t), -flight%tone_u(:, t), dp)*rot
-            self%tone_force(:, t) = cmplx(-a*s%alpha3*w*model%integral, &
-                                          -a*w**2*(s%alpha1*model%mass_point + model%integral), dp)*rot
+            if (model%has_medium) then
+               self%tone_force(:, t) = cmplx(-a*w*model%damped_integral, -a*w**2*model%inertial_load, dp)*rot
+            else
+               self%tone_force(:, t) = cmplx(-a*s%alpha3*w*model%integral, &
+                                             -a*w**2*(s%alpha1*model%mass_point + model%integral), dp)*rot
+            end if
          end associate
          self%particular_size = self%particular_size + abs(self%tone_state(1:n, t))
       end do

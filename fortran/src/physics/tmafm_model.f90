@@ -31,7 +31,7 @@ module tmafm_model
    use tmafm_scene, only: scene_t
    use tmafm_errata, only: errata_t
    use tmafm_hydrodynamics, only: modal_fluid_loads
-   use tmafm_vdw, only: law_dmt_vdw, vdw_forces, vdw_brackets
+   use tmafm_vdw, only: law_dmt_vdw, vdw_brackets, vdw_normal_group
    use tmafm_drive, only: drive_t, init_drive
    implicit none
    private
@@ -68,8 +68,7 @@ module tmafm_model
       logical :: has_contact_damping = .true., has_axial_stiffness = .true., has_moment = .true.
       !> 'dmt_vdw': a tip-sample force also out of contact (tmafm_vdw), so the flight is forced too.
       logical :: long_range = .false.
-      !> The right-hand side goes to general_kernel: N > rows_per_block, or long_range (whose
-      !> hooks are there only, so that the small kernel of the other laws pays nothing for them).
+      !> The elastic one-tone right-hand side goes to general_kernel: N > rows_per_block.
       logical :: general = .false.
       !> Mode roots beta_j.
       real(dp), allocatable :: beta(:)
@@ -105,6 +104,16 @@ module tmafm_model
       real(dp), allocatable :: inv_mass_inertial(:)
       !> M^-1 q: the damping drive direction.
       real(dp), allocatable :: inv_mass_integral(:)
+      !> alpha1 m + (1 + mu) q: what the base's acceleration -Y'' drives (mu = 0 in air).
+      real(dp), allocatable :: inertial_load(:)
+      !> C q, C_jj = alpha3 + gamma_j: what the base's velocity Y' drives through the beam's (and a
+      !> liquid's) damping, with a minus sign.
+      real(dp), allocatable :: damped_integral(:)
+      !> M^-1 C q: damped_integral as a'' takes it (composed_kernel's drive column with Y').
+      real(dp), allocatable :: inv_mass_damped_integral(:)
+      !> The contact damper's base term in composed_kernel: damper_base_position Y +
+      !> damper_base_rate Y' (-alpha4 Y printed, -alpha4 Y' under E1; 0 without contact damping).
+      real(dp) :: damper_base_position = 0, damper_base_rate = 0
       !> N rounded up to a whole number of the kernel's row blocks (rows_per_block).
       integer :: n_padded = 0
       !> For N <= rows_per_block (small_kernel): the folded terms at fixed places in the model,
@@ -141,8 +150,8 @@ module tmafm_model
       !> The drive's tones and their common frequency (tmafm_drive); the phase the fast forms
       !> take is that of drive%fundamental.
       type(drive_t) :: drive
-      !> The right-hand side goes to other_kernel (a viscoelastic sample or a general drive): the
-      !> one test the derivative entry points make before rhs_kernel.
+      !> The right-hand side goes to composed_kernel (a viscoelastic sample, a general drive or a
+      !> force in flight, in any combination): the one test the entry points make before rhs_kernel.
       logical :: special_rhs = .false.
    contains
       !> Time derivative (a', a'') of the state y = (a, a') in a given phase.
@@ -167,7 +176,8 @@ module tmafm_model
       procedure :: contact => model_contact
       !> The same in a given phase: under 'dmt_vdw' the attraction in flight, else contact_state.
       procedure :: forces_in_phase => model_forces_in_phase
-      !> The normal contact force kappa5 f at a contact state y (a, a'[, w]) and time tau.
+      !> The normal force kappa5 f of the tip-sample law at a state y (a, a'[, w]) and time tau: in
+      !> contact, and under 'dmt_vdw' in flight too (the phase by the sign of V_T, or as given).
       procedure :: normal_force => model_normal_force
       !> The explicit M, C, K, F of Eq. (15) at one state, for checks and analysis.
       procedure :: matrices => model_matrices
@@ -212,7 +222,6 @@ contains
       model%errata = errata
       call init_drive(scene, model%drive, ierr, errmsg)
       if (ierr /= ok) return
-      model%special_rhs = model%sls%on .or. model%drive%general
 
       model%beta = beam_roots(n)
       model%eigen = model%beta**4
@@ -254,7 +263,10 @@ contains
 
       model%has_contact_damping = scene%alpha4 /= 0
       model%long_range = law == law_dmt_vdw
-      model%general = n > rows_per_block .or. model%long_range
+      model%general = n > rows_per_block
+      ! Every part beyond the elastic one-tone contact in air-or-liquid goes to the one composed
+      ! kernel; the fast kernels stay as the elastic scenes had them.
+      model%special_rhs = model%sls%on .or. model%drive%general .or. model%long_range
       model%has_axial_stiffness = model%kappa5 /= 0 .or. model%kappa6 /= 0
       model%has_moment = model%has_axial_stiffness .and. scene%g0_over_d /= 0 &
                          .and. any(model%moment_shape /= 0)
@@ -286,16 +298,6 @@ contains
             model%modal_damping = scene%alpha3 + fluid_damping
          end block
       end if
-      ! A general drive (two tones, or a drive phase) has its own kernel and closed forms, written
-      ! for the elastic contact in air: the combinations are refused, not approximated.
-      if (model%drive%general .and. (model%has_medium .or. model%sls%on .or. law == law_dmt_vdw)) then
-         ierr = err_input
-         write (errmsg, '(a,g0,a,g0,a)') '&scene alpha2_2 = ', scene%alpha2_2, ', drive_phase = ', &
-            scene%drive_phase, ': a second drive tone or a drive phase is not combined with a liquid, '// &
-            "a viscoelastic sample or contact_law = 'dmt_vdw'"
-         return
-      end if
-
       ! Columns: I | Lambda | G | p | r | alpha1 m + q | q, all solved with one factorisation.
       rhs = 0
       do j = 1, n
@@ -327,6 +329,9 @@ contains
       model%inv_mass_moment = rhs(:, 3*n + 2)
       model%inv_mass_inertial = rhs(:, 3*n + 3)
       model%inv_mass_integral = rhs(:, 3*n + 4)
+      model%inertial_load = scene%alpha1*model%mass_point + (1 + model%added_mass)*model%integral
+      model%damped_integral = model%modal_damping*model%integral
+      model%inv_mass_damped_integral = matmul(model%inv_mass, model%damped_integral)
 
       ! The folded forms the right-hand side uses.
       model%n_padded = rows_per_block*((n + rows_per_block - 1)/rows_per_block)
@@ -369,18 +374,10 @@ contains
       end associate
       model%pass_terms(1:n, 1) = model%drive_sin
       model%pass_terms(1:n, 2) = model%drive_cos
-      if (model%drive%general) then
-         ! A general drive: the kernel's two drive columns take -d2Y/dtau2 and dY/dtau, and the
-         ! contact damper's base term is -alpha4 Y (printed) or -alpha4 dY/dtau (E1).
-         model%pass_terms(1:n, 1) = model%inv_mass_inertial
-         model%pass_terms(1:n, 2) = -scene%alpha3*model%inv_mass_integral
-         model%base_sin = 0
-         model%base_cos = 0
-         if (model%has_contact_damping .and. errata%e1_base_damping_velocity) then
-            model%base_cos = -scene%alpha4
-         else if (model%has_contact_damping) then
-            model%base_sin = -scene%alpha4
-         end if
+      if (model%has_contact_damping .and. errata%e1_base_damping_velocity) then
+         model%damper_base_rate = -scene%alpha4
+      else if (model%has_contact_damping) then
+         model%damper_base_position = -scene%alpha4
       end if
       model%pass_terms(1:n, 3) = model%inv_mass_tip
       model%pass_terms(1:n, 4) = model%moment_force
@@ -576,29 +573,41 @@ contains
       real(dp), intent(in) :: a(:)
       logical, intent(in) :: in_contact
       type(contact_brackets_t) :: state
-      real(dp) :: vt, scaled_slope
+      real(dp) :: vt, scaled_slope, base, base_rate, base_accel
       if (.not. self%long_range) then
          state = self%contact(tau, a)
          return
       end if
-      vt = dot_product(self%tip, a) + self%scene%alpha2*sin(self%scene%omega*tau) &
-           + self%scene%delta_hat
+      call model_drive_signals(self, sin(self%drive%fundamental*tau), cos(self%drive%fundamental*tau), &
+                               base, base_rate, base_accel)
+      vt = dot_product(self%tip, a) + base + self%scene%delta_hat
       scaled_slope = dot_product(self%slope, a)/self%scene%l_over_d
       state = vdw_brackets(in_contact, vt, scaled_slope, self%scene%theta, self%scene%beta, self%kappa5, &
                            self%kappa6, self%errata%e7_signed_slope, self%scene%vdw_adhesion, &
                            self%scene%vdw_range)
    end function model_forces_in_phase
+
    !> kappa5 f: the normal force group of the elastic law (§6), or with a viscoelastic sample
    !> and y = (a, a', w) the sample's (tmafm_viscoelastic), in the units of the brackets.
-   pure function model_normal_force(self, tau, y) result(force)
+   pure function model_normal_force(self, tau, y, in_contact) result(force)
       class(model_t), intent(in) :: self
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: y(:)
+      !> The phase (default: by the sign of V_T); under 'dmt_vdw' it picks the branch of the law.
+      logical, intent(in), optional :: in_contact
       real(dp) :: force
       type(contact_brackets_t) :: state
       integer :: n
       n = self%n_modes
-      state = self%contact(tau, y(1:n))
+      if (present(in_contact)) then
+         state = self%forces_in_phase(tau, y(1:n), in_contact)
+         if (.not. (in_contact .or. self%long_range)) then
+            force = 0
+            return
+         end if
+      else
+         state = self%contact(tau, y(1:n))
+      end if
       force = self%kappa5*state%normal
       if (self%sls%on .and. size(y) > 2*n) &
          force = force + self%kappa5*sls_viscoelastic_part(self%sls, state%radius**3, y(2*n + 1))
@@ -614,10 +623,12 @@ contains
       real(dp), intent(in) :: adot(:)
       real(dp), intent(in) :: sin1
       real(dp), intent(in) :: cos1
-      real(dp) :: rate, vt, vt_rate, slope, slope_rate, angle_rate
+      real(dp) :: rate, vt, vt_rate, slope, slope_rate, angle_rate, base, base_rate, base_accel
+      call model_drive_signals(self, sin(self%drive%fundamental*tau), cos(self%drive%fundamental*tau), &
+                               base, base_rate, base_accel)
       associate (s => self%scene)
-         vt = dot_product(self%tip, a) + s%alpha2*sin(s%omega*tau) + s%delta_hat
-         vt_rate = dot_product(self%tip, adot) + s%alpha2*s%omega*cos(s%omega*tau)
+         vt = dot_product(self%tip, a) + base + s%delta_hat
+         vt_rate = dot_product(self%tip, adot) + base_rate
          slope = dot_product(self%slope, a)/s%l_over_d
          slope_rate = dot_product(self%slope, adot)/s%l_over_d
       end associate
@@ -651,8 +662,9 @@ contains
       end associate
    end function base_damping
 
-   !> F's drive part at tau (Eq. 15, free): -Y'' (alpha1 m + q) - alpha3 Y' q, the base's inertia and
-   !> the beam damper on the base velocity; one tone: alpha2 Omega^2 (alpha1 m + q) sin(Omega tau)
+   !> F's drive part at tau (Eq. 15, free): -Y'' (alpha1 m + (1 + mu) q) - Y' C q, the base's
+   !> inertia (with a liquid's added mass) and the beam's (and liquid's) damper on the base
+   !> velocity; one tone in air: alpha2 Omega^2 (alpha1 m + q) sin(Omega tau)
    !> - alpha2 alpha3 Omega q cos(Omega tau).
    pure function drive_force(self, tau) result(force)
       type(model_t), intent(in) :: self
@@ -674,8 +686,7 @@ contains
          if (self%drive%general) then
             call self%drive%base(sin(self%drive%fundamental*tau), cos(self%drive%fundamental*tau), base, &
                                  base_rate, base_accel)
-            force = -base_accel*(s%alpha1*self%mass_point(k) + self%integral(k)) &
-                    - s%alpha3*base_rate*self%integral(k)
+            force = -base_accel*self%inertial_load(k) - base_rate*self%damped_integral(k)
          else
             force = s%alpha2*s%omega**2*(s%alpha1*self%mass_point(k) + self%integral(k))*sin(s%omega*tau) &
                     - s%alpha2*s%alpha3*s%omega*self%integral(k)*cos(s%omega*tau)
@@ -692,7 +703,7 @@ contains
       real(dp) :: sin_phase, cos_phase, vt, vtdot
       call model_phase(self, tau, sin_phase, cos_phase)
       if (self%special_rhs) then
-         call other_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+         call composed_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
       else
          call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
       end if
@@ -707,7 +718,7 @@ contains
       real(dp), intent(out), contiguous :: dydt(:)
       real(dp) :: vt, vtdot
       if (self%special_rhs) then
-         call other_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
+         call composed_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
       else
          call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .false., dydt, vt, vtdot)
       end if
@@ -723,7 +734,7 @@ contains
       real(dp), intent(out) :: vt
       real(dp), intent(out) :: vtdot
       if (self%special_rhs) then
-         call other_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
+         call composed_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
       else
          call rhs_kernel(self, y, in_contact, sin_phase, cos_phase, .true., dydt, vt, vtdot)
       end if
@@ -828,9 +839,8 @@ contains
       end do
    end subroutine rhs_kernel
 
-   !> rhs_kernel for N > rows_per_block, and for every N under dmt_vdw (whose force acts in flight
-   !> too): the dot products, the tip-sample forces (their square roots are the longest chain),
-   !> then accumulate.
+   !> rhs_kernel for N > rows_per_block: the dot products, the contact forces (their square roots
+   !> are the longest chain), then accumulate.
    pure subroutine general_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
       type(model_t), intent(in) :: self
       real(dp), intent(in) :: y(2*self%n_modes)
@@ -844,150 +854,8 @@ contains
       real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, radius, normal, friction
       real(dp) :: tip_push
       integer :: n, j
-      logical :: forced
 
       n = self%n_modes
-      ! Forces act in contact, and under 'dmt_vdw' also in flight.
-      forced = in_contact .or. self%long_range
-      associate (s => self%scene)
-         vt = 0
-         vtdot = 0
-         axial = 0
-         tip_push = 0
-         if (forced .or. want_gap) then
-            tip_a = 0
-            slope_a = 0
-            tip_adot = 0
-            do j = 1, n
-               tip_a = tip_a + self%tip(j)*y(j)
-               slope_a = slope_a + self%scaled_slope(j)*y(j)
-               tip_adot = tip_adot + self%tip(j)*y(n + j)
-            end do
-            vt = tip_a + s%alpha2*sin_phase + s%delta_hat
-            vtdot = tip_adot + s%alpha2*s%omega*cos_phase
-         end if
-         if (forced) then
-            call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a, &
-                                       self%errata%e7_signed_slope, sin1, cos1)
-            if (self%long_range) then
-               call vdw_forces(in_contact, vt, sin1, cos1, s%beta, self%kappa5, self%kappa6, &
-                               s%vdw_adhesion, s%vdw_range, transverse, axial, radius, normal, friction)
-            else
-               call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
-                                   transverse, axial, radius, normal, friction)
-            end if
-            ! Everything that acts along p: P1, the contact damping and its base term (in contact).
-            tip_push = s%l_over_d*transverse
-            if (in_contact) tip_push = tip_push - s%alpha4*tip_adot + self%base_sin*sin_phase &
-                                       + self%base_cos*cos_phase
-         end if
-         call accumulate(n, self%n_padded, self%pass_terms, self%pass_a, self%pass_v, self%pass_g, y, &
-                         forced, sin_phase, cos_phase, tip_push, axial, dydt)
-      end associate
-   end subroutine general_kernel
-
-   !> The right-hand side of a viscoelastic sample (sls_kernel) or of a general drive
-   !> (drive_kernel): out of the entry points, so that rhs_kernel's callers test one flag.
-   pure subroutine other_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
-      type(model_t), intent(in) :: self
-      real(dp), intent(in), contiguous :: y(:)
-      logical, intent(in) :: in_contact
-      real(dp), intent(in) :: sin_phase
-      real(dp), intent(in) :: cos_phase
-      logical, intent(in) :: want_gap
-      real(dp), intent(out), contiguous :: dydt(:)
-      real(dp), intent(out) :: vt
-      real(dp), intent(out) :: vtdot
-      if (self%sls%on) then
-         call sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
-      else
-         call drive_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
-      end if
-   end subroutine other_kernel
-
-   !> rhs_kernel with a viscoelastic sample: y = (a, a', w, 0), dydt = (a', a'', w', 0).  The normal
-   !> force group is the SLS's (tmafm_viscoelastic) on the Hertz variable X = A^3, DMT's pull-off
-   !> added; the rest as general_kernel.  V_T and its rate are always returned.
-   pure subroutine sls_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
-      type(model_t), intent(in) :: self
-      real(dp), intent(in) :: y(2*self%n_modes + 2)
-      logical, intent(in) :: in_contact
-      real(dp), intent(in) :: sin_phase
-      real(dp), intent(in) :: cos_phase
-      real(dp), intent(out) :: dydt(2*self%n_modes + 2)
-      real(dp), intent(out) :: vt
-      real(dp), intent(out) :: vtdot
-      real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, radius, hertz, friction
-      real(dp) :: tip_push, w, normal, acc, stiff
-      integer :: n, i, j
-
-      n = self%n_modes
-      w = y(2*n + 1)
-      associate (s => self%scene)
-         tip_a = 0
-         slope_a = 0
-         tip_adot = 0
-         do j = 1, n
-            tip_a = tip_a + self%tip(j)*y(j)
-            slope_a = slope_a + self%scaled_slope(j)*y(j)
-            tip_adot = tip_adot + self%tip(j)*y(n + j)
-         end do
-         vt = tip_a + s%alpha2*sin_phase + s%delta_hat
-         vtdot = tip_adot + s%alpha2*s%omega*cos_phase
-         axial = 0
-         tip_push = 0
-         hertz = 0
-         if (in_contact) then
-            call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a, &
-                                       self%errata%e7_signed_slope, sin1, cos1)
-            ! The friction brackets alone (kappa5 = 0), and X = A^3 from the Hertz law.
-            call contact_forces(vt, sin1, cos1, s%beta, law_hertz, 0.0_dp, self%kappa6, &
-                                transverse, axial, radius, hertz, friction)
-            normal = sls_force_group(self%sls, hertz, w)
-            if (self%law == law_dmt) normal = normal - dmt_adhesion
-            transverse = transverse + self%kappa5*normal*sin1
-            axial = axial - self%kappa5*normal*cos1
-            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*sin_phase &
-                       + self%base_cos*cos_phase
-         end if
-         ! a'' from the folded terms (as accumulate, in plain loops: accumulate keeps one caller,
-         ! so that the compiler lays out the elastic kernels as it did before this one existed).
-         do i = 1, n
-            acc = self%pass_terms(i, 1)*sin_phase + self%pass_terms(i, 2)*cos_phase
-            stiff = self%pass_terms(i, 4)
-            do j = 1, n
-               acc = acc + (self%pass_a(i, j)*y(j) + self%pass_v(i, j)*y(n + j))
-               stiff = stiff + self%pass_g(i, j)*y(j)
-            end do
-            if (in_contact) acc = acc + tip_push*self%pass_terms(i, 3) + axial*stiff
-            dydt(i) = y(n + i)
-            dydt(n + i) = acc
-         end do
-         dydt(2*n + 1) = sls_rate(self%sls, hertz, w)
-         dydt(2*n + 2) = 0
-      end associate
-   end subroutine sls_kernel
-
-   !> The right-hand side under a general drive (tmafm_drive), for any N: general_kernel with the
-   !> drive's Y, Y' and Y'' in place of the one tone's sin and cos (its two drive columns take -Y''
-   !> and Y', the contact damper's base term Y or Y').  The entry points call it instead of
-   !> rhs_kernel, so that the one-tone kernels stay as they were.
-   pure subroutine drive_kernel(self, y, in_contact, sin_phase, cos_phase, want_gap, dydt, vt, vtdot)
-      type(model_t), intent(in) :: self
-      real(dp), intent(in) :: y(2*self%n_modes)
-      logical, intent(in) :: in_contact
-      real(dp), intent(in) :: sin_phase
-      real(dp), intent(in) :: cos_phase
-      logical, intent(in) :: want_gap
-      real(dp), intent(out) :: dydt(2*self%n_modes)
-      real(dp), intent(out) :: vt
-      real(dp), intent(out) :: vtdot
-      real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, radius, normal, friction
-      real(dp) :: tip_push, base, base_rate, base_accel, acc, stiff
-      integer :: n, i, j
-
-      n = self%n_modes
-      call self%drive%base(sin_phase, cos_phase, base, base_rate, base_accel)
       associate (s => self%scene)
          vt = 0
          vtdot = 0
@@ -1002,36 +870,145 @@ contains
                slope_a = slope_a + self%scaled_slope(j)*y(j)
                tip_adot = tip_adot + self%tip(j)*y(n + j)
             end do
-            vt = tip_a + base + s%delta_hat
-            vtdot = tip_adot + base_rate
+            vt = tip_a + s%alpha2*sin_phase + s%delta_hat
+            vtdot = tip_adot + s%alpha2*s%omega*cos_phase
          end if
          if (in_contact) then
             call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a, &
                                        self%errata%e7_signed_slope, sin1, cos1)
             call contact_forces(vt, sin1, cos1, s%beta, self%law, self%kappa5, self%kappa6, &
                                 transverse, axial, radius, normal, friction)
-            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*base + self%base_cos*base_rate
+            ! Everything that acts along p: P1, the contact damping and its base term.
+            tip_push = s%l_over_d*transverse - s%alpha4*tip_adot + self%base_sin*sin_phase &
+                       + self%base_cos*cos_phase
          end if
+         call accumulate(n, self%n_padded, self%pass_terms, self%pass_a, self%pass_v, self%pass_g, y, &
+                         in_contact, sin_phase, cos_phase, tip_push, axial, dydt)
       end associate
-      ! a'' = -Y'' M^-1 (alpha1 m + q) - alpha3 Y' M^-1 q + B (a, a'), and in contact
-      ! tip_push M^-1 p + P2 ((g0/d) M^-1 r + M^-1 G a).  (Its own loops, not accumulate's: the
-      ! one-tone kernels keep theirs as the compiler laid them out.)
+   end subroutine general_kernel
+
+   !> The composed right-hand side: every part of the model at once, for any N (docs/model.md,
+   !> "How the parts compose").  The equations are a sum of terms, each present only when its
+   !> part is on:
+   !>   a'' = -Y'' M^-1 (alpha1 m + (1 + mu) q) - Y' M^-1 C q + B (a, a')            (drive, medium)
+   !>       + [forced] tip_push M^-1 p + P2 ((g0/d) M^-1 r + M^-1 G a)            (tip-sample law)
+   !>   w'  = (max(X, (1 - r) w) - w)/T                                            (SLS sample)
+   !> with Y, Y', Y'' the base motion of the drive (one tone or several, with phases), C and mu
+   !> the medium's damping and added mass per mode, the brackets P1, P2 from tip_sample_forces
+   !> (elastic or viscoelastic normal force, DMT or van der Waals adhesion, Mindlin friction; in
+   !> flight the van der Waals tail), and tip_push = (L/d) P1 - alpha4 (p.a' - base term) in
+   !> contact.  y = (a, a'[, w, 0]) and dydt alike; V_T and its rate are always returned.
+   pure subroutine composed_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in), contiguous :: y(:)
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      real(dp), intent(out), contiguous :: dydt(:)
+      real(dp), intent(out) :: vt
+      real(dp), intent(out) :: vtdot
+      real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, hertz, w
+      real(dp) :: tip_push, base, base_rate, base_accel, acc, stiff
+      integer :: n, i, j
+      logical :: forced
+
+      n = self%n_modes
+      w = 0
+      if (self%sls%on) w = y(2*n + 1)
+      call model_drive_signals(self, sin_phase, cos_phase, base, base_rate, base_accel)
+      tip_a = 0
+      slope_a = 0
+      tip_adot = 0
+      do j = 1, n
+         tip_a = tip_a + self%tip(j)*y(j)
+         slope_a = slope_a + self%scaled_slope(j)*y(j)
+         tip_adot = tip_adot + self%tip(j)*y(n + j)
+      end do
+      vt = tip_a + base + self%scene%delta_hat
+      vtdot = tip_adot + base_rate
+      forced = in_contact .or. self%long_range
+      axial = 0
+      tip_push = 0
+      hertz = 0
+      if (forced) then
+         call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a, &
+                                    self%errata%e7_signed_slope, sin1, cos1)
+         call tip_sample_forces(self, in_contact, vt, sin1, cos1, w, transverse, axial, hertz)
+         tip_push = self%scene%l_over_d*transverse
+         if (in_contact) tip_push = tip_push - self%scene%alpha4*tip_adot + self%damper_base_position*base &
+                                    + self%damper_base_rate*base_rate
+      end if
       do i = 1, n
-         acc = self%pass_terms(i, 1)*(-base_accel) + self%pass_terms(i, 2)*base_rate
+         acc = -base_accel*self%inv_mass_inertial(i) - base_rate*self%inv_mass_damped_integral(i)
          do j = 1, n
             acc = acc + (self%pass_a(i, j)*y(j) + self%pass_v(i, j)*y(n + j))
          end do
-         if (in_contact) then
-            stiff = self%pass_terms(i, 4)
+         if (forced) then
+            stiff = self%moment_force(i)
             do j = 1, n
                stiff = stiff + self%pass_g(i, j)*y(j)
             end do
-            acc = acc + tip_push*self%pass_terms(i, 3) + axial*stiff
+            acc = acc + tip_push*self%inv_mass_tip(i) + axial*stiff
          end if
          dydt(i) = y(n + i)
          dydt(n + i) = acc
       end do
-   end subroutine drive_kernel
+      if (self%sls%on) then
+         dydt(2*n + 1) = sls_rate(self%sls, hertz, w)
+         dydt(2*n + 2) = 0
+      end if
+   end subroutine composed_kernel
+
+   !> The tip-sample law as composed from its parts, at gap vt and contact angle (sin1, cos1), in
+   !> a phase: in contact the normal force group f is the elastic Hertz X = A^3 or, with a
+   !> viscoelastic sample of dashpot coordinate w, the SLS's f(X, w); minus the adhesion (DMT's
+   !> 4/3, or the van der Waals c_H under 'dmt_vdw'); with Mindlin friction h.  In flight it is
+   !> the van der Waals tail under 'dmt_vdw' (no friction), else nothing.  Returns the brackets
+   !> P1 (transverse) and P2 (axial) and the Hertz variable X (0 in flight).
+   pure subroutine tip_sample_forces(self, in_contact, vt, sin1, cos1, w, transverse, axial, hertz)
+      type(model_t), intent(in) :: self
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: vt
+      real(dp), intent(in) :: sin1
+      real(dp), intent(in) :: cos1
+      real(dp), intent(in) :: w
+      real(dp), intent(out) :: transverse
+      real(dp), intent(out) :: axial
+      real(dp), intent(out) :: hertz
+      real(dp) :: radius, friction, normal
+      hertz = 0
+      if (.not. in_contact) then
+         transverse = 0
+         axial = 0
+         if (.not. self%long_range) return
+         normal = vdw_normal_group(.false., vt, sin1, 0.0_dp, self%scene%vdw_adhesion, self%scene%vdw_range)
+         transverse = self%kappa5*normal*sin1
+         axial = -self%kappa5*normal*cos1
+         return
+      end if
+      ! The friction brackets alone (kappa5 = 0), and X = A^3 from the Hertz law.
+      call contact_forces(vt, sin1, cos1, self%scene%beta, law_hertz, 0.0_dp, self%kappa6, &
+                          transverse, axial, radius, hertz, friction)
+      normal = hertz
+      if (self%sls%on) normal = sls_force_group(self%sls, hertz, w)
+      normal = normal - contact_adhesion(self)
+      transverse = transverse + self%kappa5*normal*sin1
+      axial = axial - self%kappa5*normal*cos1
+   end subroutine tip_sample_forces
+
+   !> The adhesion subtracted from the normal force group in contact: DMT's 4/3, the van der
+   !> Waals c_H under 'dmt_vdw' (its force at the surface), none under Hertz.
+   pure real(dp) function contact_adhesion(self) result(adhesion)
+      type(model_t), intent(in) :: self
+      select case (self%law)
+      case (law_dmt)
+         adhesion = dmt_adhesion
+      case (law_dmt_vdw)
+         adhesion = self%scene%vdw_adhesion
+      case default
+         adhesion = 0
+      end select
+   end function contact_adhesion
 
    !> dydt = (a', a'') from the folded terms: the drive and the columns of B, which do not
    !> depend on the contact forces (so that they overlap with the contact's square roots),
@@ -1182,8 +1159,8 @@ contains
          if (self%drive%general) then
             do k = 1, self%n_modes
                power(power_drive) = power(power_drive) + adot(k)*drive_force_of(self, tau, k)
+               power(power_beam_damping) = power(power_beam_damping) - self%modal_damping(k)*adot(k)**2
             end do
-            power(power_beam_damping) = -s%alpha3*dot_product(adot, adot)
          else if (self%has_medium) then
             ! The liquid's load as a damper and a drive (docs/model.md): the same sums, C per mode.
             power(power_drive) = 0

@@ -614,13 +614,9 @@ contains
          end if
          if (self%do_extrema) self%modal_nodes(i, :) = self%y(1:n)
          if ((in_contact .or. model%long_range) .and. (self%do_force .or. self%do_energy)) then
-            ! The normal force: in contact, and under 'dmt_vdw' the attraction in flight too.
-            if (model%long_range) then
-               state = model%forces_in_phase(t(i), self%y(1:n), in_contact)
-               force(i) = model%kappa5*state%normal
-            else
-               force(i) = model%normal_force(t(i), self%y)
-            end if
+            ! The normal force: in contact, and under 'dmt_vdw' the attraction in flight too (the
+            ! viscoelastic part with a viscoelastic sample).
+            force(i) = model%normal_force(t(i), self%y, in_contact)
          end if
          if (i == 0 .or. i == m + 1) cycle
          weight = gl_weight(i)

@@ -1,0 +1,150 @@
+"""The composed peer: every optional part of the model (a drive of one or two tones with phases,
+a liquid, a viscoelastic sample, van der Waals attraction) written again in numpy from
+docs/model.md, and integrated with ``scipy.integrate.solve_ivp`` (DOP853) phase by phase, with
+every switch V_T = 0 a terminal event.
+
+It is a second implementation on purpose, the oracle of tests/test_compose.py: it takes the
+Galerkin constants and the liquid's per-mode mass and damping from the core (``tmafm.Model``,
+in memory: the matrices of Eq. (15) out of contact), and writes the drive, the contact law, the
+sample, the attraction and the way they add up (docs/model.md, "How the parts compose") itself.
+Not part of the package.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tmafm import Model
+
+__all__ = ["ComposedPeer"]
+
+
+class ComposedPeer:
+    """solve_ivp with events on a numpy right-hand side that composes all the parts."""
+
+    def __init__(self, nml, **overrides):
+        model = Model(nml, **overrides)
+        n, s, resolved = model.n_modes, model.scene, model.config.to_namelist()
+        self.n, self.scene = n, s
+        errata = str(resolved["model"]["errata"]).upper().split(",")
+        self.velocity_damping = "E1" in errata
+        self.signed_slope = "E7" in errata
+        self.law = resolved["model"]["contact_law"]
+        # M (with a liquid's added mass mu) and C (alpha3 + the liquid's damping) per mode: the
+        # matrices of Eq. (15) out of contact, at tau = 0 and a = 0.
+        mass, damping, _, _ = model.matrices(0.0, np.zeros(n), False)
+        self.minv = np.linalg.inv(mass)
+        self.c = np.diag(damping).copy()
+        bare = np.eye(n) + s["alpha1"] * np.outer(model.mass_point, model.mass_point)
+        self.mu = np.diag(mass) - np.diag(bare)
+        q = model.integral
+        self.inertial = self.minv @ (s["alpha1"] * model.mass_point + (1 + self.mu) * q)
+        self.damped = self.minv @ (self.c * q)
+        self.minv_lambda = self.minv * model.eigen[None, :]
+        self.minv_axial = self.minv @ model.axial
+        self.minv_p = self.minv @ model.tip
+        self.minv_r = self.minv @ model.moment_shape
+        self.p, self.slope = model.tip, model.slope
+        self.kappa5, self.kappa6 = model.kappas
+        self.tones = [(s["alpha2"], s["omega"], s["drive_phase"])]
+        if s["alpha2_2"] != 0:
+            self.tones.append((s["alpha2_2"], s["omega_2"], s["drive_phase_2"]))
+        self.sls = s["sls_relaxation_time"] > 0
+        self.size = 2 * n + (1 if self.sls else 0)
+
+    def base(self, t):
+        """Y, Y' and Y'' of the drive at t."""
+        y = sum(a * math.sin(w * t + phi) for a, w, phi in self.tones)
+        rate = sum(a * w * math.cos(w * t + phi) for a, w, phi in self.tones)
+        accel = -sum(a * w * w * math.sin(w * t + phi) for a, w, phi in self.tones)
+        return y, rate, accel
+
+    def gap(self, t, y):
+        """V_T = p.a + Y + delta_hat."""
+        return self.p @ y[: self.n] + self.base(t)[0] + self.scene["delta_hat"]
+
+    def theta1(self, a):
+        s = self.scene
+        t = (self.slope @ a) / s["l_over_d"]
+        if self.signed_slope:
+            return math.pi / 2 - s["theta"] + math.atan(t)
+        return math.pi / 2 - s["theta"] - math.atan(abs(t))
+
+    def normal_group(self, vt, theta1, w, in_contact):
+        """The normal force group f (units of §6) and the Hertz variable X."""
+        s = self.scene
+        if not in_contact:
+            if self.law != "dmt_vdw":
+                return 0.0, 0.0
+            ratio = max(1 + vt * max(math.sin(theta1), 0.0) / s["vdw_range"], 0.5)
+            return -s["vdw_adhesion"] / ratio**2, 0.0
+        x = (max(-vt, 0.0) * math.sin(theta1) / s["beta"]) ** 1.5
+        f = max(x - (1 - s["sls_modulus_ratio"]) * w, 0.0) if self.sls else x
+        if self.law == "dmt":
+            f -= 4.0 / 3.0
+        elif self.law == "dmt_vdw":
+            f -= s["vdw_adhesion"]
+        return f, x
+
+    def rhs(self, t, y, in_contact):
+        n, s = self.n, self.scene
+        a, adot = y[:n], y[n:2 * n]
+        w = y[2 * n] if self.sls else 0.0
+        base, rate, accel = self.base(t)
+        acc = (-self.minv @ (self.c * adot) - self.minv_lambda @ a
+               - accel * self.inertial - rate * self.damped)
+        x = 0.0
+        if in_contact or self.law == "dmt_vdw":
+            vt = self.p @ a + base + s["delta_hat"]
+            th = self.theta1(a)
+            f, x = self.normal_group(vt, th, w, in_contact)
+            depth = max(-vt, 0.0)
+            friction = math.sqrt(depth * math.sin(th) / s["beta"]) * depth * math.cos(th) if in_contact else 0.0
+            p1 = self.kappa5 * f * math.sin(th) + self.kappa6 * friction * math.cos(th)
+            p2 = -self.kappa5 * f * math.cos(th) + self.kappa6 * friction * math.sin(th)
+            push = s["l_over_d"] * p1
+            if in_contact:
+                damper_base = rate if self.velocity_damping else base
+                push += -s["alpha4"] * (self.p @ adot) - s["alpha4"] * damper_base
+            acc = acc + push * self.minv_p + p2 * (self.minv_axial @ a) + s["g0_over_d"] * p2 * self.minv_r
+        out = [adot, acc]
+        if self.sls:
+            relaxing = 1 - s["sls_modulus_ratio"]
+            out.append([(max(x, relaxing * w) - w) / s["sls_relaxation_time"]])
+        return np.concatenate(out)
+
+    def solve(self, tau_end, sample_dtau, rtol=1e-11, atol=1e-15):
+        """V_T at the samples 0, sample_dtau, ..., tau_end, from the state at rest."""
+        from scipy.integrate import solve_ivp
+
+        samples = np.arange(int(round(tau_end / sample_dtau)) + 1) * sample_dtau
+        vt = np.empty_like(samples)
+        y = np.zeros(self.size)
+        t = 0.0
+        g = self.gap(t, y)
+        in_contact = g < 0 or (g == 0 and self.base(0.0)[1] <= 0)
+        # The switch is placed a little past zero, above V_T's round-off, so that a restart on
+        # V_T = 0 does not see the same switch again.
+        margin = 1e-15
+        k = 0
+        while t < samples[-1]:
+            side = -1.0 if in_contact else 1.0
+
+            def event(tt, yy, _in_contact, side=side):
+                return side * self.gap(tt, yy) + margin
+            event.terminal = True
+            event.direction = -1
+            sol = solve_ivp(self.rhs, (t, samples[-1]), y, method="DOP853", rtol=rtol, atol=atol,
+                            events=event, dense_output=True, args=(in_contact,))
+            if not sol.success:
+                raise RuntimeError(f"solve_ivp failed at tau = {sol.t[-1]}: {sol.message}")
+            t_end = sol.t[-1]
+            while k < samples.size and samples[k] <= t_end:
+                vt[k] = self.gap(samples[k], sol.sol(samples[k]))
+                k += 1
+            t, y = t_end, sol.y[:, -1]
+            if sol.status == 1:
+                in_contact = not in_contact
+        return samples, vt

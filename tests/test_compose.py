@@ -1,0 +1,100 @@
+"""Every part with every other (docs/model.md, "How the parts compose"): a drive of two tones with
+phases, a liquid, a viscoelastic (SLS) sample and van der Waals attraction ('dmt_vdw'), in pairs
+and all together, under every method that integrates them.
+
+Oracles, each independent of the code under test:
+- the composed peer (studies/composed_peer.py): the right-hand side of every part written again in
+  numpy from docs/model.md and integrated by scipy's DOP853 phase by phase with the switches as
+  events; the peer at two tolerances gives the scale of its own error;
+- over a steady orbit the drive's work equals the dissipations (the energy balance), with each
+  part's loss channel present.
+"""
+
+import numpy as np
+import pytest
+
+import tmafm
+from composed_peer import ComposedPeer
+
+SCENE = "fig2_n4"
+TAU_END = 10.0
+SAMPLE = 0.01
+TONES = {"alpha2_2": 2e-4, "omega_2": 6.0, "drive_phase": 0.4, "drive_phase_2": 1.1}
+LIQUID = {"medium_mass": 0.1, "medium_reynolds": 10.0}
+SLS = {"sls_relaxation_time": 0.5, "sls_modulus_ratio": 0.4}
+VDW = {"vdw_adhesion": 0.5, "vdw_range": 2e-4}
+
+CASES = {
+    "tones+liquid": ({**TONES, **LIQUID}, "hertz"),
+    "tones+sls": ({**TONES, **SLS}, "hertz"),
+    "tones+vdw": ({**TONES, **VDW}, "dmt_vdw"),
+    "sls+vdw": ({**SLS, **VDW}, "dmt_vdw"),
+    "liquid+vdw": ({**LIQUID, **VDW}, "dmt_vdw"),
+    "liquid+sls": ({**LIQUID, **SLS}, "dmt"),
+    "tones+liquid+sls+vdw": ({**TONES, **LIQUID, **SLS, **VDW}, "dmt_vdw"),
+}
+
+
+def _run(scene, law, method, rtol):
+    return tmafm.run(SCENE, scene=scene, model={"contact_law": law},
+                     solver={"method": method, "rtol": rtol, "atol": 1e-15, "tau_end": TAU_END},
+                     output={"sample_dtau": SAMPLE})
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_composed_trajectory_equals_the_independent_peer(case):
+    scene, law = CASES[case]
+    peer = ComposedPeer(SCENE, scene=scene, model={"contact_law": law})
+    _, reference = peer.solve(TAU_END, SAMPLE, rtol=1e-12)
+    _, loose = peer.solve(TAU_END, SAMPLE, rtol=1e-10)
+    scale = np.ptp(reference)
+    # The peer's error at rtol 1e-10 bounds its error at 1e-12 many times over.
+    peer_error = np.max(np.abs(loose - reference)) / scale
+    # Both phases must be visited, else the test would not compose the contact with the rest.
+    assert np.any(reference < 0) and np.any(reference > 0)
+    methods = ["dop853", "dopri5"] if law == "dmt_vdw" else ["dop853", "dopri5", "flight_exact"]
+    for method in methods:
+        tight = _run(scene, law, method, 1e-11)
+        looser = _run(scene, law, method, 1e-9)
+        # The method's own error at 1e-9 bounds its error at 1e-11.
+        method_error = np.max(np.abs(looser.vt - tight.vt)) / scale
+        difference = np.max(np.abs(tight.vt - reference)) / scale
+        assert difference <= 10 * max(peer_error, method_error), (case, method, difference, peer_error,
+                                                                 method_error)
+
+
+@pytest.mark.parametrize("case", ["tones+sls", "sls+vdw", "liquid+sls", "tones+liquid+sls+vdw"])
+def test_energy_balance_closes_with_every_part(case):
+    scene, law = CASES[case]
+    method = "dop853" if law == "dmt_vdw" else "flight_exact"
+    obs = tmafm.observe(SCENE, scene=scene, model={"contact_law": law},
+                        solver={"method": method, "rtol": 1e-11, "atol": 1e-15}, max_periods=200)
+    assert obs.period >= 1
+    p = obs.per_period
+    orbit = slice(len(p["drive_work"]) - obs.period, None)
+
+    def total(name):
+        return float(np.sum(p[name][orbit]))
+
+    drive = total("drive_work")
+    balance = drive + total("contact_normal_work") - total("dissipated_energy")
+    assert drive > 0
+    # rtol 1e-11 on the orbit: the balance closes far inside 1e-6 of the drive's work.
+    assert abs(balance) <= 1e-6 * drive, (case, balance, drive)
+    # The sample's loss is there and is a loss.
+    assert total("dissipated_viscoelastic") > 1e-3 * drive
+    assert abs(balance + total("dissipated_viscoelastic")) > 100 * abs(balance)
+
+
+@pytest.mark.parametrize("method", ["rk4_paper", "rk4_event"])
+def test_a_viscoelastic_sample_under_a_fixed_step_method_is_refused_in_one_line(method):
+    with pytest.raises(tmafm.InputError, match=f"method = '{method}'.*viscoelastic") as info:
+        tmafm.run(SCENE, scene={**SLS, **TONES}, solver={"method": method, "tau_end": 1.0})
+    assert "\n" not in str(info.value)
+
+
+def test_the_attraction_under_the_exact_flight_is_refused_in_one_line():
+    with pytest.raises(tmafm.InputError, match="flight_exact.*dmt_vdw") as info:
+        tmafm.run(SCENE, scene={**VDW, **LIQUID, **TONES}, model={"contact_law": "dmt_vdw"},
+                  solver={"method": "flight_exact", "tau_end": 1.0})
+    assert "\n" not in str(info.value)

@@ -98,3 +98,49 @@ def test_the_attraction_under_the_exact_flight_is_refused_in_one_line():
         tmafm.run(SCENE, scene={**VDW, **LIQUID, **TONES}, model={"contact_law": "dmt_vdw"},
                   solver={"method": "flight_exact", "tau_end": 1.0})
     assert "\n" not in str(info.value)
+
+
+def test_most_attractive_force_is_the_attraction_at_the_closest_separation():
+    """On the attractive branch of docs/vdw.md's scene (no contact), min_force is the van der
+    Waals force at the orbit's closest approach, -c_H/(1 + V_T sin(theta1)/eps)^2 in the units
+    of the brackets (-H R/(6 s^2) in SI), evaluated here in numpy over a dense run of the next
+    period; peak_force is the weakest attraction, negative."""
+    import math
+    from pathlib import Path
+
+    from tmafm.observe import observe_states
+
+    scene_file = Path(__file__).resolve().parents[1] / "inputs" / "sweeps" / "vdw_attractive.nml"
+    config = tmafm.Config(str(scene_file), scene={"delta_hat": 9.0e-4},
+                          solver={"method": "dop853", "rtol": 1e-11, "atol": 1e-18})
+    model = tmafm.Model(config)
+    p, omega, lag = model.tip[0], model.scene["omega"], math.radians(-116)
+    state = np.array([[8.9e-4 * math.sin(lag) / p, 8.9e-4 * omega * math.cos(lag) / p]])
+    obs = observe_states(config, state, max_periods=3000, observables=["peak_force", "extrema"])
+    assert obs.period[0] == 1 and obs.steady["min_gap"][0] > 0
+    located_min, located_max = obs.steady["min_force"][0], obs.steady["peak_force"][0]
+    # A dense run over the orbit's last period, from its start (the last Poincare point but one;
+    # period 1: tau = 0 again): the same stretch of trajectory the observables were located on.
+    final = obs.orbit[0, -2]
+    period = 2 * math.pi / omega
+    run = tmafm.run(config, initial={"a0": [final[0]], "adot0": [final[1]]},
+                    solver={"tau_end": period}, output={"sample_dtau": period / 20000})
+    s = model.scene
+    slope = run.a @ model.slope / s["l_over_d"]
+    sin1 = np.sin(math.pi / 2 - s["theta"] + np.arctan(slope))
+    force = model.kappas[0] * (-s["vdw_adhesion"] / (1 + run.vt * sin1 / s["vdw_range"]) ** 2)
+    assert np.all(run.vt > 0)
+    # The closed form at the orbit's closest approach, the located min_gap (sin(theta1) from the
+    # sample there: it changes by 1e-12 over the dip).
+    k = int(np.argmin(run.vt))
+    closest = model.kappas[0] * (-s["vdw_adhesion"] / (1 + obs.steady["min_gap"][0] * sin1[k] / s["vdw_range"]) ** 2)
+    assert located_min == pytest.approx(closest, rel=1e-9)
+    # Located, never inside the samples; and within the samples' own error of their extreme:
+    # |F''| dt^2/8 from their second difference, plus rtol 1e-11 on V_T carried by dF/dV_T.
+    for located, i, sign in ((located_min, k, 1.0), (located_max, int(np.argmax(force)), -1.0)):
+        assert sign * located <= sign * force[i]
+        # The orbit is periodic (sample 0 = the last): neighbours wrap around.
+        before, after = force[(i - 1) % (force.size - 1)], force[(i + 1) % (force.size - 1)]
+        curvature = abs(before - 2 * force[i] + after) / 8
+        assert abs(located - force[i]) <= curvature + 1e-8 * abs(force[i]), (located, force[i], curvature)
+    assert located_max < 0

@@ -231,6 +231,12 @@ class Observation:
                 a, p = np.asarray(source[amp][-last:]), np.radians(np.asarray(source[ph][-last:]))
                 s, c = np.sum(a * np.cos(p)) / a.size, np.sum(a * np.sin(p)) / a.size
                 out[amp], out[ph] = float(np.hypot(s, c)), float(np.degrees(np.arctan2(c, s)))
+        # A general drive (a second tone, or a drive phase: docs/model.md §15): amplitude and
+        # phase are tone 1's lock-in, as the core's per-period and steady values take them.
+        scene = self.config.scene if self.config is not None else {}
+        general = scene.get("alpha2_2", 0.0) != 0 or scene.get("drive_phase", 0.0) != 0
+        if general and "tone1_amplitude" in out and "amplitude" in out:
+            out["amplitude"], out["phase"] = out["tone1_amplitude"], out["tone1_phase"]
         return out
 
 

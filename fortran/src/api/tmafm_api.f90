@@ -793,6 +793,11 @@ contains
                                           o%values(m - last + 1:m, obs_tone_phase(j)), &
                                           steady(k, obs_tone_amplitude(j)), steady(k, obs_tone_phase(j)))
                   end do
+                  ! A general drive: amplitude and phase are tone 1's (tmafm_observers).
+                  if (o%general_drive) then
+                     steady(k, obs_amplitude) = steady(k, obs_tone_amplitude(1))
+                     steady(k, obs_phase) = steady(k, obs_tone_phase(1))
+                  end if
                end if
             end if
             reason(k) = o%reason

@@ -8,7 +8,7 @@ module tmafm_observable_table
    use tmafm_kinds, only: dp
    use tmafm_units, only: scales_t
    use tmafm_observers, only: n_observables, group_lockin, group_extrema, group_peak_force, group_energy, &
-      obs_amplitude, obs_phase, obs_mean_deflection, obs_min_gap, obs_peak_force, obs_contact_time, &
+      obs_amplitude, obs_phase, obs_mean_deflection, obs_min_gap, obs_peak_force, obs_min_force, obs_contact_time, &
       obs_contacts, obs_dissipated, obs_dissipated_beam, obs_dissipated_contact_damping, &
       obs_dissipated_friction, obs_drive_work, obs_virial, obs_contact_normal_work, &
       obs_dissipated_viscoelastic, ext_max_contact, &
@@ -65,6 +65,8 @@ module tmafm_observable_table
       observable_row_t('min_gap', group_extrema, 'd', 'nm', scale_length, kind_column, obs_min_gap), &
       observable_row_t('peak_force', group_peak_force, 'E1 I/L^2', 'nN', scale_force, kind_column, &
                        obs_peak_force), &
+      observable_row_t('min_force', group_peak_force, 'E1 I/L^2', 'nN', scale_force, kind_column, &
+                       obs_min_force), &
       observable_row_t('contact_time', 0, 'tau', 'us', scale_time, kind_column, obs_contact_time), &
       observable_row_t('contacts_per_period', 0, '1', '1', scale_one, kind_column, obs_contacts), &
       observable_row_t('dissipated_energy', group_energy, energy_unit, 'aJ', scale_energy, kind_column, &

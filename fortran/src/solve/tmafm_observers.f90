@@ -46,14 +46,14 @@ module tmafm_observers
       obs_contact_time, obs_contacts, obs_dissipated, obs_dissipated_beam, &
       obs_dissipated_contact_damping, obs_dissipated_friction, obs_drive_work, obs_virial, &
       obs_contact_normal_work, obs_dissipated_viscoelastic, ext_max_contact, ext_min_contact, ext_max_free, &
-      ext_min_free, obs_tone_amplitude, obs_tone_phase
+      ext_min_free, obs_tone_amplitude, obs_tone_phase, obs_min_force
 
    !> Columns of observer_t%values.
    integer, parameter :: obs_amplitude = 1, obs_phase = 2, obs_mean_deflection = 3, obs_min_gap = 4, &
       obs_peak_force = 5, obs_contact_time = 6, obs_contacts = 7, obs_dissipated = 8, &
       obs_dissipated_beam = 9, obs_dissipated_contact_damping = 10, obs_dissipated_friction = 11, &
       obs_drive_work = 12, obs_virial = 13, obs_contact_normal_work = 14, &
-      obs_dissipated_viscoelastic = 15, n_observables = 19
+      obs_dissipated_viscoelastic = 15, obs_min_force = 20, n_observables = 20
    !> Columns of each drive tone's lock-in amplitude and phase (tone k: obs_tone_amplitude(k)).
    integer, parameter :: obs_tone_amplitude(max_tones) = [16, 18], obs_tone_phase(max_tones) = [17, 19]
    !> Observable groups, bits of observer_t%groups: V_T's harmonics, phase and mean deflection;
@@ -139,6 +139,8 @@ module tmafm_observers
       real(dp) :: acc_tone_sin(max_tones) = 0, acc_tone_cos(max_tones) = 0
       real(dp) :: acc_powers(n_powers) = 0
       real(dp) :: min_gap = huge(1.0_dp), peak_force = -huge(1.0_dp), max_gap = -huge(1.0_dp)
+      !> The period's most attractive (smallest) tip-sample force so far (huge(): none acted).
+      real(dp) :: min_force = huge(1.0_dp)
       !> The current period's located extrema of each mode (mode, ext_* column).
       real(dp), allocatable :: acc_modal(:, :)
       !> Work arrays: each mode's a_j at a piece's nodes (node, mode), and a_j' at its ends.
@@ -197,7 +199,7 @@ contains
       if (iand(groups, group_lockin) /= 0) computed([obs_amplitude, obs_phase, obs_mean_deflection, &
                                                      obs_tone_amplitude, obs_tone_phase]) = .true.
       if (iand(groups, group_extrema) /= 0) computed(obs_min_gap) = .true.
-      if (iand(groups, group_peak_force) /= 0) computed(obs_peak_force) = .true.
+      if (iand(groups, group_peak_force) /= 0) computed([obs_peak_force, obs_min_force]) = .true.
       if (iand(groups, group_energy) /= 0) computed([obs_dissipated, obs_dissipated_beam, &
                                                       obs_dissipated_contact_damping, obs_dissipated_friction, &
                                                       obs_drive_work, obs_virial, obs_contact_normal_work, &
@@ -322,6 +324,7 @@ contains
       self%acc_powers = 0
       self%min_gap = huge(1.0_dp)
       self%peak_force = -huge(1.0_dp)
+      self%min_force = huge(1.0_dp)
       self%max_gap = -huge(1.0_dp)
       self%acc_modal(:, [ext_max_contact, ext_max_free]) = -huge(1.0_dp)
       self%acc_modal(:, [ext_min_contact, ext_min_free]) = huge(1.0_dp)
@@ -652,7 +655,11 @@ contains
             self%acc_virial = self%acc_virial + weight*force(i)*tip_u
          end if
       end do
-      if (self%do_force .and. in_contact) call locate_peak_force()
+      ! The force's extrema: in contact, and under 'dmt_vdw' in flight too (the attraction).
+      if (self%do_force .and. (in_contact .or. model%long_range)) then
+         call locate_peak_force()
+         call locate_min_force()
+      end if
       if (.not. self%do_extrema) return
 
       i_best = minloc(gap(0:m + 1), 1) - 1
@@ -699,6 +706,20 @@ contains
             self%peak_force = max(self%peak_force, -best)
          end if
       end subroutine locate_peak_force
+
+      !> The most attractive force: the minimum of the force at the nodes, located.
+      subroutine locate_min_force()
+         i_best = minloc(force(0:m + 1), 1) - 1
+         best = force(i_best)
+         if (beats(-best, -self%min_force)) then
+            ! In flight the attraction grows as the gap closes (min V_T's rule); in contact the
+            ! force falls as the gap opens.
+            if (searched(i_best, merge(-end_rate(i_best, 1), end_rate(i_best, 1), in_contact))) &
+               call golden_minimum(model, 2, -1.0_dp, origin, h, t(max(i_best - 1, 0)), t(min(i_best + 1, m + 1)), &
+                                   best, self%y, pair, cubic)
+            self%min_force = min(self%min_force, best)
+         end if
+      end subroutine locate_min_force
 
       !> Raise the running maximum (direction 1; running minimum for -1) `extreme` of the
       !> values at the nodes, located by a golden-section search around an interior best node.
@@ -779,6 +800,7 @@ contains
          v(obs_mean_deflection) = self%acc_deflection/period
          v(obs_min_gap) = self%min_gap
          v(obs_peak_force) = merge(self%peak_force, 0.0_dp, self%peak_force > -huge(1.0_dp))
+         v(obs_min_force) = merge(self%min_force, 0.0_dp, self%min_force < huge(1.0_dp))
          v(obs_contact_time) = self%acc_contact_time
          v(obs_contacts) = self%contacts
          v(obs_dissipated_beam) = -self%acc_powers(power_beam_damping)
@@ -801,6 +823,10 @@ contains
                v(obs_tone_amplitude(k)) = hypot(s, c)
                v(obs_tone_phase(k)) = atan2(c, s)*180/pi
             end do
+            ! With a general drive `amplitude` and `phase` are tone 1's lock-in (what an AM-AFM
+            ! controller holds); the harmonics stay those of the common period.
+            v(obs_amplitude) = v(obs_tone_amplitude(1))
+            v(obs_phase) = v(obs_tone_phase(1))
          else
             v(obs_tone_amplitude(1)) = v(obs_amplitude)
             v(obs_tone_phase(1)) = v(obs_phase)
@@ -903,6 +929,7 @@ contains
       factors(obs_mean_deflection) = nm
       factors(obs_min_gap) = nm
       factors(obs_peak_force) = scales%force*1.0e9_dp
+      factors(obs_min_force) = scales%force*1.0e9_dp
       factors(obs_contact_time) = scales%time*1.0e6_dp
       factors(obs_contacts) = 1
       factors(obs_virial) = scales%force_length*1.0e18_dp

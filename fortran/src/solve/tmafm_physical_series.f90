@@ -2,12 +2,15 @@
 !> columns"): time (s), tip-sample distance and tip deflection (m), normal and friction contact
 !> forces (N), each the run's dimensionless sample times its scale (tmafm_units scales_t): t =
 !> t0 tau, distance = d V_T, deflection = d p^T a, F_n = (E1 I/L^2) kappa5 f_c and
-!> F_h = (E1 I/L^2) kappa6 h at the samples in contact (V_T <= 0), 0 elsewhere, with the
-!> model's own kappa5, kappa6 (the convention's, E4) and f_c, h (docs/model.md section 6).
+!> F_h = (E1 I/L^2) kappa6 h at the samples in contact (V_T <= 0), 0 elsewhere (under
+!> 'dmt_vdw' F_n is the attraction in flight too), with the model's own kappa5, kappa6 (the
+!> convention's, E4) and f_c, h (docs/model.md section 6).  With a viscoelastic sample F_n is
+!> the instantaneous elastic part (the samples do not hold the sample's dashpot state).
 module tmafm_physical_series
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok, err_input
    use tmafm_contact, only: contact_brackets_t, law_hertz, law_dmt
+   use tmafm_vdw, only: law_dmt_vdw
    use tmafm_model, only: model_t, init_model
    use tmafm_units, only: scales_t, scales_from_physical
    use tmafm_config, only: config_t
@@ -52,6 +55,7 @@ contains
       end if
       law = law_hertz
       if (trim(config%contact_law) == 'dmt') law = law_dmt
+      if (trim(config%contact_law) == 'dmt_vdw') law = law_dmt_vdw
       call init_model(model, config%n_modes, config%scene, law, config_errata(config), ierr, errmsg)
       if (ierr /= ok) return
       scales = scales_from_physical(config%physical)
@@ -59,8 +63,8 @@ contains
          series(k, 1) = scales%time*traj%tau(k)
          series(k, 2) = scales%length*traj%vt(k)
          series(k, 3) = scales%length*dot_product(model%tip, traj%a(k, :))
-         if (traj%contact(k) /= 1) cycle
-         state = model%contact(traj%tau(k), traj%a(k, :))
+         if (traj%contact(k) /= 1 .and. .not. model%long_range) cycle
+         state = model%forces_in_phase(traj%tau(k), traj%a(k, :), traj%contact(k) == 1)
          series(k, 4) = scales%force*model%kappa5*state%normal
          series(k, 5) = scales%force*model%kappa6*state%friction
       end do

@@ -96,7 +96,11 @@ def _steady_columns(columns: dict, physical: dict, period, steady, failed, perio
             dims, (physical["dissipated_energy"] * joule * per_second / 1e-12).reshape(shape),
             attrs={"units": POWER[0], "units_system": "physical", "long_name": POWER[1]})
         if "dissipated_contact_damping" in physical and "dissipated_friction" in physical:
+            # Every tip-sample loss channel: the contact damper, friction and the sample's own
+            # viscoelastic loss (docs/model.md §16).
             contact = physical["dissipated_contact_damping"] + physical["dissipated_friction"]
+            if "dissipated_viscoelastic" in physical:
+                contact = contact + physical["dissipated_viscoelastic"]
             data["tip_sample_power"] = xr.Variable(
                 dims, (contact * joule * per_second / 1e-12).reshape(shape),
                 attrs={"units": POWER[0], "units_system": "physical", "long_name": TIP_SAMPLE[1]})

@@ -358,14 +358,73 @@ def test_in_a_liquid_the_derived_resonance_and_q_are_those_of_the_model_that_run
     assert config.derived["quality_factor"] < air.derived["quality_factor"]
 
 
-@pytest.mark.parametrize("key", ["spring_constant", "free_amplitude"])
-def test_the_calibration_and_the_free_amplitude_are_refused_in_a_liquid(key):
-    extra = dict(CANTILEVER) if key == "spring_constant" else {"free_amplitude": 10e-9}
-    extra.update({"medium_density": 997.0, "medium_viscosity": 8.9e-4})
-    base = "physical_polystyrene"
-    if key == "spring_constant":
-        with pytest.raises(tmafm.InputError, match="spring_constant.*not combined with medium_density"):
-            tmafm.Config(base, physical=extra)
-    else:
-        with pytest.raises(tmafm.InputError, match="free_amplitude.*not combined with medium_density"):
-            tmafm.Config(base, physical=extra)
+WATER = {"medium_density": 997.0, "medium_viscosity": 8.9e-4}
+# A standard tapping lever (125 x 30 um, k = 40 N/m) as calibrated in water by its thermal peak.
+IN_WATER = {**CANTILEVER, **WATER, "length": 125e-6, "width": 30e-6, "tip_position": 125e-6,
+            "tip_mass_ratio": 0.01, "resonance_frequency": 120e3, "quality_factor": 8.0}
+
+
+@pytest.mark.parametrize("n_modes", [2, 4])
+def test_a_cantilever_calibrated_in_water_has_its_k_f0_and_q_there(n_modes):
+    """k, f0 and Q measured in water (the thermal peak there): the loaded model's first
+    eigenvalue (numpy, from the matrices with each mode's added mass and fluid damping) has that
+    f0 and Q, and its static tip stiffness is k, all to 1e-9."""
+    physical = IN_WATER
+    config = tmafm.Config({"model": {"n_modes": n_modes}, "physical": physical})
+    model = tmafm.Model(config)
+    derived = config.derived
+    L = IN_WATER["length"]
+    t0 = math.sqrt(derived["mass_per_length"] * L ** 4 / derived["rigidity"])
+    assert config.scene["medium_mass"] > 0 and config.scene["medium_reynolds"] > 0
+    lam = _first_mode(model)
+    assert abs(lam) / (2 * math.pi * t0) == pytest.approx(120e3, rel=1e-9)
+    assert abs(lam) / (2 * abs(lam.real)) == pytest.approx(8.0, rel=1e-9)
+    _, _, stiffness, _ = model.matrices(0.0, np.zeros(n_modes), False)
+    compliance = model.tip @ np.linalg.solve(stiffness, model.tip)
+    assert derived["rigidity"] / (L ** 3 * compliance) == pytest.approx(40.0, rel=1e-9)
+    # The same cantilever in air would ring higher and longer: the liquid loads it.
+    air = {k: v for k, v in physical.items() if not k.startswith("medium_")}
+    dry = tmafm.Config({"model": {"n_modes": n_modes}, "physical": air})
+    assert derived["mass_per_length"] < dry.derived["mass_per_length"]
+
+
+def test_a_free_amplitude_in_water_is_reached_far_from_the_sample():
+    """The free amplitude in the liquid (the base drives the liquid's added mass and damping
+    too): the last period's amplitude observable of a long flight_exact run is A0 to 1e-6."""
+    physical = {**IN_WATER, "drive_frequency": 115e3, "free_amplitude": 5e-9, "tip_sample_distance": 1e-6}
+    config = tmafm.Config({"model": {"n_modes": 3}, "physical": physical,
+                           "solver": {"method": "flight_exact", "rtol": 1e-12, "atol": 1e-16}})
+    values, _ = _companion_eigenvalues(config.model())
+    period = 2 * math.pi / config.scene["omega"]
+    n_periods = math.ceil(21 / min(-values.real) / period) + 2
+    obs = tmafm.observe(config, max_periods=n_periods, stop_at_steady=False)
+    assert obs.per_period["min_gap"][-1] > 0
+    d = config.derived["gap"]
+    assert obs.per_period["amplitude"][-1] * d == pytest.approx(5e-9, rel=1e-6)
+    assert config.derived["free_amplitude"] == pytest.approx(5e-9, rel=1e-12)
+
+
+def test_the_derived_free_amplitude_in_a_liquid_is_the_one_that_runs():
+    """A liquid scene given by its drive amplitude: the header's free amplitude is the run's."""
+    physical = {**WATER, "drive_amplitude": 1e-9, "drive_frequency": 30e3, "tip_sample_distance": 1e-6}
+    config = tmafm.Config({"model": {"n_modes": 2}, "physical": physical,
+                           "solver": {"method": "flight_exact", "rtol": 1e-12, "atol": 1e-16}},
+                          )
+    values, _ = _companion_eigenvalues(config.model())
+    period = 2 * math.pi / config.scene["omega"]
+    n_periods = math.ceil(21 / min(-values.real) / period) + 2
+    obs = tmafm.observe(config, max_periods=n_periods, stop_at_steady=False)
+    run = obs.per_period["amplitude"][-1] * config.derived["gap"]
+    assert config.derived["free_amplitude"] == pytest.approx(run, rel=1e-6)
+
+
+@pytest.mark.parametrize("change, key", [({"quality_factor": 500.0}, "quality_factor"),
+                                         ({"resonance_frequency": 250e3}, "resonance_frequency"),
+                                         ({"resonance_frequency": 5e6, "quality_factor": 0.6},
+                                          "resonance_frequency")])
+def test_a_calibration_the_liquid_cannot_meet_is_refused_naming_its_key(change, key):
+    """Q above what the liquid alone allows, or f0 above what any beam of that k reaches in it."""
+    physical = {**IN_WATER, **change}
+    with pytest.raises(tmafm.InputError, match=f"&physical {key} = ") as info:
+        tmafm.Config({"model": {"n_modes": 2}, "physical": physical})
+    assert "\n" not in str(info.value)

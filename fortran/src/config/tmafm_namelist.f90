@@ -338,6 +338,7 @@ contains
       character(len=*), intent(out) :: errmsg
       real(dp) :: v(size(physical_names)), mismatch
       type(nml_entry_t) :: fixed
+      character(len=32) :: culprit
       type(physical_t) :: phys
       ! given(k): physical_names(k) is given (an override's alternative drops the base's keys).
       logical :: given(size(physical_names))
@@ -419,14 +420,6 @@ contains
       end if
       call check_pair(p, g, 'medium_density', v(28), 'medium_viscosity', v(29), ierr, errmsg)
       if (ierr /= ok) return
-      ! The calibration and the free amplitude are solved for the beam in air (tmafm_calibration):
-      ! with a liquid they would describe another model than the one that runs.
-      if (v(28) > 0 .and. (given(21) .or. given(26))) then
-         call key_error(p, g%entries(entry_at(merge('spring_constant', 'free_amplitude ', given(21)))), &
-                        'is not combined with medium_density > 0 (a liquid): give the cantilever by its '// &
-                        'geometry and the drive by drive_amplitude', ierr, errmsg)
-         return
-      end if
       ! A viscoelastic sample relaxes to a modulus no higher than its instantaneous one.
       if (v(33) > v(7)) then
          fixed = entry_or_default(g, 'sample_modulus_relaxed', v(33))
@@ -440,9 +433,9 @@ contains
       phys%by_free_amplitude = given(26)
       phys%by_distance = given(27)
       if (phys%by_calibration) then
-         call calibrate_cantilever(phys, config%n_modes, config_errata(config), ierr, errmsg)
+         call calibrate_cantilever(phys, config%n_modes, config_errata(config), ierr, errmsg, culprit)
          if (ierr /= ok) then
-            call key_error(p, g%entries(entry_at('quality_factor')), trim(errmsg), ierr, errmsg)
+            call key_error(p, g%entries(entry_at(trim(culprit))), trim(errmsg), ierr, errmsg)
             return
          end if
       end if

@@ -13,9 +13,12 @@
 !>   quality factor of the one oscillator that decays as mode 1 does.  The beam damping is
 !>   uniform and the tip mass undamped, so mode 1 is not a modal (real) mode: lambda1 is the
 !>   complex eigenvalue itself, not alpha3 over a modal mass;
-!> - the free amplitude: |p^T X - i| alpha2 d, with (Lambda - Omega^2 M + i Omega alpha3 I) X
-!>   = Omega^2 (alpha1 m + q) (-i) - alpha3 Omega q: the first harmonic of V_T = p^T a +
-!>   alpha2 sin(Omega tau) + delta_hat in steady free flight (the `amplitude` observable).
+!> - the free amplitude: |p^T X - i| alpha2 d, with (Lambda - Omega^2 M + i Omega C) X
+!>   = Omega^2 (alpha1 m + (1 + mu) q) (-i) - Omega C q: the first harmonic of V_T = p^T a +
+!>   alpha2 sin(Omega tau) + delta_hat in steady free flight (the `amplitude` observable);
+!>   C = alpha3 I and mu = 0 in air, C = diag(alpha3 + gamma_j) and mu_j in a liquid.
+!> In a liquid (docs/model.md §13) f0 and Q are those of the loaded beam, the thermal peak a
+!> user measures there: the calibration solves for the beam whose loaded mode 1 has them.
 module tmafm_calibration
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok, err_input
@@ -228,10 +231,19 @@ contains
       n = model%n_modes
       associate (s => model%scene)
          z = -s%omega**2*model%mass
-         do j = 1, n
-            z(j, j) = z(j, j) + model%eigen(j) + i*s%omega*s%alpha3
-         end do
-         x = -i*s%omega**2*(s%alpha1*model%mass_point + model%integral) - s%alpha3*s%omega*model%integral
+         if (model%has_medium) then
+            ! A liquid: M carries the added mass, C each mode's damping, and the base drives the
+            ! liquid's added mass and damping too (docs/model.md §13, §16).
+            do j = 1, n
+               z(j, j) = z(j, j) + model%eigen(j) + i*s%omega*model%modal_damping(j)
+            end do
+            x = -i*s%omega**2*model%inertial_load - s%omega*model%damped_integral
+         else
+            do j = 1, n
+               z(j, j) = z(j, j) + model%eigen(j) + i*s%omega*s%alpha3
+            end do
+            x = -i*s%omega**2*(s%alpha1*model%mass_point + model%integral) - s%alpha3*s%omega*model%integral
+         end if
       end associate
       call zgesv(n, 1, z, n, pivots, x, n, info)
       if (info /= 0) then
@@ -283,18 +295,21 @@ contains
    !> The beam of a cantilever given by its calibration (phys%spring_constant,
    !> resonance_frequency, quality_factor, tip_mass_ratio, length, tip_position): sets
    !> phys%rigidity, mass_per_length, beam_damping and tip_mass so that the N-mode model has
-   !> exactly that k, f0 and Q (module comment).  Errors name no key (the reader adds it).
-   subroutine calibrate_cantilever(phys, n_modes, errata, ierr, errmsg)
+   !> exactly that k, f0 and Q (module comment).  Errors name no key (the reader adds it):
+   !> `key` says which ('quality_factor' or 'resonance_frequency').
+   subroutine calibrate_cantilever(phys, n_modes, errata, ierr, errmsg, key)
       type(physical_t), intent(inout) :: phys
       integer, intent(in) :: n_modes
       type(errata_t), intent(in) :: errata
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      character(len=*), intent(out) :: key
       type(model_t) :: model
       type(scene_t) :: scene
       real(dp) :: alpha3, t0
       complex(dp) :: lambda
 
+      key = 'quality_factor'
       scene%alpha1 = phys%tip_mass_ratio
       scene%xi0 = phys%tip_position/phys%length
       call init_model(model, n_modes, scene, law_hertz, errata, ierr, errmsg)
@@ -303,10 +318,154 @@ contains
       if (ierr /= ok) return
       phys%rigidity = phys%spring_constant*phys%length**3*tip_compliance(model)
       t0 = abs(lambda)/(2*pi*phys%resonance_frequency)
+      if (phys%medium_density > 0) then
+         ! In a liquid the loaded beam must have f0 and Q: the liquid's added mass and damping
+         ! depend on the beam's own mass and time scale, so t0 is solved for (the static k is not
+         ! touched by the liquid).
+         call liquid_time_scale(phys, n_modes, errata, t0, alpha3, ierr, errmsg, key)
+         if (ierr /= ok) return
+      end if
       phys%mass_per_length = phys%rigidity*t0**2/phys%length**4
       phys%beam_damping = alpha3*phys%mass_per_length/t0
       phys%tip_mass = phys%tip_mass_ratio*phys%mass_per_length*phys%length
    end subroutine calibrate_cantilever
+
+   !> The time scale t0 (s) and beam damping alpha3 of a cantilever of rigidity phys%rigidity in
+   !> phys's liquid whose loaded mode 1 has the frequency phys%resonance_frequency and quality
+   !> factor phys%quality_factor: for each trial t0 the beam's mass per length is E1 I t0^2/L^4,
+   !> the liquid's loads follow (tmafm_scene, tmafm_hydrodynamics), alpha3 meets Q
+   !> (damping_for_quality) and the loaded |lambda1|/(2 pi t0) is compared with f0; Illinois'
+   !> regula falsi on log t0, bracketed by halving from the air's t0 (the liquid only lowers f0).
+   subroutine liquid_time_scale(phys, n_modes, errata, t0, alpha3, ierr, errmsg, key)
+      type(physical_t), intent(in) :: phys
+      integer, intent(in) :: n_modes
+      type(errata_t), intent(in) :: errata
+      real(dp), intent(inout) :: t0
+      real(dp), intent(out) :: alpha3
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      !> The key a refusal names: 'resonance_frequency' or 'quality_factor'.
+      character(len=*), intent(inout) :: key
+      real(dp) :: lo, hi, f_lo, f_hi, x, f, best_frequency, best_quality, step
+      integer :: it, side
+      logical :: feasible
+
+      alpha3 = 0
+      best_frequency = 0
+      best_quality = 0
+      ! hi: the air's t0, where the loaded beam rings below f0 (the liquid only lowers it).
+      hi = log(t0)
+      f_hi = misfit(hi, feasible)
+      if (ierr /= ok) return
+      if (.not. feasible) then
+         ierr = err_input
+         errmsg = 'the liquid alone gives mode 1 Q = '//short(best_quality)// &
+                  ': quality_factor must be below it (no beam damping is negative)'
+         return
+      end if
+      ! Step t0 down (a lighter beam, a higher loaded f0) until f0 is passed; a lighter beam is
+      ! also damped more by the liquid, so a step into Q's infeasible side is halved.
+      lo = hi
+      f_lo = f_hi
+      step = log(2.0_dp)
+      do it = 1, 400
+         if (f_lo > 0) exit
+         x = lo - step
+         f = misfit(x, feasible)
+         if (ierr /= ok) return
+         if (.not. feasible) then
+            step = step/2
+            if (step < 1.0e-12_dp) exit
+            cycle
+         end if
+         hi = lo
+         f_hi = f_lo
+         lo = x
+         f_lo = f
+         if (lo < log(t0) - 80*log(2.0_dp)) exit
+      end do
+      if (.not. (f_lo > 0 .and. f_hi <= 0)) then
+         ierr = err_input
+         key = 'resonance_frequency'
+         if (step < 1.0e-12_dp) then
+            errmsg = 'with quality_factor as given the loaded mode 1 rings at most at '// &
+                     short(best_frequency)//' Hz in this liquid (there the liquid alone gives Q = '// &
+                     short(best_quality)//'): a lower resonance_frequency or a lower quality_factor'
+         else
+            errmsg = 'in this liquid no beam of this spring_constant and width resonates this high: its '// &
+                     'loaded first resonance stays below '//short(best_frequency)// &
+                     ' Hz however light the beam (the liquid''s added mass alone)'
+         end if
+         return
+      end if
+      side = 0
+      x = hi
+      f = f_hi
+      do it = 1, 200
+         if (abs(f) <= 1.0e-15_dp .or. abs(hi - lo) <= 4*epsilon(1.0_dp)*max(abs(hi), abs(lo))) exit
+         x = (lo*f_hi - hi*f_lo)/(f_hi - f_lo)
+         f = misfit(x, feasible)
+         if (ierr /= ok) return
+         if (f > 0) then
+            lo = x
+            f_lo = f
+            if (side == 1) f_hi = f_hi/2
+            side = 1
+         else
+            hi = x
+            f_hi = f
+            if (side == -1) f_lo = f_lo/2
+            side = -1
+         end if
+      end do
+      f = misfit(x, feasible)
+      t0 = exp(x)
+   contains
+      !> log(f0(t0)/f0) of the loaded beam at log t0 = log_t0, with alpha3 set to meet Q;
+      !> feasible = .false. where the liquid alone damps mode 1 below Q (ierr stays ok).
+      real(dp) function misfit(log_t0, feasible)
+         real(dp), intent(in) :: log_t0
+         logical, intent(out) :: feasible
+         type(physical_t) :: trial
+         type(model_t) :: model
+         complex(dp) :: lambda
+         logical :: under
+         real(dp) :: time
+         time = exp(log_t0)
+         trial = phys
+         trial%by_calibration = .true.
+         trial%mass_per_length = phys%rigidity*time**2/phys%length**4
+         trial%tip_mass = phys%tip_mass_ratio*trial%mass_per_length*phys%length
+         trial%beam_damping = 0
+         misfit = 0
+         feasible = .false.
+         call init_model(model, n_modes, scene_from_physical(trial), law_hertz, errata, ierr, errmsg)
+         if (ierr /= ok) return
+         ! The liquid alone (no beam damping): Q must not exceed it.
+         call first_mode(model, 0.0_dp, lambda, under, ierr, errmsg)
+         if (ierr /= ok) return
+         if (.not. under) return
+         best_quality = abs(lambda)/(2*abs(real(lambda, dp)))
+         if (best_quality < phys%quality_factor) then
+            best_frequency = max(best_frequency, abs(lambda)/(2*pi*time))
+            return
+         end if
+         call damping_for_quality(model, phys%quality_factor, alpha3, lambda, ierr, errmsg)
+         if (ierr /= ok) return
+         feasible = .true.
+         misfit = log(abs(lambda)/(2*pi*time*phys%resonance_frequency))
+         best_frequency = max(best_frequency, abs(lambda)/(2*pi*time))
+      end function misfit
+
+      !> x to 5 significant digits, no blanks (for the messages).
+      function short(x) result(text)
+         real(dp), intent(in) :: x
+         character(len=:), allocatable :: text
+         character(len=24) :: buffer
+         write (buffer, '(es11.4e2)') x
+         text = trim(adjustl(buffer))
+      end function short
+   end subroutine liquid_time_scale
 
    !> The base drive amplitude phys%drive_amplitude that gives the tip the steady free
    !> amplitude phys%free_amplitude (module comment), for N modes and a set of corrections.

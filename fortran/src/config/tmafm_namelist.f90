@@ -435,7 +435,9 @@ contains
       if (phys%by_calibration) then
          call calibrate_cantilever(phys, config%n_modes, config_errata(config), ierr, errmsg, culprit)
          if (ierr /= ok) then
-            call key_error(p, g%entries(entry_at(trim(culprit))), trim(errmsg), ierr, errmsg)
+            ! (entry_or_default: the key at fault, tip_position say, may be left at its default)
+            call key_error(p, entry_or_default(g, trim(culprit), v(index_of(physical_names, culprit))), &
+                           trim(errmsg), ierr, errmsg)
             return
          end if
       end if

@@ -1,0 +1,102 @@
+"""Issue 27, "nothing silent, nothing lost": each test is one item that failed before.
+
+F1 a calibration whose modes' coupling is far below round-off stopped the program inside
+LAPACK (DGEBAL's XERBLA, exit 0); F2 a sweep file on a full disk crashed in h5py and left its
+temporary; F3 the sweep command checked its targets after the sweep; F5 and F8 inputs refused
+only after a run (or never); F9 and F13 raw exceptions and silent infinities of the results;
+F12 the sweep command's warnings and start-up Ctrl-C; a failed sweep point without a warning;
+and the paper cuts (inputs.names, --help, the [test] extra)."""
+
+import ast
+import math
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+import warnings
+
+import numpy as np
+import pytest
+
+import tmafm
+from tmafm.sweeps import points, runs
+
+from conftest import INPUTS, REPO
+
+TAPPING = (INPUTS / "tapping_polystyrene.nml").read_text()
+BISTABLE = INPUTS / "sweeps" / "bistable_n2.nml"
+
+
+def _python(code: str, *args, cwd=None, timeout=300):
+    """Run `code` in a child interpreter (a crash there must not take the test run with it)."""
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(code), *map(str, args)], cwd=cwd,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def _one_error_line(proc, *words):
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("tmafm: error: "), proc.stderr
+    for word in words:
+        assert word in lines[0], lines[0]
+    return lines[0]
+
+
+# --- F1: no LAPACK call stops the program -----------------------------------------------------
+
+def _tapping(tmp_path, old, new, name="t.nml"):
+    assert old in TAPPING
+    text = TAPPING.replace(old, new).replace("tau_end = 100.0", "tau_end = 2.0")
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_a_tip_mass_ratio_below_round_off_is_calibrated_as_no_tip_mass(tmp_path):
+    """tip_mass_ratio = 1e-100 made the modes' coupling 1e-99: Newton's iteration on the first
+    eigenvalue, started at dgeev's (exact there to the last bits), overflowed to NaN, and the
+    next dgeev's DGEBAL printed a line and stopped the program with exit 0 (from Python it
+    killed the interpreter).  Now the eigenvalue stays dgeev's, and the calibrated scene is the
+    one of no tip mass: a tip mass ratio of 1e-100 changes M by less than its round-off."""
+    tiny = _tapping(tmp_path, "tip_mass_ratio = 0.01", "tip_mass_ratio = 1e-100", "tiny.nml")
+    none = _tapping(tmp_path, "tip_mass_ratio = 0.01", "tip_mass_ratio = 0.0", "none.nml")
+    proc = _python("""
+        import sys, tmafm
+        a, b = tmafm.Config(sys.argv[1]).scene, tmafm.Config(sys.argv[2]).scene
+        print(repr({k: (a[k], b[k]) for k in ("alpha1", "alpha2", "alpha3", "omega")}))
+    """, tiny, none)
+    assert proc.returncode == 0 and "DGEBAL" not in proc.stdout + proc.stderr, proc
+    values = ast.literal_eval(proc.stdout)
+    assert values["alpha1"] == (1e-100, 0.0)
+    # The eigenvalue is dgeev's instead of Newton's: the same to a few ulps of its modulus,
+    # amplified by the damping search's regula falsi (its stop, 1e-14 in log Q).
+    for key in ("alpha2", "alpha3", "omega"):
+        assert math.isclose(*values[key], rel_tol=1e-12), (key, values[key])
+    done = subprocess.run([tmafm.executable(), "-q", tiny.name, "-o", "tiny.dat"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and done.stderr == "" and done.stdout == "", done
+    assert (tmp_path / "tiny.dat").is_file()
+
+
+@pytest.mark.parametrize("position", ["1e-85", "1e-300"])
+def test_a_tip_at_the_clamp_is_refused_naming_tip_position(tmp_path, position):
+    """tip_position = 1e-85 gave the calibrated beam an E1 I = k L^3 p^T Lambda^-1 p below the
+    smallest normal number (p ~ (x0/L)^2): m was 0, the scene NaN, and DGEBAL stopped the
+    program (exit 0, a LAPACK line on stdout).  Now one line names tip_position and its value,
+    exit 2, no output file."""
+    path = _tapping(tmp_path, "tip_position = 125.0e-6", f"tip_position = {position}")
+    proc = subprocess.run([tmafm.executable(), "-q", path.name, "-o", "t.dat"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and proc.stdout == "", proc
+    _one_error_line(proc, f"&physical tip_position = {position}", "E1 I", "the tip sits at the clamp")
+    assert not (tmp_path / "t.dat").exists()
+    child = _python("""
+        import sys, tmafm
+        try:
+            tmafm.Config(sys.argv[1])
+        except tmafm.InputError as exc:
+            print(type(exc).__name__, exc)
+    """, path)
+    assert child.returncode == 0 and child.stdout.startswith("InputError "), child
+    assert f"tip_position = {position}" in child.stdout and len(child.stdout.splitlines()) == 1

@@ -100,3 +100,41 @@ def test_a_tip_at_the_clamp_is_refused_naming_tip_position(tmp_path, position):
     """, path)
     assert child.returncode == 0 and child.stdout.startswith("InputError "), child
     assert f"tip_position = {position}" in child.stdout and len(child.stdout.splitlines()) == 1
+
+
+# --- F5, F8: refused before any run -----------------------------------------------------------
+
+def test_a_viscoelastic_sample_with_a_fixed_step_method_is_refused_before_the_search(tmp_path):
+    """n_modes = 0, an SLS sample and rk4_event: the automatic-N search ran (~7 s, with its
+    progress lines) before the method was refused.  Now the input check refuses it: one line,
+    and no search line before it."""
+    path = tmp_path / "sls.nml"
+    path.write_text("&model n_modes = 0 /\n&scene sls_relaxation_time = 1, sls_modulus_ratio = 0.5 /\n"
+                    "&solver method = 'rk4_event', tau_end = 5 /\n")
+    proc = subprocess.run([tmafm.executable(), path.name, "-o", "s.dat"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc
+    _one_error_line(proc, "&solver method = 'rk4_event'", "&scene sls_relaxation_time = 1",
+                    "dopri5")
+    with pytest.raises(tmafm.InputError, match="sls_relaxation_time") as info:
+        tmafm.Config(path)
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("value", ["1e-20", "1e-300"])
+def test_a_physical_relaxation_time_below_the_scene_floor_is_refused_at_input(tmp_path, value):
+    """&physical sample_relaxation_time = 1e-20 gave &scene sls_relaxation_time below its
+    floor 1e-12 (read_scene's rule, not the key's range): accepted, and the run then failed
+    with exit 5.  Now the derived value is held to the &scene key's rule, naming the key
+    written."""
+    text = (INPUTS / "sls_polystyrene.nml").read_text()
+    old = "sample_relaxation_time = 3.0e-6"
+    assert old in text
+    path = tmp_path / "sls.nml"
+    path.write_text(text.replace(old, f"sample_relaxation_time = {value}"))
+    proc = subprocess.run([tmafm.executable(), "-q", path.name, "-o", "s.dat"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc
+    _one_error_line(proc, f"&physical sample_relaxation_time = {value}", "sls_relaxation_time",
+                    "1.0E-012")
+    assert not (tmp_path / "s.dat").exists()

@@ -138,3 +138,31 @@ def test_a_physical_relaxation_time_below_the_scene_floor_is_refused_at_input(tm
     _one_error_line(proc, f"&physical sample_relaxation_time = {value}", "sls_relaxation_time",
                     "1.0E-012")
     assert not (tmp_path / "s.dat").exists()
+
+
+# --- paper cuts --------------------------------------------------------------------------------
+
+def test_inputs_names_lists_every_run_input_the_bimodal_example_included():
+    names = tmafm.inputs.names()
+    assert "bimodal/tapping" in names and "fig2_n4" in names
+    assert not any(n.startswith("sweeps/") for n in names)
+    assert tmafm.Config("bimodal/tapping").n_modes == 4
+
+
+def test_the_help_names_every_option_on_its_usage_line():
+    proc = subprocess.run([tmafm.executable(), "--help"], capture_output=True, text=True, timeout=60)
+    usage = proc.stdout.splitlines()[0]
+    assert proc.returncode == 0 and usage.startswith("usage: tmafm INPUT.nml")
+    for option in ("-o FILE", "-q", "--timings"):
+        assert option in usage, usage
+
+
+def test_the_test_extra_installs_what_the_tests_build_with():
+    """tests/testcore.py builds the test-only extension with meson and ninja: `pip install
+    '.[test]'` then pytest failed without them."""
+    tomllib = pytest.importorskip("tomllib")
+    extra = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["optional-dependencies"]["test"]
+    names = {e.split(">")[0].split("=")[0].split("[")[0].strip() for e in extra}
+    testcore = (REPO / "tests" / "testcore.py").read_text()
+    for tool in ("meson", "ninja"):
+        assert f'_tool("{tool}")' in testcore and tool in names, (tool, extra)

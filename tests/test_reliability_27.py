@@ -102,6 +102,40 @@ def test_a_tip_at_the_clamp_is_refused_naming_tip_position(tmp_path, position):
     assert f"tip_position = {position}" in child.stdout and len(child.stdout.splitlines()) == 1
 
 
+# --- F2: a full disk --------------------------------------------------------------------------
+
+def test_write_dataset_on_a_full_disk_is_a_typed_error_and_leaves_nothing(small_tmpfs):
+    """A 64 KiB tmpfs and a 240 kB dataset: h5py wrote into the temporary, crashed on ENOSPC
+    (segfault) and left `.d.nc.partial-*`.  Now the file is made in memory, and its write
+    fails with InputFileError; the previous file stays as it was, and nothing else is there."""
+    (small_tmpfs / "d.nc").write_text("previous\n")
+    proc = _python("""
+        import sys
+        import numpy as np, xarray as xr
+        import tmafm, tmafm.sweeps
+        ds = xr.Dataset({"x": ("n", np.arange(30000.0))}, attrs={"tmafm_kind": "sweep"})
+        try:
+            tmafm.sweeps.write_dataset(ds, sys.argv[1])
+        except tmafm.InputFileError as exc:
+            print(type(exc).__name__, isinstance(exc, OSError), exc)
+    """, small_tmpfs / "d.nc")
+    assert proc.returncode == 0, proc
+    assert proc.stdout.startswith("InputFileError True ") and "No space left" in proc.stdout, proc
+    assert sorted(p.name for p in small_tmpfs.iterdir()) == ["d.nc"]
+    assert (small_tmpfs / "d.nc").read_text() == "previous\n"
+
+
+def test_write_dataset_still_writes_what_read_dataset_reads(tmp_path):
+    """The in-memory NetCDF file is the same dataset, read back."""
+    xr = pytest.importorskip("xarray")
+    ds = xr.Dataset({"period": ("n", np.arange(5, dtype=np.int32)), "x": ("n", np.linspace(0, 1, 5))},
+                    attrs={"tmafm_kind": "sweep"})
+    path = tmafm.sweeps.write_dataset(ds, tmp_path / "d.nc")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.nc"]
+    back = tmafm.sweeps.read_dataset(path)
+    assert back.identical(ds)
+
+
 # --- F5, F8: refused before any run -----------------------------------------------------------
 
 def test_a_viscoelastic_sample_with_a_fixed_step_method_is_refused_before_the_search(tmp_path):

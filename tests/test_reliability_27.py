@@ -136,6 +136,118 @@ def test_write_dataset_still_writes_what_read_dataset_reads(tmp_path):
     assert back.identical(ds)
 
 
+# --- F3, F12: the sweep command ---------------------------------------------------------------
+
+def _sweep_file(folder, extra="values = 1e-3, 2e-3"):
+    (folder / "bistable_n2.nml").write_bytes(BISTABLE.read_bytes())
+    path = folder / "sweep.nml"
+    path.write_text(f"&sweep kind = 'grid', base = 'bistable_n2.nml', key = 'scene.delta_hat', "
+                    f"max_periods = 2, {extra} /\n")
+    return path
+
+
+@pytest.fixture
+def nothing_runs(monkeypatch):
+    """Fail the test if a grid point is built or observed."""
+    def built(*args, **kwargs):
+        raise AssertionError("a grid point was built or run")
+    monkeypatch.setattr(points, "_config", built)
+    monkeypatch.setattr(runs, "observe_batch", built)
+
+
+@pytest.mark.parametrize("args, words", [
+    (["-o", "{tmp}/missing/out.nc"], "No such file or directory"),
+    (["-o", "{tmp}/out.dat"], "must end in .nc"),
+    (["-o", "{tmp}/out.nc", "--plot", "{tmp}/missing/p.png"], "No such file or directory"),
+    (["-o", "{tmp}/out.nc", "--plot", "{tmp}/p.xyz"], "matplotlib writes"),
+    (["-o", "{tmp}/out.nc", "--plot", "{tmp}/plot"], "matplotlib writes"),
+], ids=["missing_folder", "not_nc", "plot_missing_folder", "plot_unknown_format", "plot_no_suffix"])
+def test_the_sweep_command_checks_its_targets_before_any_work(tmp_path, capsys, nothing_runs,
+                                                              args, words):
+    """The folder of -o and of --plot, and both names' extensions, were checked only after the
+    whole sweep (and --plot p.xyz wrote a PNG under that name)."""
+    path = _sweep_file(tmp_path)
+    before = sorted(p.name for p in tmp_path.iterdir())
+    code = tmafm.sweeps.main([str(path), *[a.format(tmp=tmp_path) for a in args]])
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert code == 2 and len(lines) == 1, (code, lines)
+    assert lines[0].startswith("tmafm.sweeps: error: ") and words in lines[0], lines
+    assert captured.out == "" and sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+def test_the_sweep_command_says_wrote_only_once_both_files_are_there(tmp_path, small_tmpfs, capsys):
+    """The plot's write failed (a full disk) after the NetCDF file was written: the command
+    removed the NetCDF file, but had already printed `wrote OUT.nc`."""
+    path = _sweep_file(tmp_path)
+    filler = small_tmpfs / "filler"
+    fd = os.open(filler, os.O_WRONLY | os.O_CREAT, 0o644)
+    try:  # fill the tmpfs, then free two pages: room for an empty temporary, not for a plot
+        while True:
+            os.write(fd, b"\0" * 4096)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+    os.truncate(filler, filler.stat().st_size - 8192)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        code = tmafm.sweeps.main([str(path), "-o", str(tmp_path / "out.nc"), "--plot",
+                                  str(small_tmpfs / "p.png"), "--workers", "1"])
+    captured = capsys.readouterr()
+    assert code == 2, captured
+    assert "wrote" not in captured.out, captured.out
+    assert "No space left" in captured.err and len(captured.err.splitlines()) == 1, captured.err
+    assert not (tmp_path / "out.nc").exists()
+    assert sorted(p.name for p in small_tmpfs.iterdir()) == ["filler"]
+
+
+def test_the_sweep_commands_warnings_are_one_line_each(tmp_path):
+    """max_periods = 2 ends every run unsteady: Python printed the UnsteadyWarning on two lines,
+    the second the source line that warned."""
+    path = _sweep_file(tmp_path)
+    proc = subprocess.run([sys.executable, "-m", "tmafm.sweeps", str(path), "-o", "out.nc",
+                           "--no-plot", "--workers", "1"], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1, lines
+    assert lines[0].startswith("tmafm.sweeps: warning: UnsteadyWarning: ") \
+        and "2 of 2 runs ended without a steady state" in lines[0], lines
+    assert proc.stdout.splitlines() == ["wrote out.nc"]
+
+
+def test_ctrl_c_while_the_sweep_command_starts_is_one_line_and_exit_130(tmp_path):
+    """SIGINT while `python -m tmafm.sweeps` imported the package gave a 23-line traceback and
+    death by SIGINT.  The signal is sent once numpy is being loaded (the package's first
+    import), so it comes during the start-up, before the command's main."""
+    path = _sweep_file(tmp_path)
+    proc = subprocess.Popen([sys.executable, "-m", "tmafm.sweeps", str(path), "-o", "out.nc",
+                             "--no-plot", "--workers", "1"], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    maps = f"/proc/{proc.pid}/maps"
+    deadline = time.monotonic() + 60
+    try:
+        while time.monotonic() < deadline and proc.poll() is None:
+            try:
+                with open(maps) as handle:
+                    if "numpy" in handle.read():
+                        break
+            except OSError:
+                pass
+            time.sleep(0.001)
+        assert proc.poll() is None, "the command ended before numpy was loaded"
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 130, (proc.returncode, err)
+    assert err.splitlines() == ["tmafm.sweeps: interrupted"], err
+    assert out == "" and not (tmp_path / "out.nc").exists()
+
+
 # --- F5, F8: refused before any run -----------------------------------------------------------
 
 def test_a_viscoelastic_sample_with_a_fixed_step_method_is_refused_before_the_search(tmp_path):

@@ -6,6 +6,7 @@
 True
 """
 
+from . import _startup  # noqa: F401  (first: Ctrl-C while python -m tmafm.sweeps starts)
 from importlib.metadata import PackageNotFoundError, version as _version
 
 from . import inputs

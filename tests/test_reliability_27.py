@@ -248,6 +248,23 @@ def test_ctrl_c_while_the_sweep_command_starts_is_one_line_and_exit_130(tmp_path
     assert out == "" and not (tmp_path / "out.nc").exists()
 
 
+# --- a failed sweep point warns ---------------------------------------------------------------
+
+def test_a_failed_sweep_point_warns_once_with_the_count_and_the_first_reason():
+    """A point whose run fails became NaN with only ds.attrs['failures'] to say so; unsteady
+    points warned.  dtau = 1 blows the paper's RK4 up (its stability limit is far below)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ds = tmafm.sweep("fig2_n4", {"solver.dtau": [2e-3, 1.0]}, max_periods=3, workers=1)
+    failed = [w for w in caught if issubclass(w.category, tmafm.FailedRunWarning)]
+    assert ds.attrs["failures"] == 1 and ds["failed"].values.tolist() == [0, 1]
+    assert np.isnan(ds["amplitude"].values[1]) and np.isfinite(ds["amplitude"].values[0])
+    assert len(failed) == 1, [str(w.message) for w in caught]
+    message = str(failed[0].message)
+    assert "1 of 2 runs failed" in message and ds.attrs["first_failure"] in message
+    assert "\n" not in message
+
+
 # --- F5, F8: refused before any run -----------------------------------------------------------
 
 def test_a_viscoelastic_sample_with_a_fixed_step_method_is_refused_before_the_search(tmp_path):

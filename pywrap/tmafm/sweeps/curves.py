@@ -18,7 +18,7 @@ from .executors import _check_run, _dask_results, _progress, _results, _Stopped,
 from .points import (_axis_values, _base_config, _base_dict, _check_axes, _check_flag,
                      _check_points, _check_positive, _config, _for_keys, _observe_keywords, _raw, _sizes,
                      _split_key, _validate)
-from .runs import _observe_one, _warn_unsteady
+from .runs import _observe_one, _warn_failures, _warn_unsteady
 
 
 def _warm_chain(base: dict, key: str, values, curve_point: Mapping, n_modes: int,
@@ -120,6 +120,7 @@ def _continuation(base, key: str, values, *, directions: tuple[str, str], revers
     # Summaries in the order (direction, curve..., value).
     ordered = [s for d in range(len(used)) for r in results for s in r[d]]
     _warn_unsteady(ordered, kind, keywords)
+    _warn_failures(ordered, kind)
     dim = dim or key
     ds = _curve_dataset(ordered, base_config, key, values, curves, used, jump_threshold, dim)
     ds.attrs.update(_attrs(base, kind, keywords))

@@ -303,6 +303,34 @@ def test_a_physical_relaxation_time_below_the_scene_floor_is_refused_at_input(tm
     assert not (tmp_path / "s.dat").exists()
 
 
+# --- F9, F13: typed errors and warnings in the results ----------------------------------------
+
+def test_force_distance_of_an_undriven_run_is_a_typed_error():
+    """drive_frequency = 0: 2 pi/omega raised a raw ZeroDivisionError."""
+    result = tmafm.run("tapping_polystyrene", physical={"drive_frequency": 0.0},
+                       solver={"tau_end": 2.0})
+    assert result.scene["omega"] == 0
+    with pytest.raises(tmafm.InputError, match="omega = 0.0"):
+        result.force_distance()
+
+
+def test_a_zero_free_amplitude_gives_a_nan_setpoint_and_a_warning():
+    """A curve at free_amplitude = 0 had setpoint = amplitude/0 = inf, silently."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ds = tmafm.approach("tapping_polystyrene", z=[15e-9], retract=False,
+                            curves={"physical.free_amplitude": [0.0, 20e-9]}, max_periods=3,
+                            workers=1, stop_at_steady=False)
+    said = [str(w.message) for w in caught if issubclass(w.category, tmafm.TmafmWarning)
+            and "free_amplitude = 0" in str(w.message)]
+    assert len(said) == 1 and "NaN" in said[0], [str(w.message) for w in caught]
+    setpoint = ds["setpoint"].sel({"physical.free_amplitude": 0.0}).values
+    assert np.isnan(setpoint).all()
+    other = ds.sel({"physical.free_amplitude": 20e-9})
+    assert np.allclose(other["setpoint"].values, other["amplitude"].values / 20.0, rtol=1e-15)
+    assert np.isfinite(other["setpoint"].values).all()
+
+
 # --- paper cuts --------------------------------------------------------------------------------
 
 def test_inputs_names_lists_every_run_input_the_bimodal_example_included():

@@ -26,11 +26,12 @@ def main(argv=None) -> int:
     start-up (tmafm._startup).  A warning is one line on stderr.  argparse's own usage errors
     exit 2 too."""
     from .. import _startup
-    _startup.started()
     if argv is not None and (isinstance(argv, (str, bytes)) or not isinstance(argv, Sequence)
                              or not all(isinstance(a, str) for a in argv)):
         raise InputTypeError(f"argv = {shown(argv)}: must be a list of strings or None")
     try:
+        # Python's SIGINT handler again, inside the try: a Ctrl-C from here on is caught below.
+        _startup.started()
         with warnings.catch_warnings():
             warnings.showwarning = _one_line_warning
             return _main(argv)

@@ -142,7 +142,9 @@ def test_bad_sources_are_tmafm_errors(tmp_path):
 
 def test_packaged_inputs_are_the_repository_inputs():
     names = tmafm.inputs.names()
-    assert names == sorted(p.stem for p in INPUTS.glob("*.nml"))
+    # Every run input, the bimodal example's subfolder included (the sweep files: sweep_names).
+    assert names == sorted(p.stem for p in INPUTS.glob("*.nml")) + sorted(
+        f"bimodal/{p.stem}" for p in (INPUTS / "bimodal").glob("*.nml"))
     for name in names:
         assert tmafm.inputs.path(name).read_bytes() == (INPUTS / f"{name}.nml").read_bytes()
     with pytest.raises(tmafm.InputFileError, match="known: fig2_n1"):

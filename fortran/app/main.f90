@@ -233,7 +233,7 @@ contains
    function help_text() result(text)
       character(len=:), allocatable :: text
       character(len=*), parameter :: lines(*) = [character(len=88) :: &
-         'usage: tmafm INPUT.nml [-o FILE] [-q]', &
+         'usage: tmafm INPUT.nml [-o FILE] [-q] [--timings]', &
          '', &
          'Run the tapping-mode AFM model described by the namelist file INPUT.nml and', &
          'write the sampled trajectory (columns tau vt vtdot contact a_1..a_N adot_1..adot_N,', &

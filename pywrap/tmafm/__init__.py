@@ -6,14 +6,15 @@
 True
 """
 
+from . import _startup  # noqa: F401  (first: Ctrl-C while python -m tmafm.sweeps starts)
 from importlib.metadata import PackageNotFoundError, version as _version
 
 from . import inputs
 from ._run import COUNTER_KEYS, DERIVED_UNITS, SCENE_KEYS, SERIES_UNITS, Config, Result, resolve, run
 from ._model import POWER_NAMES, ContactState, Model
 from ._resultio import load
-from .errors import (BlowUpError, InputError, InputFileError, InputTypeError, SolverError,
-                     TmafmError, TmafmWarning, UnsteadyWarning)
+from .errors import (BlowUpError, FailedRunWarning, InputError, InputFileError, InputTypeError,
+                     SolverError, TmafmError, TmafmWarning, UnsteadyWarning)
 from ._exe import executable
 from .observe import Observation, observe, observe_batch
 
@@ -41,5 +42,5 @@ __all__ = ["run", "resolve", "load", "Config", "Model", "Result", "ContactState"
            "POWER_NAMES", "executable",
            "TmafmError", "InputError",
            "InputTypeError", "InputFileError", "SolverError", "BlowUpError", "TmafmWarning",
-           "UnsteadyWarning", "__version__",
+           "UnsteadyWarning", "FailedRunWarning", "__version__",
            "sweep", "approach", "frequency_sweep", "bifurcation", "basin", "continuation"]

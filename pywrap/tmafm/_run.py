@@ -413,11 +413,15 @@ class Result:
         """The last drive period's (tip-sample distance in m, normal contact force in N), the
         samples with tau >= tau_end - 2 pi/Omega, straight from ``physical`` (the core's
         series): the force-distance curve of one tap.  InputError for a Result without SI
-        series (a scene given in &scene)."""
+        series (a scene given in &scene), and for an undriven one (omega = 0: no period)."""
         if self.physical is None:
             raise InputError("Result.force_distance: this Result has no SI series (its scene "
                              "was not given in &physical)")
-        period = 2 * np.pi / self.scene["omega"]
+        omega = float(self.scene["omega"])
+        if not omega > 0:
+            raise InputError(f"Result.force_distance: &scene omega = {omega!r} (a drive frequency "
+                             f"of 0): there is no drive period, so no last tap to take")
+        period = 2 * np.pi / omega
         last = self.tau >= self.tau[-1] - period * (1 + 1e-12)
         return self.physical["distance_m"][last], self.physical["normal_force_N"][last]
 

@@ -34,7 +34,7 @@ from typing import Callable
 from ._namelist import shown
 from .errors import InputFileError, InputTypeError
 
-__all__ = ["write_bytes", "write_with", "write_text", "save_figure"]
+__all__ = ["write_bytes", "write_with", "write_text", "save_figure", "check_target"]
 
 _ALPHABET = string.ascii_letters + string.digits
 _DIRECT, _REPLACE = "direct", "replace"
@@ -85,6 +85,24 @@ def _target(path: Path, what: str) -> str:
     if not os.access(path, os.W_OK):
         raise InputFileError(f"{what} {name} exists and is not writable")
     return _REPLACE
+
+
+def check_target(path, what: str = "output file") -> Path:
+    """Before the work that makes a file: whether `path` can be written by the rules above.  A
+    device or FIFO is accepted as it is; for a file, a temporary is created in its folder and
+    removed, as the executable does before a run (a missing folder, a read-only or full file
+    system without a free inode, a directory target: InputFileError).  Returns the path."""
+    path = as_path(path, what)
+    if _target(path, what) == _DIRECT:
+        return path
+    with _Guard() as guard, guard.held():
+        try:
+            fd, temporary = _create_temporary(path)
+        except OSError as exc:
+            raise InputFileError(f"cannot write {what} {shown(str(path))}: {exc.strerror}") from None
+        os.close(fd)
+        os.unlink(temporary)
+    return path
 
 
 class _Signalled(BaseException):

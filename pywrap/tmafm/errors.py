@@ -5,7 +5,8 @@ The Fortran core reports failures as an integer code and a one-line message
 """
 
 __all__ = ["TmafmError", "InputError", "InputTypeError", "InputFileError", "BlowUpError",
-           "SolverError", "MissingExtraError", "TmafmWarning", "UnsteadyWarning", "raise_for"]
+           "SolverError", "MissingExtraError", "TmafmWarning", "UnsteadyWarning", "FailedRunWarning",
+           "raise_for"]
 
 
 class TmafmError(Exception):
@@ -47,6 +48,12 @@ class TmafmWarning(UserWarning):
 class UnsteadyWarning(TmafmWarning):
     """An observed run ended without a steady state; ``Observation.unsteady_reason`` says why
     (docs/observables.md, "Steady state")."""
+
+
+class FailedRunWarning(TmafmWarning):
+    """Runs of a sweep failed (SolverError, BlowUpError): their points hold NaN and
+    ``failed`` = 1, and the Dataset's attributes ``failures`` and ``first_failure`` say how many
+    and why.  One warning per sweep (docs/sweeps.md)."""
 
 
 _BY_CODE = {2: InputError, 3: InputFileError, 4: BlowUpError, 5: SolverError}

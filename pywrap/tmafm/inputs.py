@@ -3,7 +3,8 @@
 The run inputs are named by their stem (``"fig2_n4"``); the sweep files of docs/sweeps.md and
 their bases, from inputs/sweeps/, by ``"sweeps/<stem>"`` (``"sweeps/approach"``,
 ``"sweeps/bistable_n2"``), and the bimodal example by ``"bimodal/tapping"``, so that every
-example of the docs runs after ``pip install``.
+example of the docs runs after ``pip install``.  names() lists every run input (the bimodal
+example included), sweep_names() the sweep files and their bases; path() takes either.
 
 >>> import tmafm
 >>> "fig2_n4" in tmafm.inputs.names()
@@ -36,8 +37,11 @@ def folder() -> Path:
 
 
 def names() -> list[str]:
-    """Names of the packaged run inputs (without .nml), sorted."""
-    return sorted(p.stem for p in folder().glob("*.nml"))
+    """Names of every packaged run input (without .nml): the top folder's stems, sorted, then
+    the run inputs of the other subfolders but sweeps ("bimodal/tapping"), sorted.  The sweep
+    files and their bases are sweep_names()."""
+    return sorted(p.stem for p in folder().glob("*.nml")) + sorted(
+        f"{sub}/{p.stem}" for sub in SUBFOLDERS if sub != SWEEPS for p in (folder() / sub).glob("*.nml"))
 
 
 def sweep_names() -> list[str]:
@@ -62,10 +66,5 @@ def path(name: str) -> Path:
         found = False
     if not found:
         raise InputFileError(f"no packaged input named {name!r} (known: "
-                             f"{', '.join(names() + _subfolder_names())})")
+                             f"{', '.join(names() + sweep_names())})")
     return candidate
-
-
-def _subfolder_names() -> list[str]:
-    """Names of the inputs of every subfolder ("<subfolder>/<stem>"), sorted."""
-    return sorted(f"{sub}/{p.stem}" for sub in SUBFOLDERS for p in (folder() / sub).glob("*.nml"))

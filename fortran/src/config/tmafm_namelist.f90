@@ -20,7 +20,7 @@ module tmafm_namelist
    use tmafm_scene, only: scene_t, physical_t, scene_from_physical, scene_names, scene_values, &
       physical_names, physical_values, scene_depends_on, scene_from_values, physical_from_values
    use tmafm_settings, only: run_settings_t, check_run_size, comparison_intervals, comparison_points, &
-      mode_digits, comparison_rtol, vdw_method_refused
+      mode_digits, comparison_rtol, vdw_method_refused, sls_method_refused
    use tmafm_errata, only: errata_t, errata_for_convention, parse_errata, errata_label
    use tmafm_drive, only: drive_t, init_drive
    use tmafm_config, only: config_t
@@ -38,6 +38,10 @@ module tmafm_namelist
 
    public :: read_config, read_config_text, read_config_document, write_config, config_text, &
              config_errata, real_text
+
+   !> The shortest nonzero &scene sls_relaxation_time: 1/T must be a normal number (read_scene);
+   !> a &physical scene's derived value is held to it too (check_derived).
+   real(dp), parameter :: min_relaxation_time = 1.0e-12_dp
 
    !> What an error message needs to name the place: the source and the group.
    type :: place_t
@@ -286,8 +290,6 @@ contains
       type(config_t), intent(inout) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
-      !> The shortest nonzero &scene sls_relaxation_time.
-      real(dp), parameter :: min_relaxation_time = 1.0e-12_dp
       real(dp) :: values(size(scene_names))
 
       values = scene_values(config%scene)
@@ -435,7 +437,9 @@ contains
       if (phys%by_calibration) then
          call calibrate_cantilever(phys, config%n_modes, config_errata(config), ierr, errmsg, culprit)
          if (ierr /= ok) then
-            call key_error(p, g%entries(entry_at(trim(culprit))), trim(errmsg), ierr, errmsg)
+            ! (entry_or_default: the key at fault, tip_position say, may be left at its default)
+            call key_error(p, entry_or_default(g, trim(culprit), v(index_of(physical_names, culprit))), &
+                           trim(errmsg), ierr, errmsg)
             return
          end if
       end if
@@ -695,6 +699,27 @@ contains
       end if
    end subroutine check_vdw
 
+   !> A viscoelastic sample needs a method that carries the dashpot's state (dopri5, dop853,
+   !> flight_exact): refused here, before any run (the automatic-N search included).
+   subroutine check_sls_method(label, config, ierr, errmsg)
+      character(len=*), intent(in) :: label
+      type(config_t), intent(in) :: config
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      character(len=:), allocatable :: given
+      ierr = ok
+      errmsg = ''
+      if (.not. (config%scene%sls_relaxation_time > 0 .and. sls_method_refused(config%solver%method))) return
+      if (config%from_physical) then
+         given = '&physical sample_relaxation_time = '//real_text(config%physical%sample_relaxation_time)
+      else
+         given = '&scene sls_relaxation_time = '//real_text(config%scene%sls_relaxation_time)
+      end if
+      ierr = err_input
+      errmsg = label//": &solver method = '"//trim(config%solver%method)//"': a viscoelastic sample ("// &
+               given//') needs dopri5, dop853 or flight_exact'
+   end subroutine check_sls_method
+
    !> Checks across groups, before any run: sample_dtau within tau_end, the scene derived from
    !> &physical inside the &scene ranges, and the size of the run (and of the automatic-N
    !> comparison runs) inside the limits.
@@ -715,7 +740,9 @@ contains
       type(nml_entry_t) :: e
       type(physical_t) :: default_physical
       type(drive_t) :: drive
-      character(len=:), allocatable :: as_written, range
+      character(len=:), allocatable :: as_written, range, rule
+      ! The positions of medium_mass and medium_reynolds in scene_names.
+      integer, parameter :: medium(2) = [14, 15]
 
       ierr = ok
       errmsg = ''
@@ -731,13 +758,33 @@ contains
          defaults = physical_values(default_physical)
          do k = 1, size(scene_names)
             row = key_row('scene', scene_names(k))
-            if (key_in_range(row, derived(k))) cycle
-            ! Name the input furthest from its default among those the group depends on.
+            ! The key's range, and the rules read_scene adds for a value written in &scene.
+            rule = ''
+            if (key_in_range(row, derived(k))) then
+               select case (trim(scene_names(k)))
+               case ('sls_relaxation_time')
+                  if (derived(k) > 0 .and. derived(k) < min_relaxation_time) &
+                     rule = '0 (an elastic sample) or >= '//real_text(min_relaxation_time)
+               case ('medium_mass', 'medium_reynolds')
+                  ! A liquid has both > 0 (check_pair); one may underflow to 0 alone.
+                  if (derived(k) == 0 .and. any(derived(medium) > 0)) &
+                     rule = '> 0, as the other of medium_mass and medium_reynolds (a liquid)'
+               end select
+               if (len(rule) == 0) cycle
+            end if
+            ! Name the input furthest from its default among those the group depends on and
+            ! the route in use gives (not thickness or density for a calibrated beam).
             inputs = scene_depends_on(k)
+            inputs = pack(inputs, [(physical_key_given(config%physical, inputs(j)), j=1, size(inputs))])
+            if (size(inputs) == 0) inputs = scene_depends_on(k)
             culprit = inputs(1)
             best = -1
             do j = 1, size(inputs)
                distance = abs(phys(inputs(j)) - defaults(inputs(j)))/max(abs(defaults(inputs(j))), tiny(1.0_dp))
+               ! A key whose default 0 means 'off' is equally far whatever its value: the group's
+               ! own key, listed first by scene_depends_on, then wins the tie (a relaxed modulus
+               ! of 0.4e9 Pa was 'further' than a relaxation time of 1e-20 s).
+               if (defaults(inputs(j)) == 0) distance = merge(huge(1.0_dp), 0.0_dp, phys(inputs(j)) /= 0)
                if (phys(inputs(j)) > 0 .and. defaults(inputs(j)) > 0) then
                   distance = abs(log(phys(inputs(j))/defaults(inputs(j))))
                end if
@@ -748,7 +795,11 @@ contains
             end do
             e = entry_or_default(doc%groups(physical_group), trim(physical_names(culprit)), phys(culprit))
             as_written = e%written
-            call key_range_text(row, range)
+            if (len(rule) > 0) then
+               range = rule
+            else
+               call key_range_text(row, range)
+            end if
             ierr = err_input
             errmsg = label//': &physical '//trim(physical_names(culprit))//' = '//as_written// &
                      ' gives '//trim(scene_names(k))//' = '//real_text(derived(k))//' by Eq. (12): '// &
@@ -758,6 +809,8 @@ contains
          end do
       end if
       call check_vdw(label, config, ierr, errmsg)
+      if (ierr /= ok) return
+      call check_sls_method(label, config, ierr, errmsg)
       if (ierr /= ok) return
       ! The drive's tones: a second tone needs a frequency commensurate with the first.
       if (config%from_physical) then

@@ -20,8 +20,10 @@
 !> In a liquid (docs/model.md §13) f0 and Q are those of the loaded beam, the thermal peak a
 !> user measures there: the calibration solves for the beam whose loaded mode 1 has them.
 module tmafm_calibration
+   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok, err_input
+   use tmafm_text, only: real_text
    use tmafm_scene, only: scene_t, physical_t, scene_from_physical, beam_rigidity, beam_mass_per_length
    use tmafm_units, only: scales_t, scales_from_physical
    use tmafm_errata, only: errata_t
@@ -102,6 +104,15 @@ contains
       do j = 1, n
          companion(n + 1:, n + j) = -damping(j)*model%inv_mass(:, j)
       end do
+      ! LAPACK is given finite numbers only: on a NaN, dgeev's balancing (DGEBAL) calls XERBLA,
+      ! whose reference version prints a line and stops the program.
+      if (.not. all(ieee_is_finite(companion))) then
+         ierr = err_input
+         write (errmsg, '(a,es12.4e3)') 'the eigenvalues of the free beam: its equations are not finite '// &
+            '(beam damping alpha3 = ', alpha3
+         errmsg = trim(errmsg)//')'
+         return
+      end if
       call dgeev('N', 'N', 2*n, companion, 2*n, wr, wi, dummy, 1, dummy, 1, work, size(work), info)
       if (info /= 0) then
          ierr = err_input
@@ -113,15 +124,20 @@ contains
       underdamped = wi(k) > 0
       if (.not. underdamped) return
       ! One step of inverse iteration from the tip's shape gives mode 1's vector, then Newton.
+      ! Where the modes' coupling is far below round-off (a tip mass ratio or tip position of
+      ! 1e-80), dgeev's lambda1 makes T(lambda) singular to the last bits: the iteration then
+      ! overflows, and lambda1 stays the last finite value (dgeev's is exact to round-off there).
       v = model%tip
       call solve(lambda, v, info)
-      if (info /= 0) return
+      if (info /= 0 .or. .not. finite(v)) return
       u = v/sum(abs(v)**2)
+      if (.not. finite(u)) return
       do it = 1, 30
          x = (2*lambda)*matmul(model%mass, v) + damping*v
          call solve(lambda, x, info)
-         if (info /= 0) exit
+         if (info /= 0 .or. .not. finite(x)) exit
          step = 1/dot_product(u, x)
+         if (.not. finite([step, lambda - step])) exit
          lambda = lambda - step
          v = x*step
          if (abs(step) <= 4*epsilon(1.0_dp)*abs(lambda)) exit
@@ -140,6 +156,11 @@ contains
          end do
          call zgesv(n, 1, t, n, pivots, rhs, n, info)
       end subroutine solve
+      !> Whether every real and imaginary part of z is finite.
+      pure logical function finite(z)
+         complex(dp), intent(in) :: z(:)
+         finite = all(ieee_is_finite(real(z, dp))) .and. all(ieee_is_finite(aimag(z)))
+      end function finite
    end subroutine first_mode
 
    !> The beam damping alpha3 that gives the model's mode 1 the quality factor `quality` (and
@@ -296,7 +317,8 @@ contains
    !> resonance_frequency, quality_factor, tip_mass_ratio, length, tip_position): sets
    !> phys%rigidity, mass_per_length, beam_damping and tip_mass so that the N-mode model has
    !> exactly that k, f0 and Q (module comment).  Errors name no key (the reader adds it):
-   !> `key` says which ('quality_factor' or 'resonance_frequency').
+   !> `key` says which ('quality_factor', 'resonance_frequency', or for a beam that is not a
+   !> normal number 'spring_constant', 'length' or 'tip_position').
    subroutine calibrate_cantilever(phys, n_modes, errata, ierr, errmsg, key)
       type(physical_t), intent(inout) :: phys
       integer, intent(in) :: n_modes
@@ -306,7 +328,7 @@ contains
       character(len=*), intent(out) :: key
       type(model_t) :: model
       type(scene_t) :: scene
-      real(dp) :: alpha3, t0
+      real(dp) :: alpha3, t0, compliance
       complex(dp) :: lambda
 
       key = 'quality_factor'
@@ -316,8 +338,14 @@ contains
       if (ierr /= ok) return
       call damping_for_quality(model, phys%quality_factor, alpha3, lambda, ierr, errmsg)
       if (ierr /= ok) return
-      phys%rigidity = phys%spring_constant*phys%length**3*tip_compliance(model)
+      compliance = tip_compliance(model)
+      phys%rigidity = phys%spring_constant*phys%length**3*compliance
       t0 = abs(lambda)/(2*pi*phys%resonance_frequency)
+      ! (E1 I is checked below; a liquid's search for t0 needs it first)
+      if (.not. normal(phys%rigidity)) then
+         call refuse()
+         return
+      end if
       if (phys%medium_density > 0) then
          ! In a liquid the loaded beam must have f0 and Q: the liquid's added mass and damping
          ! depend on the beam's own mass and time scale, so t0 is solved for (the static k is not
@@ -326,8 +354,44 @@ contains
          if (ierr /= ok) return
       end if
       phys%mass_per_length = phys%rigidity*t0**2/phys%length**4
+      ! E1 I, m and E1 I m (the scene's damping scale divides by it, Eq. 12) must be normal
+      ! numbers.  A tip at the clamp to round-off (x0 = 1e-85 m: p is round-off noise) made
+      ! E1 I m underflow, the damping groups infinite and the scene NaN.  The key named is the
+      ! factor of E1 I smallest against the default beam's (calibrate_cantilever's contains).
+      if (.not. (normal(phys%mass_per_length) .and. normal(phys%rigidity*phys%mass_per_length))) then
+         call refuse()
+         return
+      end if
       phys%beam_damping = alpha3*phys%mass_per_length/t0
       phys%tip_mass = phys%tip_mass_ratio*phys%mass_per_length*phys%length
+   contains
+      !> The error for a calibrated beam that is not a normal number, naming smallest_factor().
+      subroutine refuse()
+         ierr = err_input
+         key = smallest_factor()
+         errmsg = 'gives the calibrated beam E1 I = k L^3 p^T Lambda^-1 p = '//real_text(phys%rigidity)// &
+                  ' N m^2 (p^T Lambda^-1 p = '//real_text(compliance)//') and m = E1 I t0^2/L^4 = '// &
+                  real_text(phys%rigidity*t0**2/phys%length**4)//' kg/m: E1 I, m and E1 I m must be normal numbers'
+         if (key == 'tip_position') errmsg = trim(errmsg)//': the tip sits at the clamp; move it out along the beam'
+      end subroutine refuse
+      !> Whether x is finite and at least the smallest normal number in magnitude.
+      pure logical function normal(x)
+         real(dp), intent(in) :: x
+         normal = ieee_is_finite(x) .and. abs(x) >= tiny(1.0_dp)
+      end function normal
+      !> The one of spring_constant, length, tip_position whose factor of E1 I is smallest on a
+      !> log scale against the default beam's.
+      function smallest_factor() result(name)
+         character(len=15) :: name
+         type(physical_t) :: typical
+         real(dp) :: logs(3)
+         character(len=15), parameter :: names(3) = [character(len=15) :: 'spring_constant', 'length', &
+            'tip_position']
+         ! (a compliance of 0 counts as the smallest subnormal: no log of 0)
+         logs = [log(phys%spring_constant/(3*beam_rigidity(typical)/typical%length**3)), &
+                 3*log(phys%length/typical%length), log(3*max(compliance, tiny(1.0_dp)*epsilon(1.0_dp)))]
+         name = names(minloc(logs, 1))
+      end function smallest_factor
    end subroutine calibrate_cantilever
 
    !> The time scale t0 (s) and beam damping alpha3 of a cantilever of rigidity phys%rigidity in

@@ -17,7 +17,7 @@ from .dataset import _attrs, _steady_columns, _units
 from .executors import _check_run, _dask_results, _process_pool, _progress, _results, _workers
 from .points import (_axis_values, _base_config, _base_dict, _check_flag, _check_points,
                      _check_positive, _observe_keywords, _short)
-from .runs import _basin_chunk, _basin_chunk_processes, _drive_period
+from .runs import _basin_chunk, _basin_chunk_processes, _drive_period, _warn_failed
 
 
 def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=False, chunk=None,
@@ -74,6 +74,7 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
     failures.sort()
     attrs.update({"failures": int(merged["failed"].sum()),
                   "first_failure": failures[0][1] if failures else ""})
+    _warn_failed(attrs["failures"], states.shape[0], attrs["first_failure"], "basin")
     attrs["attractors"] = attractors
     attrs["known_attractors"] = int(bool(known_attractors))
     attrs["coarse_stride"] = stride

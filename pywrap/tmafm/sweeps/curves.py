@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import itertools
 import math
+import warnings
 from collections.abc import Mapping
 
 import numpy as np
 
 from .._namelist import shown
-from ..errors import InputError
+from ..errors import InputError, TmafmWarning
 from ..observe import observable_groups
 from .dataset import (_attrs, _coordinate, _failure_attrs, _index_coordinates,
                       _steady_variables, _units, key_units)
@@ -18,7 +19,7 @@ from .executors import _check_run, _dask_results, _progress, _results, _Stopped,
 from .points import (_axis_values, _base_config, _base_dict, _check_axes, _check_flag,
                      _check_points, _check_positive, _config, _for_keys, _observe_keywords, _raw, _sizes,
                      _split_key, _validate)
-from .runs import _observe_one, _warn_unsteady
+from .runs import _observe_one, _warn_failures, _warn_unsteady
 
 
 def _warm_chain(base: dict, key: str, values, curve_point: Mapping, n_modes: int,
@@ -120,6 +121,7 @@ def _continuation(base, key: str, values, *, directions: tuple[str, str], revers
     # Summaries in the order (direction, curve..., value).
     ordered = [s for d in range(len(used)) for r in results for s in r[d]]
     _warn_unsteady(ordered, kind, keywords)
+    _warn_failures(ordered, kind)
     dim = dim or key
     ds = _curve_dataset(ordered, base_config, key, values, curves, used, jump_threshold, dim)
     ds.attrs.update(_attrs(base, kind, keywords))
@@ -128,7 +130,7 @@ def _continuation(base, key: str, values, *, directions: tuple[str, str], revers
     ds.attrs["input_key"] = key
     ds.attrs["order"] = f"{used[0]} runs {key} in the order given" + (
         f", {used[1]} in reverse" if reverse else "")
-    _free_amplitude(ds, base_groups)
+    _free_amplitude(ds, base_groups, kind)
     return ds
 
 
@@ -205,23 +207,31 @@ _LONG_NAMES = {"physical.tip_sample_distance": "tip-sample distance Z",
                "scene.delta_hat": "static offset delta_hat", "scene.omega": "drive frequency Omega"}
 
 
-def _free_amplitude(ds, base_groups: dict) -> None:
+def _free_amplitude(ds, base_groups: dict, label: str = "approach") -> None:
     """A physical scene given by its free amplitude A0 (&physical free_amplitude): ``setpoint``
     = amplitude/A0 (the setpoint A/A0 of AM-AFM) and, for one A0, the attribute
-    free_amplitude (in the amplitude's unit, nm).  A0 may be a curve key."""
+    free_amplitude (in the amplitude's unit, nm).  A0 may be a curve key.  Where A0 = 0 there
+    is no setpoint: NaN there, and one tmafm.TmafmWarning saying so (not inf)."""
     unit = ds["amplitude"].attrs.get("units") if "amplitude" in ds else None
     if unit != "nm":
         return
     if "physical.free_amplitude" in ds.coords:
         a0_nm = ds["physical.free_amplitude"] * 1e9
         text = "A0: the curve's free amplitude"
+        zero = a0_nm.values == 0
     else:
         a0 = base_groups.get("physical", {}).get("free_amplitude")
-        if not a0:
+        if a0 is None:
             return
         a0_nm = float(a0) * 1e9
         ds.attrs["free_amplitude"] = a0_nm
         text = f"A0: the free amplitude {a0_nm:.6g} nm"
+        zero = np.array([a0_nm == 0])
+    if zero.any():
+        warnings.warn(f"{label}: &physical free_amplitude = 0 in {int(zero.sum())} of {zero.size} "
+                      f"curves: the setpoint A/A0 is NaN there (no free amplitude to divide by)",
+                      TmafmWarning, stacklevel=4)
+        a0_nm = a0_nm.where(a0_nm != 0) if not isinstance(a0_nm, float) else np.nan
     ds["setpoint"] = ds["amplitude"] / a0_nm
     ds["setpoint"].attrs = {"units": "1", "long_name": f"setpoint A/A0 ({text})"}
 

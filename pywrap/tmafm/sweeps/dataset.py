@@ -219,12 +219,24 @@ def summarize(ds) -> dict:
 
 
 def _netcdf_bytes(ds, engine: str) -> bytes:
-    """The NetCDF file of a Dataset, as bytes (written in a private folder, then read)."""
+    """The NetCDF file of a Dataset, as bytes, made in memory (h5netcdf): no file is written, so
+    a full disk meets only the write of these bytes (tmafm._safefile), never the HDF5 library
+    (h5py crashed on ENOSPC, leaving its temporary).  netCDF4, which writes only by name,
+    writes in a private temporary folder; an OSError there is an InputFileError."""
+    import io
+    if engine == "h5netcdf":
+        buffer = io.BytesIO()
+        ds.to_netcdf(buffer, engine=engine)
+        return buffer.getvalue()
     import tempfile
-    with tempfile.TemporaryDirectory() as folder:
-        scratch = Path(folder) / "sweep.nc"
-        ds.to_netcdf(scratch, engine=engine)
-        return scratch.read_bytes()
+    try:
+        with tempfile.TemporaryDirectory() as folder:
+            scratch = Path(folder) / "sweep.nc"
+            ds.to_netcdf(scratch, engine=engine)
+            return scratch.read_bytes()
+    except OSError as exc:
+        raise InputFileError(f"making the NetCDF file in a temporary folder failed: "
+                             f"{exc.strerror or exc}") from None
 
 
 def _check_dataset(ds, what: str):
@@ -262,12 +274,14 @@ def read_dataset(path):
 
 
 def write_dataset(ds, path) -> Path:
-    """Write a sweep Dataset to NetCDF as the executable writes its output: a new temporary
-    file, synced and renamed (a device or FIFO is written directly); InputFileError if it
-    cannot be written.  Nothing is left behind on a failure or a KeyboardInterrupt."""
+    """Write a sweep Dataset to NetCDF as the executable writes its output: the file is made in
+    memory, then its bytes written to a new temporary file, synced and renamed (a device or
+    FIFO is written directly); InputFileError if it cannot be written (a full disk included).
+    Nothing is left behind on a failure or a KeyboardInterrupt."""
     from .._extras import netcdf_engine
-    from .._safefile import as_path, write_with
+    from .._safefile import as_path, check_target, write_bytes
     _check_dataset(ds, "write_dataset")
     path = as_path(path, "NetCDF file")
     engine = netcdf_engine("tmafm.sweeps.write_dataset")
-    return write_with(path, lambda name: ds.to_netcdf(name, engine=engine), what="NetCDF file")
+    check_target(path, "NetCDF file")
+    return write_bytes(path, _netcdf_bytes(ds, engine), "NetCDF file")

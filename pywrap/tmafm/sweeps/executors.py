@@ -18,7 +18,7 @@ import numpy as np
 from .._namelist import shown
 from ..errors import InputTypeError
 from ..observe import MAX_THREADS
-from .runs import _run_chunk, _run_chunk_processes, _warn_unsteady
+from .runs import _run_chunk, _run_chunk_processes, _warn_failures, _warn_unsteady
 
 
 def _is_client(client) -> bool:
@@ -221,4 +221,5 @@ def _run_points(base: dict, points: list[dict], *, workers=None, client=None, pr
             bar.close()
     summaries = list(itertools.chain.from_iterable(results))
     _warn_unsteady(summaries, label, keywords)
+    _warn_failures(summaries, label)
     return summaries

@@ -9,7 +9,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from .._run import Config
-from ..errors import SolverError, UnsteadyWarning
+from ..errors import FailedRunWarning, SolverError, UnsteadyWarning
 from ..observe import (_core_scales, computed_names, observable_groups, observe_batch,
                        observe_states)
 from .points import _config
@@ -126,3 +126,18 @@ def _warn_unsteady(summaries, label: str, keywords: Mapping) -> None:
         warnings.warn(f"{label}: {len(reasons)} of {len(summaries)} runs ended without a steady "
                       f"state (the dataset's period is 0 there); the first: {reasons[0]}",
                       UnsteadyWarning, stacklevel=3)
+
+
+def _warn_failed(count: int, total: int, first: str, label: str, stacklevel: int = 3) -> None:
+    """One tmafm.FailedRunWarning for a whole sweep whose runs failed (their points hold NaN,
+    ``failed`` = 1): how many of its runs, and the first one's message."""
+    if count:
+        warnings.warn(f"{label}: {count} of {total} runs failed (the dataset's values are NaN "
+                      f"and failed is 1 there); the first: {first}", FailedRunWarning,
+                      stacklevel=stacklevel)
+
+
+def _warn_failures(summaries, label: str) -> None:
+    """_warn_failed for a list of summaries (None for a point not run)."""
+    errors = [s["error"] for s in summaries if s is not None and "error" in s]
+    _warn_failed(len(errors), len(summaries), errors[0] if errors else "", label, stacklevel=5)

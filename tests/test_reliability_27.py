@@ -1,0 +1,359 @@
+"""Issue 27, "nothing silent, nothing lost": each test is one item that failed before.
+
+F1 a calibration whose modes' coupling is far below round-off stopped the program inside
+LAPACK (DGEBAL's XERBLA, exit 0); F2 a sweep file on a full disk crashed in h5py and left its
+temporary; F3 the sweep command checked its targets after the sweep; F5 and F8 inputs refused
+only after a run (or never); F9 and F13 raw exceptions and silent infinities of the results;
+F12 the sweep command's warnings and start-up Ctrl-C; a failed sweep point without a warning;
+and the paper cuts (inputs.names, --help, the [test] extra)."""
+
+import ast
+import math
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+import warnings
+
+import numpy as np
+import pytest
+
+import tmafm
+from tmafm.sweeps import points, runs
+
+from conftest import INPUTS, REPO
+
+TAPPING = (INPUTS / "tapping_polystyrene.nml").read_text()
+BISTABLE = INPUTS / "sweeps" / "bistable_n2.nml"
+
+
+def _python(code: str, *args, cwd=None, timeout=300):
+    """Run `code` in a child interpreter (a crash there must not take the test run with it)."""
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(code), *map(str, args)], cwd=cwd,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def _one_error_line(proc, *words):
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("tmafm: error: "), proc.stderr
+    for word in words:
+        assert word in lines[0], lines[0]
+    return lines[0]
+
+
+# --- F1: no LAPACK call stops the program -----------------------------------------------------
+
+def _tapping(tmp_path, old, new, name="t.nml"):
+    assert old in TAPPING
+    text = TAPPING.replace(old, new).replace("tau_end = 100.0", "tau_end = 2.0")
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_a_tip_mass_ratio_below_round_off_is_calibrated_as_no_tip_mass(tmp_path):
+    """tip_mass_ratio = 1e-100 made the modes' coupling 1e-99: Newton's iteration on the first
+    eigenvalue, started at dgeev's (exact there to the last bits), overflowed to NaN, and the
+    next dgeev's DGEBAL printed a line and stopped the program with exit 0 (from Python it
+    killed the interpreter).  Now the eigenvalue stays dgeev's, and the calibrated scene is the
+    one of no tip mass: a tip mass ratio of 1e-100 changes M by less than its round-off."""
+    tiny = _tapping(tmp_path, "tip_mass_ratio = 0.01", "tip_mass_ratio = 1e-100", "tiny.nml")
+    none = _tapping(tmp_path, "tip_mass_ratio = 0.01", "tip_mass_ratio = 0.0", "none.nml")
+    proc = _python("""
+        import sys, tmafm
+        a, b = tmafm.Config(sys.argv[1]).scene, tmafm.Config(sys.argv[2]).scene
+        print(repr({k: (a[k], b[k]) for k in ("alpha1", "alpha2", "alpha3", "omega")}))
+    """, tiny, none)
+    assert proc.returncode == 0 and "DGEBAL" not in proc.stdout + proc.stderr, proc
+    values = ast.literal_eval(proc.stdout)
+    assert values["alpha1"] == (1e-100, 0.0)
+    # The eigenvalue is dgeev's instead of Newton's: the same to a few ulps of its modulus,
+    # amplified by the damping search's regula falsi (its stop, 1e-14 in log Q).
+    for key in ("alpha2", "alpha3", "omega"):
+        assert math.isclose(*values[key], rel_tol=1e-12), (key, values[key])
+    done = subprocess.run([tmafm.executable(), "-q", tiny.name, "-o", "tiny.dat"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and done.stderr == "" and done.stdout == "", done
+    assert (tmp_path / "tiny.dat").is_file()
+
+
+@pytest.mark.parametrize("position", ["1e-85", "1e-300"])
+def test_a_tip_at_the_clamp_is_refused_naming_tip_position(tmp_path, position):
+    """tip_position = 1e-85 gave the calibrated beam an E1 I = k L^3 p^T Lambda^-1 p below the
+    smallest normal number (p ~ (x0/L)^2): m was 0, the scene NaN, and DGEBAL stopped the
+    program (exit 0, a LAPACK line on stdout).  Now one line names tip_position and its value,
+    exit 2, no output file."""
+    path = _tapping(tmp_path, "tip_position = 125.0e-6", f"tip_position = {position}")
+    proc = subprocess.run([tmafm.executable(), "-q", path.name, "-o", "t.dat"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and proc.stdout == "", proc
+    _one_error_line(proc, f"&physical tip_position = {position}", "E1 I", "the tip sits at the clamp")
+    assert not (tmp_path / "t.dat").exists()
+    child = _python("""
+        import sys, tmafm
+        try:
+            tmafm.Config(sys.argv[1])
+        except tmafm.InputError as exc:
+            print(type(exc).__name__, exc)
+    """, path)
+    assert child.returncode == 0 and child.stdout.startswith("InputError "), child
+    assert f"tip_position = {position}" in child.stdout and len(child.stdout.splitlines()) == 1
+
+
+# --- F2: a full disk --------------------------------------------------------------------------
+
+def test_write_dataset_on_a_full_disk_is_a_typed_error_and_leaves_nothing(small_tmpfs):
+    """A 64 KiB tmpfs and a 240 kB dataset: h5py wrote into the temporary, crashed on ENOSPC
+    (segfault) and left `.d.nc.partial-*`.  Now the file is made in memory, and its write
+    fails with InputFileError; the previous file stays as it was, and nothing else is there."""
+    (small_tmpfs / "d.nc").write_text("previous\n")
+    proc = _python("""
+        import sys
+        import numpy as np, xarray as xr
+        import tmafm, tmafm.sweeps
+        ds = xr.Dataset({"x": ("n", np.arange(30000.0))}, attrs={"tmafm_kind": "sweep"})
+        try:
+            tmafm.sweeps.write_dataset(ds, sys.argv[1])
+        except tmafm.InputFileError as exc:
+            print(type(exc).__name__, isinstance(exc, OSError), exc)
+    """, small_tmpfs / "d.nc")
+    assert proc.returncode == 0, proc
+    assert proc.stdout.startswith("InputFileError True ") and "No space left" in proc.stdout, proc
+    assert sorted(p.name for p in small_tmpfs.iterdir()) == ["d.nc"]
+    assert (small_tmpfs / "d.nc").read_text() == "previous\n"
+
+
+def test_write_dataset_still_writes_what_read_dataset_reads(tmp_path):
+    """The in-memory NetCDF file is the same dataset, read back."""
+    xr = pytest.importorskip("xarray")
+    ds = xr.Dataset({"period": ("n", np.arange(5, dtype=np.int32)), "x": ("n", np.linspace(0, 1, 5))},
+                    attrs={"tmafm_kind": "sweep"})
+    path = tmafm.sweeps.write_dataset(ds, tmp_path / "d.nc")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.nc"]
+    back = tmafm.sweeps.read_dataset(path)
+    assert back.identical(ds)
+
+
+# --- F3, F12: the sweep command ---------------------------------------------------------------
+
+def _sweep_file(folder, extra="values = 1e-3, 2e-3"):
+    (folder / "bistable_n2.nml").write_bytes(BISTABLE.read_bytes())
+    path = folder / "sweep.nml"
+    path.write_text(f"&sweep kind = 'grid', base = 'bistable_n2.nml', key = 'scene.delta_hat', "
+                    f"max_periods = 2, {extra} /\n")
+    return path
+
+
+@pytest.fixture
+def nothing_runs(monkeypatch):
+    """Fail the test if a grid point is built or observed."""
+    def built(*args, **kwargs):
+        raise AssertionError("a grid point was built or run")
+    monkeypatch.setattr(points, "_config", built)
+    monkeypatch.setattr(runs, "observe_batch", built)
+
+
+@pytest.mark.parametrize("args, words", [
+    (["-o", "{tmp}/missing/out.nc"], "No such file or directory"),
+    (["-o", "{tmp}/out.dat"], "must end in .nc"),
+    (["-o", "{tmp}/out.nc", "--plot", "{tmp}/missing/p.png"], "No such file or directory"),
+    (["-o", "{tmp}/out.nc", "--plot", "{tmp}/p.xyz"], "matplotlib writes"),
+    (["-o", "{tmp}/out.nc", "--plot", "{tmp}/plot"], "matplotlib writes"),
+], ids=["missing_folder", "not_nc", "plot_missing_folder", "plot_unknown_format", "plot_no_suffix"])
+def test_the_sweep_command_checks_its_targets_before_any_work(tmp_path, capsys, nothing_runs,
+                                                              args, words):
+    """The folder of -o and of --plot, and both names' extensions, were checked only after the
+    whole sweep (and --plot p.xyz wrote a PNG under that name)."""
+    path = _sweep_file(tmp_path)
+    before = sorted(p.name for p in tmp_path.iterdir())
+    code = tmafm.sweeps.main([str(path), *[a.format(tmp=tmp_path) for a in args]])
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert code == 2 and len(lines) == 1, (code, lines)
+    assert lines[0].startswith("tmafm.sweeps: error: ") and words in lines[0], lines
+    assert captured.out == "" and sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+def test_the_sweep_command_says_wrote_only_once_both_files_are_there(tmp_path, small_tmpfs, capsys):
+    """The plot's write failed (a full disk) after the NetCDF file was written: the command
+    removed the NetCDF file, but had already printed `wrote OUT.nc`."""
+    path = _sweep_file(tmp_path)
+    filler = small_tmpfs / "filler"
+    fd = os.open(filler, os.O_WRONLY | os.O_CREAT, 0o644)
+    try:  # fill the tmpfs, then free two pages: room for an empty temporary, not for a plot
+        while True:
+            os.write(fd, b"\0" * 4096)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+    os.truncate(filler, filler.stat().st_size - 8192)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        code = tmafm.sweeps.main([str(path), "-o", str(tmp_path / "out.nc"), "--plot",
+                                  str(small_tmpfs / "p.png"), "--workers", "1"])
+    captured = capsys.readouterr()
+    assert code == 2, captured
+    assert "wrote" not in captured.out, captured.out
+    assert "No space left" in captured.err and len(captured.err.splitlines()) == 1, captured.err
+    assert not (tmp_path / "out.nc").exists()
+    assert sorted(p.name for p in small_tmpfs.iterdir()) == ["filler"]
+
+
+def test_the_sweep_commands_warnings_are_one_line_each(tmp_path):
+    """max_periods = 2 ends every run unsteady: Python printed the UnsteadyWarning on two lines,
+    the second the source line that warned."""
+    path = _sweep_file(tmp_path)
+    proc = subprocess.run([sys.executable, "-m", "tmafm.sweeps", str(path), "-o", "out.nc",
+                           "--no-plot", "--workers", "1"], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1, lines
+    assert lines[0].startswith("tmafm.sweeps: warning: UnsteadyWarning: ") \
+        and "2 of 2 runs ended without a steady state" in lines[0], lines
+    assert proc.stdout.splitlines() == ["wrote out.nc"]
+
+
+def test_ctrl_c_while_the_sweep_command_starts_is_one_line_and_exit_130(tmp_path):
+    """SIGINT while `python -m tmafm.sweeps` imported the package gave a 23-line traceback and
+    death by SIGINT.  The signal is sent once numpy is being loaded (the package's first
+    import), so it comes during the start-up, before the command's main."""
+    path = _sweep_file(tmp_path)
+    proc = subprocess.Popen([sys.executable, "-m", "tmafm.sweeps", str(path), "-o", "out.nc",
+                             "--no-plot", "--workers", "1"], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    maps = f"/proc/{proc.pid}/maps"
+    deadline = time.monotonic() + 60
+    try:
+        while time.monotonic() < deadline and proc.poll() is None:
+            try:
+                with open(maps) as handle:
+                    if "numpy" in handle.read():
+                        break
+            except OSError:
+                pass
+            time.sleep(0.001)
+        assert proc.poll() is None, "the command ended before numpy was loaded"
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 130, (proc.returncode, err)
+    assert err.splitlines() == ["tmafm.sweeps: interrupted"], err
+    assert out == "" and not (tmp_path / "out.nc").exists()
+
+
+# --- a failed sweep point warns ---------------------------------------------------------------
+
+def test_a_failed_sweep_point_warns_once_with_the_count_and_the_first_reason():
+    """A point whose run fails became NaN with only ds.attrs['failures'] to say so; unsteady
+    points warned.  dtau = 1 blows the paper's RK4 up (its stability limit is far below)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ds = tmafm.sweep("fig2_n4", {"solver.dtau": [2e-3, 1.0]}, max_periods=3, workers=1)
+    failed = [w for w in caught if issubclass(w.category, tmafm.FailedRunWarning)]
+    assert ds.attrs["failures"] == 1 and ds["failed"].values.tolist() == [0, 1]
+    assert np.isnan(ds["amplitude"].values[1]) and np.isfinite(ds["amplitude"].values[0])
+    assert len(failed) == 1, [str(w.message) for w in caught]
+    message = str(failed[0].message)
+    assert "1 of 2 runs failed" in message and ds.attrs["first_failure"] in message
+    assert "\n" not in message
+
+
+# --- F5, F8: refused before any run -----------------------------------------------------------
+
+def test_a_viscoelastic_sample_with_a_fixed_step_method_is_refused_before_the_search(tmp_path):
+    """n_modes = 0, an SLS sample and rk4_event: the automatic-N search ran (~7 s, with its
+    progress lines) before the method was refused.  Now the input check refuses it: one line,
+    and no search line before it."""
+    path = tmp_path / "sls.nml"
+    path.write_text("&model n_modes = 0 /\n&scene sls_relaxation_time = 1, sls_modulus_ratio = 0.5 /\n"
+                    "&solver method = 'rk4_event', tau_end = 5 /\n")
+    proc = subprocess.run([tmafm.executable(), path.name, "-o", "s.dat"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc
+    _one_error_line(proc, "&solver method = 'rk4_event'", "&scene sls_relaxation_time = 1",
+                    "dopri5")
+    with pytest.raises(tmafm.InputError, match="sls_relaxation_time") as info:
+        tmafm.Config(path)
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("value", ["1e-20", "1e-300"])
+def test_a_physical_relaxation_time_below_the_scene_floor_is_refused_at_input(tmp_path, value):
+    """&physical sample_relaxation_time = 1e-20 gave &scene sls_relaxation_time below its
+    floor 1e-12 (read_scene's rule, not the key's range): accepted, and the run then failed
+    with exit 5.  Now the derived value is held to the &scene key's rule, naming the key
+    written."""
+    text = (INPUTS / "sls_polystyrene.nml").read_text()
+    old = "sample_relaxation_time = 3.0e-6"
+    assert old in text
+    path = tmp_path / "sls.nml"
+    path.write_text(text.replace(old, f"sample_relaxation_time = {value}"))
+    proc = subprocess.run([tmafm.executable(), "-q", path.name, "-o", "s.dat"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc
+    _one_error_line(proc, f"&physical sample_relaxation_time = {value}", "sls_relaxation_time",
+                    "1.0E-012")
+    assert not (tmp_path / "s.dat").exists()
+
+
+# --- F9, F13: typed errors and warnings in the results ----------------------------------------
+
+def test_force_distance_of_an_undriven_run_is_a_typed_error():
+    """drive_frequency = 0: 2 pi/omega raised a raw ZeroDivisionError."""
+    result = tmafm.run("tapping_polystyrene", physical={"drive_frequency": 0.0},
+                       solver={"tau_end": 2.0})
+    assert result.scene["omega"] == 0
+    with pytest.raises(tmafm.InputError, match="omega = 0.0"):
+        result.force_distance()
+
+
+def test_a_zero_free_amplitude_gives_a_nan_setpoint_and_a_warning():
+    """A curve at free_amplitude = 0 had setpoint = amplitude/0 = inf, silently."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ds = tmafm.approach("tapping_polystyrene", z=[15e-9], retract=False,
+                            curves={"physical.free_amplitude": [0.0, 20e-9]}, max_periods=3,
+                            workers=1, stop_at_steady=False)
+    said = [str(w.message) for w in caught if issubclass(w.category, tmafm.TmafmWarning)
+            and "free_amplitude = 0" in str(w.message)]
+    assert len(said) == 1 and "NaN" in said[0], [str(w.message) for w in caught]
+    setpoint = ds["setpoint"].sel({"physical.free_amplitude": 0.0}).values
+    assert np.isnan(setpoint).all()
+    other = ds.sel({"physical.free_amplitude": 20e-9})
+    assert np.allclose(other["setpoint"].values, other["amplitude"].values / 20.0, rtol=1e-15)
+    assert np.isfinite(other["setpoint"].values).all()
+
+
+# --- paper cuts --------------------------------------------------------------------------------
+
+def test_inputs_names_lists_every_run_input_the_bimodal_example_included():
+    names = tmafm.inputs.names()
+    assert "bimodal/tapping" in names and "fig2_n4" in names
+    assert not any(n.startswith("sweeps/") for n in names)
+    assert tmafm.Config("bimodal/tapping").n_modes == 4
+
+
+def test_the_help_names_every_option_on_its_usage_line():
+    proc = subprocess.run([tmafm.executable(), "--help"], capture_output=True, text=True, timeout=60)
+    usage = proc.stdout.splitlines()[0]
+    assert proc.returncode == 0 and usage.startswith("usage: tmafm INPUT.nml")
+    for option in ("-o FILE", "-q", "--timings"):
+        assert option in usage, usage
+
+
+def test_the_test_extra_installs_what_the_tests_build_with():
+    """tests/testcore.py builds the test-only extension with meson and ninja: `pip install
+    '.[test]'` then pytest failed without them."""
+    tomllib = pytest.importorskip("tomllib")
+    extra = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["optional-dependencies"]["test"]
+    names = {e.split(">")[0].split("=")[0].split("[")[0].strip() for e in extra}
+    testcore = (REPO / "tests" / "testcore.py").read_text()
+    for tool in ("meson", "ninja"):
+        assert f'_tool("{tool}")' in testcore and tool in names, (tool, extra)

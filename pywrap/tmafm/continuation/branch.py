@@ -14,7 +14,7 @@ from .._model import Model
 from .._run import Config
 from ..errors import InputError, SolverError
 from ..sweeps.points import _config
-from .shooting import (_jacobian, _merge_stats, _residual, floquet_multipliers, periodic_map)
+from .shooting import (_jacobian, _merge_stats, _residual, floquet_multipliers, map_size, periodic_map)
 
 #: Labels of special points.
 LABELS = ("", "start", "end", "fold", "period_doubling", "neimark_sacker", "grazing")
@@ -38,16 +38,17 @@ class Point:
 class Problem:
     """The periodic orbits of period n of base with `key` free: R(X, lambda) = 0."""
 
-    def __init__(self, base: dict, key: str, n_modes: int, period: int, rtol: float,
-                 l0: float, ls: float, sx: float):
+    def __init__(self, base: dict, key: str, period: int, rtol: float, l0: float, ls: float,
+                 sx: float):
         self.base, self.key, self.period, self.rtol = base, key, period, rtol
         # The base as a Config of this process: each value patches it (the core reads the
         # override, as tmafm.Config(config, scene={...}) does).
         self._config = _config(base, {})
         self._group, self._name = key.split(".")
-        self.m = 2 * n_modes
         self.l0, self.ls, self.sx = l0, ls, sx
         self._models: dict = {}
+        # The map's state: (a, adot), or (a, adot, w) with a viscoelastic sample.
+        self.m = map_size(self.model(l0))
 
     def model(self, value: float) -> Model:
         model = self._models.get(value)

@@ -345,6 +345,7 @@ contains
       character(len=*), intent(out) :: errmsg
       type(bracketed_root_t) :: root
       real(dp) :: err, step, vt0, vt1, rate0, rate1, x, gx, tau0, side, reach, vt_reach, x_ext, vt_ext
+      real(dp) :: left, vt_left
       logical :: last, crossed
       integer :: m, ns, steps
 
@@ -407,8 +408,15 @@ contains
          end if
          if (crossed) then
             ! The phase ended inside the step: the step length x with V_T = 0, on the side of the
-            ! phase entered.
-            call root%start(0.0_dp, side*max(side*vt0, 0.0_dp), reach, vt_reach, &
+            ! phase entered.  A phase that began at a switch starts at V_T = 0 moving into the
+            ! phase, and there V_T is 0 to round-off for a while: Brent could take that for the
+            ! root (a phase of zero length, then the same switch again, without end).  So when
+            ! the step starts moving into the phase the bracket starts at V_T's turn inside it.
+            left = 0
+            vt_left = vt0
+            if (side*rate0 > 0 .and. side*rate1 < 0 .and. reach == step) &
+               call phase_extremum(model, w, tau0, step, rate0, rate1, in_contact, left, vt_left)
+            call root%start(left, side*max(side*vt_left, tiny(1.0_dp)), reach, vt_reach, &
                             4*epsilon(1.0_dp)*max(tau0, 1.0_dp))
             do while (.not. root%converged())
                call root%next_point(x)

@@ -196,3 +196,78 @@ def test_continuation_unknown_keyword_is_a_typed_one_line_error():
     with pytest.raises(tmafm.InputTypeError, match="bogus = 1") as info:
         tmafm.continuation(BISTABLE, "scene.delta_hat", 0.0, 1e-3, bogus=1)
     assert "\n" not in str(info.value)
+
+
+# --- docs/vdw.md: the two branches continued, their folds against warm-started sweeps -------
+
+@pytest.fixture(scope="module")
+def vdw_branch():
+    """The branch of docs/vdw.md's scene from the attractive orbit at Z = 10 nm down to 6.7 nm
+    (studies/vdw_continuation.py, whose JSON docs/vdw.md quotes)."""
+    model = tmafm.Model(VDW, scene={"delta_hat": 1.0e-3})
+    return tmafm.continuation(VDW, "scene.delta_hat", 1.0e-3, 6.7e-4,
+                              y0=_vdw_state(model, 9.5e-4, -95.0), max_points=400, switch=False)
+
+
+def _fine_sweep(ds, fold, direction, step=2e-7):
+    """A warm-started sweep through a fold in steps of 0.002 nm from the continued stable orbit
+    nearest the fold but at least 2 steps from it on its stable side (its section state as the
+    initial state) to 3 steps past the fold; returns the last Z on the branch and the first
+    off it."""
+    z, stable = ds["scene.delta_hat"].values, ds.stable.values
+    sign = 1.0 if direction == "approach" else -1.0
+    first = min((i for i in range(len(z)) if stable[i] and sign * (z[i] - fold) >= 2 * step),
+                key=lambda i: abs(z[i] - fold))
+    state = ds.state.values[first, 0]
+    grid = np.round(np.arange(z[first], fold - sign * 3 * step, -sign * step), 12)
+    base = tmafm.Config(VDW, initial={"a0": [state[0]], "adot0": [state[1]]})
+    s = tmafm.approach(base, grid, retract=False, max_periods=6000, observables=["lockin"],
+                       workers=1).sel(direction="approach")
+    amplitude = s.amplitude.values
+    # The jump: the one amplitude step far larger than the others (the branches are ~0.15 nm
+    # apart in amplitude, the steps along a branch ~0.002 nm).
+    jumps = np.abs(np.diff(amplitude))
+    k = int(np.argmax(jumps))
+    assert jumps[k] > 10 * np.median(jumps), amplitude
+    return grid[k], grid[k + 1]
+
+
+def _labelled(ds):
+    return {k: [int(i) for i in np.flatnonzero(ds.label.values == k)] for k in ("grazing", "fold")}
+
+
+def test_vdw_continuation_follows_the_attractive_and_the_repulsive_branch(vdw_branch):
+    """From the attractive orbit the branch grazes the sample, folds, comes back unstable, folds
+    again and goes on as the repulsive (tapping) branch: stable outside the folds, unstable
+    between, one multiplier through 1 at each fold."""
+    ds = vdw_branch
+    labels = [str(v) for v in ds.label.values if v]
+    assert labels == ["start", "grazing", "fold", "fold", "end"], labels
+    found = _labelled(ds)
+    i_graze, (i_low, i_high) = found["grazing"][0], found["fold"]
+    z = ds["scene.delta_hat"].values
+    stable = ds.stable.values
+    assert stable[:i_low].all() and not stable[i_low + 1:i_high].any() and stable[i_high + 1:].all()
+    assert ds.min_gap.values[:i_graze].min() > 0 and ds.contacts.values[i_graze + 1:].min() == 1
+    assert z[i_low] < z[i_high]
+    for i in (i_low, i_high):
+        assert np.min(np.abs(ds.multiplier_abs.values[i] - 1)) <= 1e-6
+
+
+@pytest.mark.filterwarnings("ignore::tmafm.UnsteadyWarning")
+@pytest.mark.parametrize("direction", ["approach", "retract"])
+def test_vdw_folds_are_where_warm_started_sweeps_jump(vdw_branch, direction):
+    """Warm-started sweeps in 0.002 nm steps jump where the continuation's folds are: the
+    approach leaves the attractive branch at the lower fold, the retract the repulsive one at
+    the upper; a branch ends at most 3 steps before its fold (a warm start must stay in a basin
+    that shrinks to nothing at the fold) and never past it (no orbit lies there)."""
+    ds = vdw_branch
+    i_low, i_high = _labelled(ds)["fold"]
+    z = ds["scene.delta_hat"].values
+    step = 2e-7
+    if direction == "approach":
+        last, first_off = _fine_sweep(ds, z[i_low], "approach")
+        assert z[i_low] < last <= z[i_low] + 3 * step and first_off < last, (last, first_off, z[i_low])
+    else:
+        last, first_off = _fine_sweep(ds, z[i_high], "retract")
+        assert z[i_high] - 3 * step <= last < z[i_high] < first_off, (last, first_off, z[i_high])

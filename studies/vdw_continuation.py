@@ -84,17 +84,19 @@ def fine_sweep(ds, fold_index, direction):
     s = out.sel(direction="approach")
     phase = s.phase.values
     zz = s["scene.delta_hat"].values
-    # The branch of each point by its phase: attractive below -90 degrees, repulsive above.
-    attractive = phase < -90
-    switch = np.flatnonzero(attractive[1:] != attractive[:-1])
+    amplitude = s.amplitude.values
+    # The jump: the one amplitude step far larger than the others (the branches are ~0.15 nm
+    # apart in amplitude, the steps along a branch ~0.002 nm).  (Not the phase's -90 degrees:
+    # the repulsive orbit at the retract fold lags by just over 90 degrees.)
+    steps = np.abs(np.diff(amplitude))
+    k = int(np.argmax(steps))
     return {"start_z_nm": float(z[first] * GAP_NM),
             "z_nm": [round(float(v * GAP_NM), 6) for v in zz],
-            "phase_deg": phase.tolist(), "amplitude_nm": (s.amplitude.values * GAP_NM).tolist(),
+            "phase_deg": phase.tolist(), "amplitude_nm": (amplitude * GAP_NM).tolist(),
             "min_gap_nm": (s.min_gap.values * GAP_NM).tolist(),
             "steady": s.steady.values.astype(int).tolist(),
-            "jump_between_nm": [round(float(zz[k] * GAP_NM), 6) for k in (switch[0], switch[0] + 1)]
-            if len(switch) == 1 else None,
-            "switches": len(switch)}
+            "jump_between_nm": [round(float(zz[j] * GAP_NM), 6) for j in (k, k + 1)],
+            "jump_nm": float(steps[k] * GAP_NM), "largest_other_step_nm": float(np.max(np.delete(steps, k)) * GAP_NM)}
 
 
 def main() -> None:
@@ -117,13 +119,20 @@ def main() -> None:
            "fine_step_nm": FINE_STEP * GAP_NM,
            "approach": fine_sweep(ds, lower, "approach"),
            "retract": fine_sweep(ds, upper, "retract")}
+    # VEDA's Z0 is the tip-sample distance at rest, s = Z + a0 (tmafm's contact V_T = 0 is s = a0).
+    a0_nm = float(tmafm.Model(SCENE).scene["vdw_range"] * GAP_NM)
+    out["a0_nm"] = a0_nm
+    out["veda_z0_nm"] = {"grazing": out["grazing_nm"][0] + a0_nm, "approach_fold": out["approach_fold_nm"] + a0_nm,
+                         "retract_fold": out["retract_fold_nm"] + a0_nm}
     for p in labelled:
         print(f"{p['label']:8s} Z = {p['z_nm']:.5f} nm  stable {p['stable']}  A = {p['amplitude_nm']:.4f} nm  "
               f"min gap {p['min_gap_nm']:+.5f} nm")
     for d in ("approach", "retract"):
         print(f"{d}: fine sweep from Z = {out[d]['start_z_nm']:.4f} nm jumps between "
-              f"{out[d]['jump_between_nm']} nm ({out[d]['switches']} switch)")
-    print(f"continuation CPU {cpu:.1f} s, {out['points']} points")
+              f"{out[d]['jump_between_nm']} nm (amplitude step {out[d]['jump_nm']:.4f} nm, the "
+              f"largest other {out[d]['largest_other_step_nm']:.4f} nm)")
+    print(f"continuation CPU {cpu:.1f} s, {out['points']} points; VEDA Z0 = Z + a0, a0 = {a0_nm:.4f} nm: "
+          f"{out['veda_z0_nm']}")
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(out, indent=1) + "\n")

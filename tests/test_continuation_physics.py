@@ -271,3 +271,49 @@ def test_vdw_folds_are_where_warm_started_sweeps_jump(vdw_branch, direction):
     else:
         last, first_off = _fine_sweep(ds, z[i_high], "retract")
         assert z[i_high] - 3 * step <= last < z[i_high] < first_off, (last, first_off, z[i_high])
+
+
+def test_vdw_docs_quote_the_continuation_study():
+    """docs/vdw.md's branch table and fine-sweep jumps are those of
+    studies/results/vdw_continuation.json (written by the command the page gives), and VEDA's
+    Z0 is Z + a0 of the scene."""
+    import json
+    repo = Path(__file__).resolve().parents[1]
+    data = json.loads((repo / "studies" / "results" / "vdw_continuation.json").read_text())
+    # The prose as one line (its line breaks fall anywhere); the table rows are lines already.
+    text = " ".join((repo / "docs" / "vdw.md").read_text().split())
+    assert data["command"] in text
+    assert data["a0_nm"] == pytest.approx(tmafm.Model(VDW).scene["vdw_range"] * 1e4, rel=1e-12)
+
+    def num(x, digits):
+        return f"{x:.{digits}f}".replace("-", "\u2212")
+
+    points = {p["label"]: p for p in data["labelled"] if p["label"] == "grazing"}
+    folds = [p for p in data["labelled"] if p["label"] == "fold"]
+    points["approach_fold"], points["retract_fold"] = sorted(folds, key=lambda p: p["z_nm"])
+    for key, label in (("grazing", "grazing"), ("approach_fold", "fold"), ("retract_fold", "fold")):
+        p = points[key]
+        gap = "0" if key == "grazing" else num(p["min_gap_nm"], 3)
+        row = (f"| {label} | {num(p['z_nm'], 4)} | {num(data['veda_z0_nm'][key], 4)} | "
+               f"{num(p['amplitude_nm'], 3)} | {gap} |")
+        assert row in text, row
+        assert data["veda_z0_nm"][key] == pytest.approx(p["z_nm"] + data["a0_nm"], abs=1e-12)
+    assert abs(points["grazing"]["min_gap_nm"]) < 1e-9
+    low, high = num(points["approach_fold"]["z_nm"], 4), num(points["retract_fold"]["z_nm"], 4)
+    assert f"**{low} nm < Z < {high} nm**" in text
+    assert f"Z = {low} nm and {high} nm" in text
+    assert f"reaches {num(points['approach_fold']['min_gap_nm'], 3)} nm at the fold" in text
+    end_gap = [p["min_gap_nm"] for p in data["labelled"] if p["label"] == "end"][0]
+    assert f"up to {num(-end_gap, 2)} nm indentation" in text
+    app, ret = data["approach"], data["retract"]
+    z0, z1 = app["jump_between_nm"]
+    k = app["z_nm"].index(z0)
+    assert (f"the approach between Z = {num(z0, 3)} and {num(z1, 3)} nm (φ from "
+            f"{num(app['phase_deg'][k], 1)}° to {num(app['phase_deg'][k + 1], 1)}°)") in text
+    assert f"(φ = {num(app['phase_deg'][k], 1)}° at Z = {num(z0, 3)} nm)" in text
+    lo, hi = z0 - points["approach_fold"]["z_nm"], z1 - points["approach_fold"]["z_nm"]
+    assert f"{num(hi, 3)}–{num(lo, 3)} nm above the fold" in text
+    r0, r1 = ret["jump_between_nm"]
+    assert f"the retract between {num(r0, 3)} and {num(r1, 3)} nm, around the fold at {high} nm" in text
+    assert r0 < points["retract_fold"]["z_nm"] < r1
+    assert f"took {data['continuation_cpu_seconds']:.1f} s of CPU" in text

@@ -317,3 +317,33 @@ def test_vdw_docs_quote_the_continuation_study():
     assert f"the retract between {num(r0, 3)} and {num(r1, 3)} nm, around the fold at {high} nm" in text
     assert r0 < points["retract_fold"]["z_nm"] < r1
     assert f"took {data['continuation_cpu_seconds']:.1f} s of CPU" in text
+
+
+@pytest.mark.parametrize("name, scene", [("sls", SLS), ("tones_3_2", TONES_3_2)])
+def test_continuation_with_a_viscoelastic_sample_and_two_tones(name, scene):
+    """tmafm.continuation from a brute-force start (settle periods) with the state (a, adot, w)
+    and with tones at 3:2 (the map's period twice tone 1's): each point is a fixed point of the
+    map, and the contact fraction is the time in contact over the map's period (with two
+    tones against a dense dop853 run over that period from the orbit's state)."""
+    base = tmafm.Config(BISTABLE, scene=scene)
+    ds = tmafm.continuation(base, "scene.delta_hat", 5e-4, 6e-4, max_points=3, switch=False,
+                            settle=150)
+    base = tmafm.Config(base, scene={"delta_hat": 5e-4})
+    model = tmafm.Model(base)
+    m = cont.map_size(model)
+    assert ds.sizes["state"] == m == 2 * model.n_modes + (1 if name == "sls" else 0)
+    x = ds.state.values[0, 0]
+    assert ds["scene.delta_hat"].values[0] == 5e-4 and ds.stable.values[0]
+    out = cont.periodic_map(model, x, 1, 1e-12)
+    np.testing.assert_allclose(out.y, x, rtol=0, atol=1e-8 * np.max(np.abs(x)))
+    if name == "sls":
+        assert x[-1] > 0  # the sample is still relaxing when the period ends
+        return
+    period = cont.map_period(model)
+    n = model.n_modes
+    run = tmafm.run(base, initial={"a0": list(x[:n]), "adot0": list(x[n:])},
+                    solver={"method": "dop853", "rtol": 1e-11, "atol": 1e-15, "tau_end": period},
+                    output={"sample_dtau": period / 20000})
+    fraction = np.mean(run.vt[1:] <= 0)
+    assert abs(fraction - ds.contact_fraction.values[0]) <= 3 / 20000
+    assert 0 < ds.contact_fraction.values[0] < 0.5

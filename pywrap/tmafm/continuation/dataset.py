@@ -65,8 +65,14 @@ def _branch_task(args):
         if "error" in summary:
             raise SolverError(f"continuation: the run that gives the start state failed: "
                               f"{summary['error']}")
-        # The run's state may carry the viscoelastic sample's pad after w: the map's part.
         guess = np.asarray(summary["final_state"], dtype=float)[:m]
+        if len(guess) < m:
+            # The run reports (a, adot) only: with a viscoelastic sample the dashpot coordinate
+            # w starts at 0 and settles with the orbit over `settle` more periods of the map.
+            guess = np.concatenate([guess, np.zeros(m - len(guess))])
+            model = probe.model(start)
+            for _ in range(options["settle"]):
+                guess = periodic_map(model, guess, 1, options["rtol"]).y
     states = [guess]
     for _ in range(period - 1):
         states.append(periodic_map(probe.model(start), states[-1], 1, options["rtol"]).y)

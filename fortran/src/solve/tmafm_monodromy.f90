@@ -43,14 +43,14 @@ module tmafm_monodromy
       stat_switch_rate_min, stat_contact_steps, stat_evaluations
 
    !> Indices of stats: contacts begun; min and max of V_T over the orbit; the smallest local
-   !> minimum of V_T inside a free flight (huge() if none: the distance from grazing); time in
-   !> contact; the smallest |dV_T/dtau| at a switch (huge() if none); contact steps taken;
-   !> right-hand sides evaluated.
+   !> minimum of V_T inside a flight (huge() if none: the distance from grazing); time in
+   !> contact; the smallest |dV_T/dtau| at a switch (huge() if none); steps of the integrated
+   !> phases taken (the contacts; under 'dmt_vdw' the flights too); right-hand sides evaluated.
    integer, parameter :: stat_contacts = 1, stat_gap_min = 2, stat_gap_max = 3, stat_flight_gap_min = 4, &
       stat_contact_time = 5, stat_switch_rate_min = 6, stat_contact_steps = 7, stat_evaluations = 8
    !> Number of stats.
    integer, parameter :: n_orbit_stats = 8
-   !> Most contact steps (accepted or not) one call may take.
+   !> Most steps (accepted or not) one integrated phase may take.
    integer, parameter :: max_contact_steps = 2000000
    !> The largest relative tolerance accepted.
    real(dp), parameter :: max_rtol = 1.0e-3_dp

@@ -21,7 +21,7 @@ module tmafm_api
       observable_group_name, observable_si_factor, observable_kind_names, observable_scale_names, &
       physical_derived, derived_names, derived_units, derived_meanings, n_derived, config_errata, &
       physical_series, n_series, series_names, series_units, &
-      stroboscopic_map, n_orbit_stats, obs_tone_amplitude, obs_tone_phase
+      stroboscopic_map, n_orbit_stats, map_state_size, model_jacobian, obs_tone_amplitude, obs_tone_phase
    ! The types Python sees are named from the modules that define them, not the facade: f90wrap
    ! reads only the wrapped modules' sources and resolves a type through its defining module.
    use tmafm_config, only: config_t
@@ -39,7 +39,7 @@ module tmafm_api
       batch_t, batch_add, batch_size, batch_run, observe_states_of, steady_test_of, &
       steady_harmonic_of, namelist_syntax, observable_count, observable_entry, observable_table_factors, &
       derived_count, derived_entry, config_derived, series_count, series_entry, run_physical_series, &
-      orbit_stat_count, periodic_map_of
+      orbit_stat_count, orbit_state_size, orbit_period, periodic_map_of, jacobian_of
 
    !> Length of the error messages returned to Python.
    integer, parameter :: api_errmsg_len = errmsg_len
@@ -937,8 +937,50 @@ contains
       n = n_orbit_stats
    end function orbit_stat_count
 
+   !> The length of the stroboscopic map's state: 2N, or 2N + 1 with a viscoelastic sample
+   !> (a, a', w).
+   function orbit_state_size(model) result(m)
+      type(model_t), intent(in) :: model
+      integer :: m
+      m = map_state_size(model)
+   end function orbit_state_size
+
+   !> The Jacobian of the time derivative in a phase at (tau, y), y of orbit_state_size (a, a'[, w]),
+   !> into jac (its square) that Python made (tmafm_model_jacobian).
+   subroutine jacobian_of(model, tau, y, in_contact, jac, ierr, errmsg)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: y(:)
+      logical, intent(in) :: in_contact
+      real(dp), intent(inout) :: jac(:, :)
+      integer, intent(out) :: ierr
+      character(len=api_errmsg_len), intent(out) :: errmsg
+      real(dp) :: full(model%n_state)
+      integer :: m
+      ierr = ok
+      errmsg = ''
+      m = map_state_size(model)
+      call check_shape('y', shape(y), [m], ierr, errmsg)
+      call check_shape('jac', shape(jac), [m, m], ierr, errmsg)
+      if (ierr /= ok) return
+      ! model_t's pad after w (a viscoelastic sample) is 0.
+      full = 0
+      full(1:m) = y
+      call model_jacobian(model, tau, full, in_contact, jac)
+   end subroutine jacobian_of
+
+   !> The period of the stroboscopic map, 2 pi/Omega_0 (Omega_0 the drive's common frequency,
+   !> tmafm_drive; one tone: Omega); 0 without a drive frequency.
+   function orbit_period(model) result(period)
+      type(model_t), intent(in) :: model
+      real(dp) :: period
+      period = 0
+      if (model%drive%fundamental > 0) period = 2*acos(-1.0_dp)/model%drive%fundamental
+   end function orbit_period
+
    !> The stroboscopic map over n_periods drive periods from y0 at tau = 0 and its monodromy
-   !> matrix, into arrays Python made (y_end: 2N, monodromy: 2N x 2N, stats: orbit_stat_count()),
+   !> matrix, into arrays Python made (y_end: orbit_state_size, monodromy: its square, stats:
+   !> orbit_stat_count()),
    !> with relative tolerance rtol in contact (tmafm_monodromy).
    subroutine periodic_map_of(model, y0, n_periods, rtol, y_end, monodromy, stats, ierr, errmsg)
       type(model_t), intent(in) :: model
@@ -953,7 +995,7 @@ contains
       integer :: m
       ierr = ok
       errmsg = ''
-      m = 2*model%n_modes
+      m = map_state_size(model)
       call check_shape('y0', shape(y0), [m], ierr, errmsg)
       call check_shape('y_end', shape(y_end), [m], ierr, errmsg)
       call check_shape('monodromy', shape(monodromy), [m, m], ierr, errmsg)

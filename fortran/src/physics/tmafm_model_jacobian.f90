@@ -1,16 +1,30 @@
-!> The Jacobian of the equations of motion, d(a', a'')/d(a, a'), in either phase: what the
-!> variational equations of a periodic orbit integrate (docs/continuation.md, section 2).
+!> The Jacobian of the equations of motion, d(a', a''[, w'])/d(a, a'[, w]), in either phase:
+!> what the variational equations of a periodic orbit integrate (docs/continuation.md, section 2).
 !>
-!> Free of contact it is constant, [0 I; -M^-1 Lambda, -M^-1 C] with C = alpha3 I (per mode in a
-!> liquid: model_t%pass_v holds -M^-1 C).  In contact
+!> Free of contact (and of any force) it is constant, [0 I; -M^-1 Lambda, -M^-1 C] with
+!> C = alpha3 I (per mode in a liquid: model_t%pass_v holds -M^-1 C).  Where the tip-sample force
+!> acts (in contact; under 'dmt_vdw' also in flight, docs/model.md §6a)
 !> a'' gains tip_push M^-1 p + P2 ((g0/d) M^-1 r + M^-1 G a), with
-!> tip_push = (L/d) P1 - alpha4 p.a' + base(tau), and P1, P2 depend on a only through
-!> V_T = p.a + ... and the scaled slope t = (d/L) s.a.  So
+!> tip_push = (L/d) P1 [- alpha4 p.a' + base(tau), in contact only], and P1, P2 depend on a only
+!> through V_T = p.a + Y(tau) + delta_hat (Y the drive's base signal, tmafm_drive) and the scaled
+!> slope t = (d/L) s.a.  So
 !>   d a''/d a  = -M^-1 Lambda + P2 M^-1 G + (L/d) M^-1 p (dP1/dV_T p + dP1/dt (d/L) s)^T
 !>                + ((g0/d) M^-1 r + M^-1 G a) (dP2/dV_T p + dP2/dt (d/L) s)^T,
-!>   d a''/d a' = -M^-1 C - alpha4 M^-1 p p^T.
-!> The partial derivatives of P1, P2 are those of tmafm_contact's closed forms, written with
-!> r = sqrt(depth) so that none is singular at V_T = 0 (all vanish there for Hertz).
+!>   d a''/d a' = -M^-1 C [- alpha4 M^-1 p p^T, in contact].
+!> The brackets are P1 = kappa5 f sin(theta1) + kappa6 h cos(theta1), P2 = -kappa5 f cos(theta1)
+!> + kappa6 h sin(theta1) with the normal-force group f and the friction group h of the law:
+!>  - Hertz, DMT (tmafm_contact) and 'dmt_vdw' in contact (tmafm_vdw): f = X [- c], X = A^3 =
+!>    (depth sin(theta1)/beta)^1.5, h = A depth cos(theta1), c = 4/3 or vdw_adhesion; written
+!>    with r = sqrt(depth) so that none of the partials is singular at V_T = 0;
+!>  - 'dmt_vdw' in flight: f = -c_H/rho^2, rho = 1 + V_T sin(theta1)/eps, h = 0, so
+!>    df/dV_T = 2 c_H sin(theta1)/(eps rho^3), df/dtheta1 = 2 c_H V_T cos(theta1)/(eps rho^3)
+!>    (zero where tmafm_vdw clamps rho at 1/2 or sin(theta1) at 0);
+!>  - a viscoelastic sample (tmafm_viscoelastic, docs/model.md §14) in contact: f = max(X - (1 - r)
+!>    w, 0) [- 4/3], and the state has a third block, the dashpot coordinate w with
+!>    w' = (max(X, (1 - r) w) - w)/T: the row of w is (X_a/T, 0, -1/T) while X > (1 - r) w and
+!>    (0, 0, -r/T) otherwise (in flight X = 0), and the column of w in a'' is df/dw = -(1 - r)
+!>    while X > (1 - r) w (the force's kink there is continuous: no saltation).
+!> theta1 = pi/2 - theta - atan(|t|) or, under E7, + atan(t).
 module tmafm_model_jacobian
    use tmafm_kinds, only: dp
    use tmafm_model, only: model_t
@@ -18,19 +32,29 @@ module tmafm_model_jacobian
    implicit none
    private
 
-   public :: model_jacobian, contact_partials
+   public :: model_jacobian, contact_partials, map_state_size
 
 contains
 
-   !> The 2N x 2N Jacobian jac of (a', a'') with respect to y = (a, a') at time tau, in a phase.
+   !> The length of the state of the stroboscopic map: 2N, or 2N + 1 with a viscoelastic sample
+   !> (a, a', w; model_t's pad y(2N + 2) = 0 is left out, it never changes).
+   pure integer function map_state_size(model) result(m)
+      type(model_t), intent(in) :: model
+      m = 2*model%n_modes
+      if (model%sls%on) m = m + 1
+   end function map_state_size
+
+   !> The Jacobian jac (map_state_size square) of the time derivative with respect to the state y
+   !> (a, a'[, w]; y may hold model_t's pad too) at time tau, in a phase.
    pure subroutine model_jacobian(model, tau, y, in_contact, jac)
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: y(:)
       logical, intent(in) :: in_contact
       real(dp), intent(out) :: jac(:, :)
-      real(dp) :: vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt, sin_phase, lever, row1, row2
-      integer :: n, i, j
+      real(dp) :: vt, vtdot, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt, dp1_dw, dp2_dw
+      real(dp) :: sin_phase, cos_phase, lever, row1, row2, hertz, dx_dvt, dx_dt, w_rate_x, w_rate_w
+      integer :: n, i, j, iw
 
       n = model%n_modes
       jac = 0
@@ -41,16 +65,39 @@ contains
             jac(n + i, n + j) = model%pass_v(i, j)
          end do
       end do
-      if (.not. in_contact) return
-      associate (s => model%scene)
-         sin_phase = sin(s%omega*tau)
-         vt = s%alpha2*sin_phase + s%delta_hat
-         slope = 0
+      iw = 2*n + 1
+      if (model%sls%on) then
+         ! In flight X = 0: w' = -r w/T.
+         jac(iw, iw) = -model%sls%modulus_ratio*model%sls%rate
+      end if
+      if (.not. (in_contact .or. model%long_range)) return
+      call model%phase(tau, sin_phase, cos_phase)
+      call model%gap_at_phase(y, sin_phase, cos_phase, vt, vtdot)
+      slope = 0
+      do j = 1, n
+         slope = slope + model%scaled_slope(j)*y(j)
+      end do
+      if (model%sls%on) then
+         call sls_partials(model, vt, slope, y(iw), p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt, dp1_dw, &
+                           dp2_dw, hertz, dx_dvt, dx_dt)
+         ! w' = (max(X, (1 - r) w) - w)/T.
+         if (hertz > model%sls%relaxing*y(iw)) then
+            w_rate_x = model%sls%rate
+            w_rate_w = -model%sls%rate
+         else
+            w_rate_x = 0
+            w_rate_w = -model%sls%modulus_ratio*model%sls%rate
+         end if
          do j = 1, n
-            vt = vt + model%tip(j)*y(j)
-            slope = slope + model%scaled_slope(j)*y(j)
+            jac(iw, j) = w_rate_x*(dx_dvt*model%tip(j) + dx_dt*model%scaled_slope(j))
          end do
+         jac(iw, iw) = w_rate_w
+      else if (in_contact) then
          call contact_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
+      else
+         call vdw_flight_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
+      end if
+      associate (s => model%scene)
          do i = 1, n
             ! lever = (g0/d) M^-1 r + M^-1 G a: what P2 multiplies.
             lever = model%moment_force(i)
@@ -62,55 +109,151 @@ contains
                row2 = dp2_dvt*model%tip(j) + dp2_dt*model%scaled_slope(j)
                jac(n + i, j) = jac(n + i, j) + p2*model%inv_mass_axial(i, j) &
                                + s%l_over_d*model%inv_mass_tip(i)*row1 + lever*row2
-               jac(n + i, n + j) = jac(n + i, n + j) - s%alpha4*model%inv_mass_tip(i)*model%tip(j)
+               if (in_contact) &
+                  jac(n + i, n + j) = jac(n + i, n + j) - s%alpha4*model%inv_mass_tip(i)*model%tip(j)
             end do
+            if (model%sls%on) jac(n + i, iw) = s%l_over_d*model%inv_mass_tip(i)*dp1_dw + lever*dp2_dw
          end do
       end associate
    end subroutine model_jacobian
 
-   !> The brackets P1, P2 at gap vt and scaled slope t, and their partial derivatives with
-   !> respect to V_T and t (tmafm_contact: A = sqrt(depth sin theta1/beta), f_c = A^3 [- 4/3],
-   !> h = A depth cos theta1, theta1 = pi/2 - theta - atan(|t|) or, under E7, + atan(t)).
+   !> The brackets P1, P2 in contact at gap vt and scaled slope t, and their partial derivatives
+   !> with respect to V_T and t: Hertz, DMT, or 'dmt_vdw' (the adhesion vdw_adhesion).
    pure subroutine contact_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: vt
       real(dp), intent(in) :: slope
       real(dp), intent(out) :: p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt
-      real(dp) :: sin1, cos1, depth, root, q, sq, normal, friction, dn_dd, dh_dd, dn_dth, dh_dth
-      real(dp) :: dth_dt, t, k5, k6, beta
+      real(dp) :: sin1, cos1, normal, friction, dn_dvt, dh_dvt, dn_dth, dh_dth, dth_dt
 
       call contact_angle_sin_cos(model%sin_theta, model%cos_theta, slope, &
                                  model%errata%e7_signed_slope, sin1, cos1)
-      k5 = model%kappa5
-      k6 = model%kappa6
+      call hertz_groups(model, vt, sin1, cos1, normal, friction, dn_dvt, dh_dvt, dn_dth, dh_dth)
+      if (model%long_range) then
+         normal = normal - model%scene%vdw_adhesion
+      else if (model%law == law_dmt) then
+         normal = normal - dmt_adhesion
+      end if
+      dth_dt = angle_rate(model, slope)
+      call brackets(model, sin1, cos1, normal, friction, dn_dvt, dh_dvt, dn_dth, dh_dth, dth_dt, &
+                    p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
+   end subroutine contact_partials
+
+   !> The brackets under 'dmt_vdw' in flight (the attraction alone) and their partial derivatives
+   !> with respect to V_T and t.
+   pure subroutine vdw_flight_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: vt
+      real(dp), intent(in) :: slope
+      real(dp), intent(out) :: p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt
+      real(dp) :: sin1, cos1, ratio, normal, dn_dvt, dn_dth, c_h, eps, pull
+      call contact_angle_sin_cos(model%sin_theta, model%cos_theta, slope, &
+                                 model%errata%e7_signed_slope, sin1, cos1)
+      c_h = model%scene%vdw_adhesion
+      eps = model%scene%vdw_range
+      ratio = 1 + vt*max(sin1, 0.0_dp)/eps
+      dn_dvt = 0
+      dn_dth = 0
+      if (ratio < 0.5_dp) then
+         ratio = 0.5_dp
+      else if (sin1 > 0) then
+         pull = 2*c_h/(eps*ratio**3)
+         dn_dvt = pull*sin1
+         dn_dth = pull*vt*cos1
+      end if
+      normal = -c_h/(ratio*ratio)
+      call brackets(model, sin1, cos1, normal, 0.0_dp, dn_dvt, 0.0_dp, dn_dth, 0.0_dp, angle_rate(model, slope), &
+                    p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
+   end subroutine vdw_flight_partials
+
+   !> The brackets of a viscoelastic sample in contact at gap vt, slope t and dashpot coordinate w,
+   !> their partial derivatives with respect to V_T, t and w, and the Hertz variable X = A^3 with
+   !> its partials (what w' depends on).
+   pure subroutine sls_partials(model, vt, slope, w, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt, dp1_dw, &
+                                dp2_dw, hertz, dx_dvt, dx_dt)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: vt
+      real(dp), intent(in) :: slope
+      real(dp), intent(in) :: w
+      real(dp), intent(out) :: p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt, dp1_dw, dp2_dw, hertz, dx_dvt, dx_dt
+      real(dp) :: sin1, cos1, normal, friction, dn_dvt, dh_dvt, dn_dth, dh_dth, dth_dt, dn_dw
+      call contact_angle_sin_cos(model%sin_theta, model%cos_theta, slope, &
+                                 model%errata%e7_signed_slope, sin1, cos1)
+      call hertz_groups(model, vt, sin1, cos1, hertz, friction, dx_dvt, dh_dvt, dn_dth, dh_dth)
+      dth_dt = angle_rate(model, slope)
+      dx_dt = dn_dth*dth_dt
+      if (hertz > model%sls%relaxing*w) then
+         normal = hertz - model%sls%relaxing*w
+         dn_dvt = dx_dvt
+         dn_dw = -model%sls%relaxing
+      else
+         ! The sample has not come back to meet the tip: no normal force.
+         normal = 0
+         dn_dvt = 0
+         dn_dth = 0
+         dn_dw = 0
+      end if
+      if (model%law == law_dmt) normal = normal - dmt_adhesion
+      call brackets(model, sin1, cos1, normal, friction, dn_dvt, dh_dvt, dn_dth, dh_dth, dth_dt, &
+                    p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
+      dp1_dw = model%kappa5*dn_dw*sin1
+      dp2_dw = -model%kappa5*dn_dw*cos1
+   end subroutine sls_partials
+
+   !> The Hertz groups X = A^3 and h = A depth cos(theta1) at gap vt and their partials with
+   !> respect to V_T and theta1 (X = depth^1.5 q^1.5, h = depth^1.5 sqrt(q) cos(theta1),
+   !> q = sin(theta1)/beta; d sin1 = cos1, d cos1 = -sin1; dV_T = -d depth).
+   pure subroutine hertz_groups(model, vt, sin1, cos1, normal, friction, dn_dvt, dh_dvt, dn_dth, dh_dth)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: vt, sin1, cos1
+      real(dp), intent(out) :: normal, friction, dn_dvt, dh_dvt, dn_dth, dh_dth
+      real(dp) :: depth, root, q, sq, beta
       beta = model%scene%beta
       depth = max(-vt, 0.0_dp)
       root = sqrt(depth)
       q = sin1/beta
       sq = sqrt(q)
-      ! f_c = depth^1.5 q^1.5 [- 4/3], h = depth^1.5 sqrt(q) cos1.
       normal = root**3*q*sq
-      if (model%law == law_dmt) normal = normal - dmt_adhesion
       friction = root**3*sq*cos1
-      dn_dd = 1.5_dp*root*q*sq
-      dh_dd = 1.5_dp*root*sq*cos1
-      ! d/dtheta1: d sin1 = cos1, d cos1 = -sin1.
+      dn_dvt = -1.5_dp*root*q*sq
+      dh_dvt = -1.5_dp*root*sq*cos1
       dn_dth = 1.5_dp*root**3*sq*cos1/beta
-      dh_dth = root**3*(cos1*cos1/(2*beta*sq) - sq*sin1)
+      if (depth > 0) then
+         dh_dth = root**3*(cos1*cos1/(2*beta*sq) - sq*sin1)
+      else
+         dh_dth = 0
+      end if
+   end subroutine hertz_groups
+
+   !> dtheta1/dt: 1/(1 + t^2) under E7 (theta1 = pi/2 - theta + atan t), -sign(t)/(1 + t^2) as
+   !> printed (theta1 = pi/2 - theta - atan |t|).
+   pure real(dp) function angle_rate(model, slope) result(rate)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: slope
+      if (model%errata%e7_signed_slope) then
+         rate = 1/(1 + slope*slope)
+      else
+         rate = -sign(1.0_dp, slope)/(1 + slope*slope)
+      end if
+   end function angle_rate
+
+   !> P1, P2 from the groups f, h and sin, cos of theta1, and their partials with respect to V_T
+   !> and t from those of f and h with respect to V_T and theta1 and dtheta1/dt.
+   pure subroutine brackets(model, sin1, cos1, normal, friction, dn_dvt, dh_dvt, dn_dth, dh_dth, dth_dt, &
+                            p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: sin1, cos1, normal, friction, dn_dvt, dh_dvt, dn_dth, dh_dth, dth_dt
+      real(dp), intent(out) :: p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt
+      real(dp) :: k5, k6
+      k5 = model%kappa5
+      k6 = model%kappa6
       p1 = k5*normal*sin1 + k6*friction*cos1
       p2 = -k5*normal*cos1 + k6*friction*sin1
-      ! dV_T = -d depth in contact.
-      dp1_dvt = -(k5*dn_dd*sin1 + k6*dh_dd*cos1)
-      dp2_dvt = -(-k5*dn_dd*cos1 + k6*dh_dd*sin1)
-      if (model%errata%e7_signed_slope) then
-         t = -slope
-         dth_dt = 1/(1 + t*t)
-      else
-         t = abs(slope)
-         dth_dt = -sign(1.0_dp, slope)/(1 + t*t)
-      end if
+      dp1_dvt = k5*dn_dvt*sin1 + k6*dh_dvt*cos1
+      dp2_dvt = -k5*dn_dvt*cos1 + k6*dh_dvt*sin1
+      ! d sin1 = cos1 dtheta1, d cos1 = -sin1 dtheta1.
       dp1_dt = (k5*(dn_dth*sin1 + normal*cos1) + k6*(dh_dth*cos1 - friction*sin1))*dth_dt
       dp2_dt = (-k5*(dn_dth*cos1 - normal*sin1) + k6*(dh_dth*sin1 + friction*cos1))*dth_dt
-   end subroutine contact_partials
+   end subroutine brackets
 
 end module tmafm_model_jacobian

@@ -14,11 +14,11 @@ from __future__ import annotations
 
 from .branch import LABELS
 from .dataset import continuation
-from .shooting import (STAT_NAMES, MapResult, Orbit, floquet_multipliers, periodic_map,
-                       periodic_orbit)
+from .shooting import (STAT_NAMES, MapResult, Orbit, floquet_multipliers, jacobian, map_period,
+                       map_size, periodic_map, periodic_orbit)
 
-__all__ = ["continuation", "periodic_map", "periodic_orbit", "floquet_multipliers", "MapResult",
-           "Orbit", "STAT_NAMES", "LABELS"]
+__all__ = ["continuation", "periodic_map", "periodic_orbit", "floquet_multipliers", "jacobian",
+           "map_size", "map_period", "MapResult", "Orbit", "STAT_NAMES", "LABELS"]
 
 
 class _CallableModule(__import__("types").ModuleType):

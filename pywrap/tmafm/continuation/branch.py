@@ -14,7 +14,7 @@ from .._model import Model
 from .._run import Config
 from ..errors import InputError, SolverError
 from ..sweeps.points import _config
-from .shooting import (_jacobian, _merge_stats, _residual, floquet_multipliers, periodic_map)
+from .shooting import (_jacobian, _merge_stats, _residual, floquet_multipliers, map_size, periodic_map)
 
 #: Labels of special points.
 LABELS = ("", "start", "end", "fold", "period_doubling", "neimark_sacker", "grazing")
@@ -33,21 +33,26 @@ class Point:
     multipliers: np.ndarray = field(default=None)
     label: str = ""
     branch: int = 0
+    #: sign det [dF/du; tangent]: constant along a regular branch followed one way (a fold does
+    #: not change it); a corrector that lands on a nearby branch followed the other way (the
+    #: unstable side of a fold, close to the stable one) flips it.
+    orientation: float = 0.0
 
 
 class Problem:
     """The periodic orbits of period n of base with `key` free: R(X, lambda) = 0."""
 
-    def __init__(self, base: dict, key: str, n_modes: int, period: int, rtol: float,
-                 l0: float, ls: float, sx: float):
+    def __init__(self, base: dict, key: str, period: int, rtol: float, l0: float, ls: float,
+                 sx: float):
         self.base, self.key, self.period, self.rtol = base, key, period, rtol
         # The base as a Config of this process: each value patches it (the core reads the
         # override, as tmafm.Config(config, scene={...}) does).
         self._config = _config(base, {})
         self._group, self._name = key.split(".")
-        self.m = 2 * n_modes
         self.l0, self.ls, self.sx = l0, ls, sx
         self._models: dict = {}
+        # The map's state: (a, adot), or (a, adot, w) with a viscoelastic sample.
+        self.m = map_size(self.model(l0))
 
     def model(self, value: float) -> Model:
         model = self._models.get(value)
@@ -136,8 +141,10 @@ def make_point(problem: Problem, u, jac, maps, previous_tangent, branch) -> Poin
     states, value = problem.unpack(u)
     t = _tangent(jac, previous_tangent)
     mono = [mp.monodromy for mp in maps]
+    orientation = float(np.linalg.slogdet(np.vstack([jac, t]))[0])
     return Point(u=u, tangent=t, value=value, states=states, monodromies=mono,
-                 stats=_merge_stats(maps), multipliers=floquet_multipliers(mono), branch=branch)
+                 stats=_merge_stats(maps), multipliers=floquet_multipliers(mono), branch=branch,
+                 orientation=orientation)
 
 
 # --- test functions --------------------------------------------------------------------------
@@ -261,8 +268,11 @@ def follow(problem: Problem, first: Point, stop_value: float, *, ds: float, ds_m
             continue
         u, jac, maps, iterations = out
         nxt = make_point(problem, u, jac, maps, current.tangent, branch)
-        # A step that turned the branch too far back (a corner) is retried shorter.
-        if nxt.tangent @ current.tangent < 0.8 and h > ds_min:
+        # A step that turned the branch too far back (a corner), or that landed on another
+        # branch followed the other way (docs/vdw.md: the two sides of a fold 0.05 nm apart in a
+        # 10 nm orbit), is retried shorter.
+        if (nxt.tangent @ current.tangent < 0.8 or nxt.orientation != current.orientation) \
+                and h > ds_min:
             h *= 0.5
             continue
         if doubled:
@@ -309,6 +319,7 @@ def start_point(problem: Problem, states: np.ndarray, value: float, tol: float, 
     p = make_point(problem, *out[:3], None, branch)
     if p.tangent[-1] * direction < 0:
         p.tangent = -p.tangent
+        p.orientation = -p.orientation
     p.label = "start"
     return p
 
@@ -347,6 +358,7 @@ def switch_period_doubling(problem: Problem, pd: Point, tol: float, ds: float,
                 # Orient the tangent away from the doubling point.
                 if p.tangent @ (p.u - base_u) < 0:
                     p.tangent = -p.tangent
+                    p.orientation = -p.orientation
                 p.label = "start"
                 return doubled, p
     return doubled, None

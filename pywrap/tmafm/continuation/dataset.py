@@ -14,7 +14,8 @@ from ..sweeps.executors import _check_run, _dask_results, _process_pool, _progre
 from ..sweeps.points import _base_config, _base_dict, _config, _split_key
 from ..sweeps.runs import _observe_one
 from .branch import Problem, follow, start_point, switch_period_doubling
-from .shooting import _positive_int, _state, _tolerance, state_scale
+from .._model import Model
+from .shooting import _positive_int, _state, _tolerance, map_period, map_size, periodic_map, state_scale
 
 #: Per-orbit observables (model units; lengths in gap units d, times in units of tau).
 OBSERVABLES = {
@@ -55,25 +56,31 @@ def _guesses(y0, m: int) -> list:
 def _branch_task(args):
     """One branch (and the doubled branches born on it): a list of point records (picklable).
     Everything is rebuilt from the base's dict of groups, so the task runs in any process."""
-    (base, key, n_modes, start, stop, guess, period, options, branch_id) = args
-    m = 2 * n_modes
+    (base, key, start, stop, guess, period, options, branch_id) = args
+    span = stop - start
+    probe = Problem(base, key, 1, options["rtol"], start, abs(span), 1.0)
+    m = probe.m
     if guess is None:
         summary = _observe_one(_config(base, {key: start}), {"max_periods": options["settle"]})
         if "error" in summary:
             raise SolverError(f"continuation: the run that gives the start state failed: "
                               f"{summary['error']}")
-        guess = np.asarray(summary["final_state"], dtype=float)
-    span = stop - start
-    probe = Problem(base, key, n_modes, 1, options["rtol"], start, abs(span), 1.0)
+        guess = np.asarray(summary["final_state"], dtype=float)[:m]
+        if len(guess) < m:
+            # The run reports (a, adot) only: with a viscoelastic sample the dashpot coordinate
+            # w starts at 0 and settles with the orbit over `settle` more periods of the map.
+            guess = np.concatenate([guess, np.zeros(m - len(guess))])
+            model = probe.model(start)
+            for _ in range(options["settle"]):
+                guess = periodic_map(model, guess, 1, options["rtol"]).y
     states = [guess]
     for _ in range(period - 1):
-        from .shooting import periodic_map
         states.append(periodic_map(probe.model(start), states[-1], 1, options["rtol"]).y)
     states = np.array(states)
     sx = state_scale(probe.model(start), states)
 
     def make_problem(n):
-        return Problem(base, key, n_modes, n, options["rtol"], start, abs(span), sx)
+        return Problem(base, key, n, options["rtol"], start, abs(span), sx)
 
     problem = make_problem(period)
     bounds = (min(start, stop), max(start, stop))
@@ -91,7 +98,7 @@ def _branch_task(args):
         points = follow(prob, head, stop, max_points=options["max_points"], branch=branch,
                         doubled=doubled, **common)
         points[-1].label = points[-1].label or "end"
-        records.extend(_record(prob, p, m) for p in points)
+        records.extend(_record(prob, p) for p in points)
         if doubled:
             born.append((prob.period, points))
         if options["switch"] and prob.period < options["max_period"]:
@@ -120,28 +127,30 @@ def _reached(born: list, period: int, pd, problem) -> bool:
     return False
 
 
-def _record(problem: Problem, p, m: int) -> dict:
+def _record(problem: Problem, p) -> dict:
     s = p.stats
     n = problem.period
+    model = problem.model(p.value)
     return {"branch": p.branch, "value": p.value, "period": n, "states": p.states,
             "multipliers": p.multipliers, "stable": bool(np.max(np.abs(p.multipliers)) < 1),
             "label": p.label,
             "amplitude": 0.5 * (s["gap_max"] - s["gap_min"]), "min_gap": s["gap_min"],
             "max_gap": s["gap_max"], "flight_gap_min": s["flight_gap_min"],
             "contacts": s["contacts"] / n,
-            "contact_fraction": s["contact_time"] / (n * 2 * math.pi / problem.model(p.value).scene["omega"]),
+            "contact_fraction": s["contact_time"] / (n * map_period(model)),
             "switch_rate_min": s["switch_rate_min"],
-            "tip": np.array([np.dot(problem.model(p.value).tip, x[:m // 2]) for x in p.states])}
+            "tip": np.array([np.dot(model.tip, x[:model.n_modes]) for x in p.states])}
 
 
 def continuation(base, key, start, stop, *, y0=None, period=1, ds=None, ds_max=None,
                  max_points=200, rtol=1e-10, tol=1e-9, loc_tol=1e-9, switch=True,
-                 max_period=8, settle=400, workers=None, client=None, progress=False):
+                 max_period=8, settle=400, workers=None, client=None, progress=False, **unknown):
     """Continue periodic orbits of `base` in `key` from `start` towards `stop`.
 
-    y0: the start state(s) (a, adot) at tau = 0: None (a brute-force run of `settle` periods at
-    `start` gives it), one state, or a list of states (one branch each, run in parallel on
-    `workers` processes or a Dask `client`).  period: the orbit's period in drive periods.
+    y0: the start state(s) at tau = 0, (a, adot) or with a viscoelastic sample (a, adot, w): None
+    (a brute-force run of `settle` periods at `start` gives it), one state, or a list of states
+    (one branch each, run in parallel on `workers` processes or a Dask `client`).  period: the
+    orbit's period in drive periods.
     ds / ds_max: first and largest arclength step (scaled: the parameter in units of
     |stop - start|, states in units of their size); tol: Newton's tolerance on the scaled
     unknowns; loc_tol: the arclength tolerance of a located special point.  switch: follow the
@@ -153,6 +162,9 @@ def continuation(base, key, start, stop, *, y0=None, period=1, ds=None, ds_max=N
     states (segment, state), the tip displacement p.a at each section, and the per-orbit
     observables (OBSERVABLES).
     """
+    if unknown:
+        raise InputTypeError("tmafm.continuation: unknown keyword argument(s) "
+                             + ", ".join(f"{k} = {shown(v)}" for k, v in sorted(unknown.items())))
     _check_run(workers, client, progress, None, "batch", "tmafm.continuation")
     import xarray as xr
     _split_key(key)
@@ -176,11 +188,12 @@ def continuation(base, key, start, stop, *, y0=None, period=1, ds=None, ds_max=N
     _config(groups, {key: start})
     _config(groups, {key: stop})
     n_modes = base_config.n_modes
-    guesses = _guesses(y0, 2 * n_modes)
+    m = map_size(Model(_config(groups, {key: start})))
+    guesses = _guesses(y0, m)
     options = dict(rtol=rtol, tol=tol, loc_tol=loc_tol, ds=ds, ds_max=ds_max,
                    max_points=max_points, switch=bool(switch), max_period=max_period,
                    settle=settle)
-    tasks = [(groups, key, n_modes, start, stop, g, period, options, k)
+    tasks = [(groups, key, start, stop, g, period, options, k)
              for k, g in enumerate(guesses)]
     n_workers = _workers(workers)
     bar = _progress(len(tasks), progress, "continuation")
@@ -203,7 +216,7 @@ def continuation(base, key, start, stop, *, y0=None, period=1, ds=None, ds_max=N
         if bar is not None:
             bar.close()
     records = [r for branch in results for r in branch]
-    return _dataset(xr, records, key, n_modes, base_config, options, start, stop)
+    return _dataset(xr, records, key, n_modes, m, base_config, options, start, stop)
 
 
 #: The observables that are lengths (gap units d), converted as the core's min_gap row is.
@@ -225,8 +238,7 @@ def _si_factors(config) -> dict:
     return {name: (float(factors[row]), OBSERVABLE_TABLE[row]["si_unit"]) for name in _LENGTHS}
 
 
-def _dataset(xr, records, key, n_modes, base_config, options, start, stop):
-    m = 2 * n_modes
+def _dataset(xr, records, key, n_modes, m, base_config, options, start, stop):
     n = len(records)
     segments = max(r["period"] for r in records)
     states = np.full((n, segments, m), np.nan)

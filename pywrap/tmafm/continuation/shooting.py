@@ -17,14 +17,15 @@ from .._run import Config
 from ..errors import InputError, InputTypeError, SolverError, raise_for
 from .periodic_schur import product_eigenvalues
 
-__all__ = ["periodic_map", "periodic_orbit", "floquet_multipliers", "MapResult", "Orbit",
-           "STAT_NAMES"]
+__all__ = ["periodic_map", "periodic_orbit", "floquet_multipliers", "map_size", "map_period", "jacobian",
+           "MapResult", "Orbit", "STAT_NAMES"]
 
 #: The statistics of one map, in the core's order (tmafm_monodromy stat_*).
 STAT_NAMES = ("contacts", "gap_min", "gap_max", "flight_gap_min", "contact_time",
               "switch_rate_min", "contact_steps", "evaluations")
 
-#: The default relative tolerance of the contact phases (the free flights are exact).
+#: The default relative tolerance of the integrated phases (contact; under 'dmt_vdw' the flights
+#: too; the other laws' free flights are exact).
 DEFAULT_RTOL = 1e-11
 
 
@@ -37,7 +38,7 @@ class MapResult(NamedTuple):
 
 
 class Orbit(NamedTuple):
-    """A periodic orbit: its section points (period x 2N, at tau = 0, T, ..., (n-1)T), the
+    """A periodic orbit: its section points (period x map_size, at tau = 0, T, ..., (n-1)T), the
     Floquet multipliers (largest modulus first), stable, and the statistics over the n periods."""
 
     states: np.ndarray
@@ -76,23 +77,51 @@ def _tolerance(name: str, value, low: float, high: float) -> float:
     return x
 
 
+def map_size(model) -> int:
+    """The length of the map's state: 2N, (a, adot); 2N + 1, (a, adot, w), with a viscoelastic
+    sample (w its dashpot coordinate, docs/model.md section 14)."""
+    return int(_api.orbit_state_size(_model(model)._f))
+
+
+def map_period(model) -> float:
+    """The map's period in units of tau: 2 pi/Omega, or with two tones (or a drive phase) the
+    drive's common period 2 pi/Omega_0 (docs/model.md, "The multifrequency drive")."""
+    return float(_api.orbit_period(_model(model)._f))
+
+
+def jacobian(model, tau: float, y, in_contact: bool) -> np.ndarray:
+    """The core's Jacobian of the time derivative (tmafm_model_jacobian) at (tau, y) in a phase:
+    what the variational equations integrate; y and the matrix have map_size(model) rows."""
+    model = _model(model)
+    m = map_size(model)
+    y = _state("y", y, m)
+    if not isinstance(in_contact, (bool, np.bool_)):
+        raise InputTypeError(f"in_contact = {shown(in_contact)}: must be True or False")
+    jac = np.zeros((m, m), order="F")
+    ierr, errmsg = _api.jacobian_of(model._f, float(tau), np.asfortranarray(y), bool(in_contact), jac)
+    raise_for(ierr, _text(errmsg))
+    return jac.copy()
+
+
 def _state(name: str, value, size: int) -> np.ndarray:
     try:
         array = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         raise InputError(f"{name} must be real numbers, got {shown(value)}") from None
     if array.shape != (size,):
-        raise InputError(f"{name} must have shape ({size},) = (a, adot), got {array.shape}")
+        raise InputError(f"{name} must have shape ({size},) = (a, adot{'' if size % 2 == 0 else ', w'}), "
+                         f"got {array.shape}")
     if not np.all(np.isfinite(array)):
         raise InputError(f"{name} must be finite, got {shown(value)}")
     return array
 
 
 def periodic_map(model, y0, n_periods: int = 1, rtol: float = DEFAULT_RTOL) -> MapResult:
-    """P^n(y0) over n_periods drive periods from tau = 0, its monodromy matrix dP^n/dy0 (from
-    the variational equations and the saltation matrices), and the orbit's statistics."""
+    """P^n(y0) over n_periods drive periods (map_period each) from tau = 0, its monodromy matrix
+    dP^n/dy0 (from the variational equations and the saltation matrices), and the orbit's
+    statistics.  y0 has map_size(model) components."""
     model = _model(model)
-    m = 2 * model.n_modes
+    m = map_size(model)
     y0 = _state("y0", y0, m)
     n_periods = _positive_int("n_periods", n_periods, 100000)
     rtol = _tolerance("rtol", rtol, 1e-14, 1e-3)
@@ -211,7 +240,7 @@ def periodic_orbit(base, y0, *, period: int = 1, rtol: float = DEFAULT_RTOL, tol
     from y0: one state (the others are its images) or `period` states.  Converged when the
     relative residual and Newton step are below tol (relative to the state's scale)."""
     model = _model(base)
-    m = 2 * model.n_modes
+    m = map_size(model)
     period = _positive_int("period", period, 64)
     rtol = _tolerance("rtol", rtol, 1e-14, 1e-3)
     tol = _tolerance("tol", tol, 1e-14, 1e-2)

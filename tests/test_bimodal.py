@@ -257,3 +257,43 @@ def test_steady_tone_phase_has_no_wrap():
     steady = obs.steady_values()
     assert abs(abs(steady["tone2_phase"]) - 180.0) < 1e-12
     assert steady["tone2_amplitude"] == pytest.approx(math.cos(math.radians(1.0)), rel=1e-14)
+
+
+def test_second_tone_in_hz_and_by_its_free_amplitude():
+    """Bimodal AFM as practised: the second tone given in Hz and by the tip's free amplitude
+    there (&physical drive_frequency_2, free_amplitude_2).  Far from the sample each tone's
+    lock-in of a long flight_exact run is its free amplitude to 1e-6 (the tones' responses
+    superpose), amplitude is tone 1's, and omega_2 = 2 pi f_2 t0."""
+    physical = {"spring_constant": 2.8, "resonance_frequency": 75e3, "quality_factor": 30.0,
+                "tip_mass_ratio": 0.01, "length": 225e-6, "tip_position": 225e-6,
+                "drive_frequency": 75e3, "free_amplitude": 10e-9,
+                "drive_frequency_2": 525e3, "free_amplitude_2": 0.5e-9, "tip_sample_distance": 1e-6}
+    config = tmafm.Config({"model": {"n_modes": 3, "contact_law": "dmt"}, "physical": physical,
+                           "solver": {"method": "flight_exact", "rtol": 1e-12, "atol": 1e-16}})
+    t0 = config.derived["time_scale"]
+    assert config.scene["omega_2"] == pytest.approx(2 * math.pi * 525e3 * t0, rel=1e-14)
+    model = tmafm.Model(config)
+    mass, damping, stiffness, _ = model.matrices(0.0, np.zeros(3), False)
+    inv = np.linalg.inv(mass)
+    values = np.linalg.eigvals(np.block([[np.zeros((3, 3)), np.eye(3)], [-inv @ stiffness, -inv @ damping]]))
+    common = 2 * math.pi / config.scene["omega"]     # 525/75 = 7: the common period is tone 1's
+    n_periods = math.ceil(21 / min(-values.real) / common) + 2
+    obs = tmafm.observe(config, max_periods=n_periods, stop_at_steady=False)
+    d = config.derived["gap"]
+    assert obs.per_period["min_gap"][-1] > 0
+    assert obs.per_period["tone1_amplitude"][-1] * d == pytest.approx(10e-9, rel=1e-6)
+    assert obs.per_period["tone2_amplitude"][-1] * d == pytest.approx(0.5e-9, rel=1e-6)
+    assert obs.per_period["amplitude"][-1] == obs.per_period["tone1_amplitude"][-1]
+    # The resolved text keeps the keys given, and reads back to the same scene.
+    again = tmafm.Config(config.to_dict())
+    assert again.scene["alpha2_2"] == config.scene["alpha2_2"]
+
+
+@pytest.mark.parametrize("extra, words", [
+    ({"free_amplitude_2": 1e-9}, "free_amplitude_2 = 1e-09: needs the second tone's frequency"),
+    ({"drive_frequency_2": 2e5, "drive_angular_frequency_2": 1e6}, "drive_frequency_2"),
+])
+def test_second_tone_keys_refused_in_one_line(extra, words):
+    with pytest.raises(tmafm.InputError, match=words.replace("(", r"\(")) as info:
+        tmafm.Config("tapping_polystyrene", physical=extra)
+    assert "\n" not in str(info.value)

@@ -138,6 +138,8 @@ ALTERNATIVES = {
     "drive_frequency": ("", ("drive_angular_frequency",)),
     "free_amplitude": ("", ("drive_amplitude",)),
     "tip_sample_distance": ("", ("gap", "static_offset")),
+    "drive_frequency_2": ("drive_amplitude_2 = 1e-10", ("drive_angular_frequency_2",)),
+    "free_amplitude_2": ("drive_angular_frequency_2 = 862507.9046309008", ("drive_amplitude_2",)),
 }
 
 
@@ -149,7 +151,8 @@ def test_the_alternative_keys_are_the_keys_whose_default_is_none():
 def test_an_alternative_key_given_is_written_back_and_the_keys_it_replaces_are_not(name):
     value = {"spring_constant": "40", "resonance_frequency": "3e5", "quality_factor": "400",
              "tip_mass_ratio": "0.05", "drive_frequency": "2e4", "free_amplitude": "1e-8",
-             "tip_sample_distance": "2e-9"}[name]
+             "tip_sample_distance": "2e-9", "drive_frequency_2": "137272.39647784093",
+             "free_amplitude_2": "1e-10"}[name]
     companions, replaced = ALTERNATIVES[name]
     text = _config_text(f"&physical {name} = {value}, {companions} /\n")
     written = {line.split(" = ")[0].strip(): line.split(" = ")[1] for line in text.splitlines()

@@ -226,7 +226,12 @@ module tmafm_keys
       key_t('physical', 'drive_phase', key_real, -2*half_pi, 2*half_pi, unit='rad', &
             meaning='phase phi_1 of the drive tone f sin(omega t + phi_1)'), &
       key_t('physical', 'drive_phase_2', key_real, -2*half_pi, 2*half_pi, unit='rad', &
-            meaning='phase phi_2 of the second tone f_2 sin(omega_2 t + phi_2)')]
+            meaning='phase phi_2 of the second tone f_2 sin(omega_2 t + phi_2)'), &
+      key_t('physical', 'drive_frequency_2', key_real, 0, 1.0e12_dp, unit='Hz', &
+            rule='instead of drive_angular_frequency_2', meaning='second drive tone: frequency omega_2/(2 pi)'), &
+      key_t('physical', 'free_amplitude_2', key_real, 0, 1, unit='m', rule='instead of drive_amplitude_2', &
+            meaning="the tip's steady amplitude at the second tone far from the sample (V_T's lock-in "// &
+            "there); sets drive_amplitude_2")]
 
    type(key_t), parameter :: initial_rows(*) = [ &
       key_t('initial', 'a0', key_list, -1, 1, unit='d', &
@@ -296,6 +301,14 @@ contains
          physical_key_given = .not. phys%by_distance
       case ('tip_sample_distance')
          physical_key_given = phys%by_distance
+      case ('drive_angular_frequency_2')
+         physical_key_given = .not. phys%by_drive_frequency_2
+      case ('drive_frequency_2')
+         physical_key_given = phys%by_drive_frequency_2
+      case ('drive_amplitude_2')
+         physical_key_given = .not. phys%by_free_amplitude_2
+      case ('free_amplitude_2')
+         physical_key_given = phys%by_free_amplitude_2
       case default
          physical_key_given = .true.
       end select

@@ -360,6 +360,8 @@ contains
       ! The alternatives: each pair is refused in one line naming both keys.
       call exclusive('drive_frequency', 'drive_angular_frequency', '')
       call exclusive('free_amplitude', 'drive_amplitude', '')
+      call exclusive('drive_frequency_2', 'drive_angular_frequency_2', '')
+      call exclusive('free_amplitude_2', 'drive_amplitude_2', '')
       call exclusive('tip_sample_distance', 'gap', '')
       call exclusive('tip_sample_distance', 'static_offset', '')
       do i = 1, size(calibration)
@@ -429,10 +431,13 @@ contains
          return
       end if
       if (given(25)) v(20) = 2*acos(-1.0_dp)*v(25)
+      if (given(38)) v(35) = 2*acos(-1.0_dp)*v(38)
       phys = physical_from_values(v)
       phys%by_calibration = given(21)
       phys%by_drive_frequency = given(25)
       phys%by_free_amplitude = given(26)
+      phys%by_drive_frequency_2 = given(38)
+      phys%by_free_amplitude_2 = given(39)
       phys%by_distance = given(27)
       if (phys%by_calibration) then
          call calibrate_cantilever(phys, config%n_modes, config_errata(config), ierr, errmsg, culprit)
@@ -447,6 +452,20 @@ contains
          call drive_for_free_amplitude(phys, config%n_modes, config_errata(config), ierr, errmsg)
          if (ierr /= ok) then
             call key_error(p, g%entries(entry_at('free_amplitude')), trim(errmsg), ierr, errmsg)
+            return
+         end if
+      end if
+      if (phys%by_free_amplitude_2) then
+         ! The second tone's free amplitude is its own linear response (superposition): it needs
+         ! the tone's frequency, whatever the first tone does.
+         if (.not. (phys%drive_angular_frequency_2 > 0)) then
+            call key_error(p, g%entries(entry_at('free_amplitude_2')), 'needs the second tone''s '// &
+                           'frequency: drive_frequency_2 or drive_angular_frequency_2 > 0', ierr, errmsg)
+            return
+         end if
+         call drive_for_free_amplitude(phys, config%n_modes, config_errata(config), ierr, errmsg, tone=2)
+         if (ierr /= ok) then
+            call key_error(p, g%entries(entry_at('free_amplitude_2')), trim(errmsg), ierr, errmsg)
             return
          end if
       end if
@@ -1302,6 +1321,8 @@ contains
          call physical_derived(config%physical, config%n_modes, config_errata(config), values, ierr, errmsg)
          do k = 1, n_derived
             if (ierr /= ok .and. any(k == [10, 11, 13, 14, 15])) cycle
+            ! The second tone's: only when there is one (the one-tone header as before).
+            if (k >= 21 .and. all(values(21:22) == 0)) cycle
             call line('! derived: '//trim(derived_names(k))//' = '//trim(shortest_text_padded(values(k)))// &
                       ' '//trim(derived_units(k))//' ('//trim(derived_meanings(k))//')')
          end do
@@ -1354,7 +1375,7 @@ contains
       quiet = .false.
       select case (trim(keys(row)%name))
       case ('alpha2_2', 'omega_2', 'drive_phase', 'drive_phase_2', 'drive_amplitude_2', &
-            'drive_angular_frequency_2')
+            'drive_angular_frequency_2', 'drive_frequency_2', 'free_amplitude_2')
          if (keys(row)%group == 'physical') then
             associate (f => config%physical)
                quiet = all([f%drive_amplitude_2, f%drive_angular_frequency_2, f%drive_phase, &

@@ -39,18 +39,18 @@ module tmafm_calibration
    real(dp), parameter :: pi = acos(-1.0_dp)
 
    !> Number of derived values of a physical scene (physical_derived).
-   integer, parameter :: n_derived = 20
+   integer, parameter :: n_derived = 22
    !> Their names, in the order of physical_derived's values.
    character(len=*), parameter :: derived_names(n_derived) = [character(len=29) :: 'rigidity', &
       'mass_per_length', 'tip_mass', 'beam_damping', 'gap', 'static_offset', 'drive_amplitude', &
       'drive_angular_frequency', 'drive_frequency', 'free_amplitude', 'spring_constant', &
       'continuum_spring_constant', 'resonance_frequency', 'undamped_resonance_frequency', &
       'quality_factor', 'length_scale', 'time_scale', 'force_scale', 'energy_scale', &
-      'continuum_resonance_frequency']
+      'continuum_resonance_frequency', 'drive_amplitude_2', 'drive_angular_frequency_2']
    !> Their units.
    character(len=*), parameter :: derived_units(n_derived) = [character(len=8) :: 'N m^2', 'kg/m', &
       'kg', 'N s/m^2', 'm', 'm', 'm', 'rad/s', 'Hz', 'm', 'N/m', 'N/m', 'Hz', 'Hz', '1', 'm', 's', &
-      'N', 'J', 'Hz']
+      'N', 'J', 'Hz', 'm', 'rad/s']
    !> What each one is.
    character(len=*), parameter :: derived_meanings(n_derived) = [character(len=100) :: &
       'E1 I of the beam', 'beam mass per length m', 'tip mass M', 'beam damping C per length', &
@@ -61,7 +61,8 @@ module tmafm_calibration
       "the model's first resonance |lambda1|/(2 pi t0)", "the model's first undamped natural frequency", &
       "the model's Q = |lambda1|/(2 |Re lambda1|)", 'length scale d', 'time scale t0 = sqrt(m L^4/(E1 I))', &
       'force scale E1 I/L^2', 'energy scale E1 I d^2/L^3', &
-      'continuum beam, tip mass at the free end: first undamped frequency (0 if the mass sits elsewhere)']
+      'continuum beam, tip mass at the free end: first undamped frequency (0 if the mass sits elsewhere)', &
+      'second drive tone: base amplitude f_2 = alpha2_2 d', 'second drive tone: angular frequency omega_2']
 
 contains
 
@@ -237,20 +238,25 @@ contains
    end subroutine damping_for_quality
 
    !> V_T's first-harmonic complex amplitude per unit alpha2 in steady free flight (module
-   !> comment): the free amplitude is alpha2 |h| gap units.
-   function free_response(model, ierr, errmsg) result(h)
+   !> comment): the free amplitude is alpha2 |h| gap units.  At the scene's omega, or at
+   !> `frequency` (a second tone's: V_T's lock-in at it is that tone's own linear response).
+   function free_response(model, ierr, errmsg, frequency) result(h)
       type(model_t), intent(in) :: model
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      real(dp), intent(in), optional :: frequency
       complex(dp) :: h
       complex(dp) :: z(model%n_modes, model%n_modes), x(model%n_modes)
       complex(dp), parameter :: i = (0.0_dp, 1.0_dp)
       integer :: n, j, info, pivots(model%n_modes)
+      type(scene_t) :: s
 
       ierr = ok
       errmsg = ''
       n = model%n_modes
-      associate (s => model%scene)
+      s = model%scene
+      if (present(frequency)) s%omega = frequency
+      block
          z = -s%omega**2*model%mass
          if (model%has_medium) then
             ! A liquid: M carries the added mass, C each mode's damping, and the base drives the
@@ -265,7 +271,7 @@ contains
             end do
             x = -i*s%omega**2*(s%alpha1*model%mass_point + model%integral) - s%alpha3*s%omega*model%integral
          end if
-      end associate
+      end block
       call zgesv(n, 1, z, n, pivots, x, n, info)
       if (info /= 0) then
          ierr = err_input
@@ -532,18 +538,34 @@ contains
    end subroutine liquid_time_scale
 
    !> The base drive amplitude phys%drive_amplitude that gives the tip the steady free
-   !> amplitude phys%free_amplitude (module comment), for N modes and a set of corrections.
-   subroutine drive_for_free_amplitude(phys, n_modes, errata, ierr, errmsg)
+   !> amplitude phys%free_amplitude (module comment), for N modes and a set of corrections; with
+   !> tone = 2, drive_amplitude_2 from free_amplitude_2 at the second tone's frequency.
+   subroutine drive_for_free_amplitude(phys, n_modes, errata, ierr, errmsg, tone)
       type(physical_t), intent(inout) :: phys
       integer, intent(in) :: n_modes
       type(errata_t), intent(in) :: errata
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
+      integer, intent(in), optional :: tone
       type(model_t) :: model
+      type(physical_t) :: one_tone
+      type(scales_t) :: scales
       complex(dp) :: h
 
-      call free_model(phys, n_modes, errata, model, ierr, errmsg)
+      ! The free model of tone 1 alone (the tones' responses superpose).
+      one_tone = phys
+      one_tone%drive_amplitude_2 = 0
+      call free_model(one_tone, n_modes, errata, model, ierr, errmsg)
       if (ierr /= ok) return
+      if (present(tone)) then
+         if (tone == 2) then
+            scales = scales_from_physical(phys)
+            h = free_response(model, ierr, errmsg, frequency=phys%drive_angular_frequency_2*scales%time)
+            if (ierr /= ok) return
+            phys%drive_amplitude_2 = phys%free_amplitude_2/abs(h)
+            return
+         end if
+      end if
       h = free_response(model, ierr, errmsg)
       if (ierr /= ok) return
       phys%drive_amplitude = phys%free_amplitude/abs(h)
@@ -574,6 +596,7 @@ contains
                      phys%drive_angular_frequency/(2*pi)]
       values(12) = 3*rigidity/phys%tip_position**3
       values(16:19) = [scales%length, scales%time, scales%force, scales%energy]
+      values(21:22) = [phys%drive_amplitude_2, phys%drive_angular_frequency_2]
       ! The continuum's first frequency, where the tip mass sits at the free end.
       if (phys%tip_position == phys%length .or. .not. errata%e6_tip_mass_at_xi0) then
          values(20) = continuum_first_root(phys%tip_mass/(beam_mass_per_length(phys)*phys%length))**2 &

@@ -160,6 +160,15 @@ module tmafm_scene
       real(dp) :: drive_angular_frequency_2 = 0.0_dp
       real(dp) :: drive_phase = 0.0_dp
       real(dp) :: drive_phase_2 = 0.0_dp
+      !> The second tone's frequency omega_2/(2 pi) (Hz), with by_drive_frequency_2.
+      real(dp) :: drive_frequency_2 = 0
+      !> The tip's steady free amplitude at the second tone (m; V_T's lock-in there), with
+      !> by_free_amplitude_2.
+      real(dp) :: free_amplitude_2 = 0
+      !> .true. when the second tone is given by drive_frequency_2.
+      logical :: by_drive_frequency_2 = .false.
+      !> .true. when the second tone is given by free_amplitude_2.
+      logical :: by_free_amplitude_2 = .false.
    end type physical_t
 
    !> The &scene keys, in the order of scene_values (their ranges: config/tmafm_keys.f90).
@@ -169,7 +178,7 @@ module tmafm_scene
       'medium_mass', 'medium_reynolds', 'vdw_adhesion', 'vdw_range', 'sls_relaxation_time', &
       'sls_modulus_ratio', 'alpha2_2', 'omega_2', 'drive_phase', 'drive_phase_2']
    !> The &physical keys, in the order of physical_values.
-   character(len=*), parameter :: physical_names(37) = [character(len=25) :: 'length', 'width', &
+   character(len=*), parameter :: physical_names(39) = [character(len=25) :: 'length', 'width', &
       'thickness', 'density', 'youngs_modulus_tip', 'poisson_ratio_tip', 'youngs_modulus_sample', &
       'poisson_ratio_sample', 'tip_radius', 'adhesion_energy', 'tilt', 'gap', 'tip_length', &
       'static_offset', 'tip_position', 'tip_mass', 'beam_damping', 'contact_damping', &
@@ -178,7 +187,7 @@ module tmafm_scene
       'drive_frequency', 'free_amplitude', 'tip_sample_distance', &
       'medium_density', 'medium_viscosity', 'hamaker', 'intermolecular_distance', &
       'sample_relaxation_time', 'sample_modulus_relaxed', 'drive_amplitude_2', &
-      'drive_angular_frequency_2', 'drive_phase', 'drive_phase_2']
+      'drive_angular_frequency_2', 'drive_phase', 'drive_phase_2', 'drive_frequency_2', 'free_amplitude_2']
 
 contains
 
@@ -207,7 +216,8 @@ contains
                 phys%tip_mass_ratio, phys%drive_frequency, phys%free_amplitude, phys%tip_sample_distance, &
                 phys%medium_density, phys%medium_viscosity, phys%hamaker, phys%intermolecular_distance, &
                 phys%sample_relaxation_time, phys%sample_modulus_relaxed, phys%drive_amplitude_2, &
-                phys%drive_angular_frequency_2, phys%drive_phase, phys%drive_phase_2]
+                phys%drive_angular_frequency_2, phys%drive_phase, phys%drive_phase_2, phys%drive_frequency_2, &
+                phys%free_amplitude_2]
    end function physical_values
 
    !> The scene whose groups are `values`, in the order of scene_names (scene_values' inverse).
@@ -281,6 +291,8 @@ contains
       phys%drive_angular_frequency_2 = v(35)
       phys%drive_phase = v(36)
       phys%drive_phase_2 = v(37)
+      phys%drive_frequency_2 = v(38)
+      phys%free_amplitude_2 = v(39)
    end function physical_from_values
 
    !> Which &physical keys (indices into physical_names) scene group k depends on by Eq. (12).
@@ -290,7 +302,7 @@ contains
       ! 1 length, 2 width, 3 thickness, 4 density, 5 E1, 6 nu1, 7 E2, 8 nu2, 9 R, 10 gamma,
       ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega,
       ! 21 k, 22 f0, 23 Q, 24 M/(m L), 25 omega/(2 pi), 26 A0, 27 Z, 28 rho_f, 29 eta, 30 H, 31 a0,
-      ! 32 T2, 33 E2_inf, 34 f_2, 35 omega_2, 36 phi_1, 37 phi_2.
+      ! 32 T2, 33 E2_inf, 34 f_2, 35 omega_2, 36 phi_1, 37 phi_2, 38 omega_2/(2 pi), 39 A0_2.
       select case (k)
       case (1)
          keys = [16, 4, 2, 3, 1, 24]
@@ -331,9 +343,9 @@ contains
       case (19)
          keys = [33, 7, 5, 6, 8]
       case (20)
-         keys = [34, 12, 27]
+         keys = [34, 12, 27, 39]
       case (21)
-         keys = [35, 4, 2, 3, 1, 5, 21, 22]
+         keys = [35, 4, 2, 3, 1, 5, 21, 22, 38]
       case (22)
          keys = [36]
       case default

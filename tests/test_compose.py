@@ -144,3 +144,18 @@ def test_most_attractive_force_is_the_attraction_at_the_closest_separation():
         curvature = abs(before - 2 * force[i] + after) / 8
         assert abs(located - force[i]) <= curvature + 1e-8 * abs(force[i]), (located, force[i], curvature)
     assert located_max < 0
+
+
+def test_tip_sample_power_holds_the_sample_loss():
+    """An approach curve on a viscoelastic polymer: tip_sample_power is every tip-sample loss
+    channel (contact damping, friction and the sample's own loss) per drive period, in the
+    proportion the per-period energies give, the sample's share included."""
+    base = tmafm.Config("tapping_polystyrene",
+                        physical={"sample_relaxation_time": 1e-6, "sample_modulus_relaxed": 0.4e9})
+    ds = tmafm.approach(base, z=[10e-9], retract=False, max_periods=3000, steady_tol=1e-7, workers=1)
+    at = ds.sel(direction="approach").isel(z=0)
+    assert int(at.steady) == 1
+    channels = float(at.dissipated_contact_damping + at.dissipated_friction + at.dissipated_viscoelastic)
+    assert float(at.tip_sample_power / at.dissipated_power) == pytest.approx(
+        channels / float(at.dissipated_energy), rel=1e-12)
+    assert float(at.dissipated_viscoelastic) > 1e-3 * channels

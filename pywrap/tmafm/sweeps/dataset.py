@@ -30,7 +30,7 @@ POWER = ("pW", "steady power dissipated (dissipated_energy over the drive period
 #: The power dissipated in the tip-sample contact alone, as AM-AFM reads it from the phase
 #: (contact damping and friction; not the cantilever's own damping), in pW.
 TIP_SAMPLE = ("pW", "steady power dissipated in the tip-sample contact ((dissipated_contact_"
-                    "damping + dissipated_friction) over the drive period)")
+                    "damping + dissipated_friction + dissipated_viscoelastic) over the drive period)")
 
 
 def _steady_variables(summaries: list[dict], shape: tuple, dims: tuple, units: dict,

@@ -11,7 +11,7 @@ import pytest
 
 import tmafm
 from tmafm import _fortran
-from tmafm.observe import observe_batch
+from tmafm.observe import OBSERVABLES, observe_batch
 
 
 def test_the_package_has_one_extension_module_and_no_core():
@@ -77,16 +77,17 @@ def test_batch_run_refuses_arrays_of_the_wrong_shape():
     batch = _fortran.batch_t()
     _fortran.api.batch_add(batch, config._f)
     n, m, h, s = 1, 3, 2, 2
-    arrays = [np.zeros(shape, order="F") for shape in ((n, m, 20), (n, m, h), (n, m, h), (n, m + 1, s),
+    k = len(OBSERVABLES)  # the core's per-period columns (19 before min_force)
+    arrays = [np.zeros(shape, order="F") for shape in ((n, m, k), (n, m, h), (n, m, h), (n, m + 1, s),
                                                        (n, m), (n, m, s // 2, 4))]
     ints = [np.zeros(n, dtype=np.int32) for _ in range(2)]
-    rest = [np.zeros((n, 20), order="F"), np.zeros(n, dtype=np.int32), np.zeros((n, h), order="F"),
+    rest = [np.zeros((n, k), order="F"), np.zeros(n, dtype=np.int32), np.zeros((n, h), order="F"),
             np.zeros((n, h), order="F"), np.zeros((n, 5), order="F"), np.zeros(n, dtype=np.int32)]
     args = [batch, m, h, 2, 1e-6, 3, False, 15, 1, False]
     ierr, errmsg = _fortran.api.batch_run(*args, *arrays, *ints, *rest)
     assert ierr == 0 and ints[0][0] == m
     # Too few periods' room for the values: refused by name, nothing written or run.
-    small = [np.zeros((n, m - 1, 20), order="F")] + arrays[1:]
+    small = [np.zeros((n, m - 1, k), order="F")] + arrays[1:]
     ints = [np.zeros(n, dtype=np.int32) for _ in range(2)]
     ierr, errmsg = _fortran.api.batch_run(*args, *small, *ints, *rest)
     assert ierr != 0 and "values" in _fortran.text(errmsg) and ints[0][0] == 0

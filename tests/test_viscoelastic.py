@@ -62,9 +62,7 @@ def test_switched_off_is_todays_run_bit_for_bit():
     # The resolved text of a scene without the sample is today's: the switches are left out.
     text = tmafm.Config(SCENE).text
     assert "sls_" not in text and "relax" not in text
-    # (with a method that carries the sample's state: rk4_paper with a sample is refused)
-    assert "sls_relaxation_time = 2.5E-001" in tmafm.Config(SCENE, scene={"sls_relaxation_time": 0.25},
-                                                            solver={"method": "dopri5"}).text
+    assert "sls_relaxation_time = 2.5E-001" in tmafm.Config(SCENE, scene={"sls_relaxation_time": 0.25}).text
 
 
 def test_long_relaxation_time_is_the_instantaneous_elastic_law(elastic):
@@ -194,7 +192,7 @@ def test_physical_inputs_give_the_contact_sls_of_eq12():
     in series with the sample's SLS is an SLS with the sample's retardation time T2 E2/E2_inf."""
     phys = tmafm.Config("physical_polystyrene").to_dict()["physical"]
     e_relaxed, t2 = 0.4e9, 2e-6
-    config = tmafm.Config("physical_polystyrene", solver={"method": "dopri5"},
+    config = tmafm.Config("physical_polystyrene",
                           physical={"sample_modulus_relaxed": e_relaxed, "sample_relaxation_time": t2})
     tip = (1 - phys["poisson_ratio_tip"] ** 2) / phys["youngs_modulus_tip"]
     sample = 1 - phys["poisson_ratio_sample"] ** 2

@@ -719,7 +719,10 @@ contains
    end subroutine check_vdw
 
    !> A viscoelastic sample needs a method that carries the dashpot's state (dopri5, dop853,
-   !> flight_exact): refused here, before any run (the automatic-N search included).
+   !> flight_exact).  With n_modes = 0 the configuration runs the automatic-N search as it is
+   !> made (~7 s), and the run it serves would then be refused: refused here, before the search.
+   !> With a fixed N nothing runs until the run, whose driver refuses the pair before its first
+   !> step (tmafm_driver); such a configuration still gives its model (tmafm.Model, peers).
    subroutine check_sls_method(label, config, ierr, errmsg)
       character(len=*), intent(in) :: label
       type(config_t), intent(in) :: config
@@ -728,6 +731,7 @@ contains
       character(len=:), allocatable :: given
       ierr = ok
       errmsg = ''
+      if (.not. config%auto_modes) return
       if (.not. (config%scene%sls_relaxation_time > 0 .and. sls_method_refused(config%solver%method))) return
       if (config%from_physical) then
          given = '&physical sample_relaxation_time = '//real_text(config%physical%sample_relaxation_time)

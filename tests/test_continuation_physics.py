@@ -299,6 +299,7 @@ def test_vdw_docs_quote_the_continuation_study():
         assert row in text, row
         assert data["veda_z0_nm"][key] == pytest.approx(p["z_nm"] + data["a0_nm"], abs=1e-12)
     assert abs(points["grazing"]["min_gap_nm"]) < 1e-9
+    assert f"below Z = {num(points['grazing']['z_nm'], 2)} nm, only barely" in text
     low, high = num(points["approach_fold"]["z_nm"], 4), num(points["retract_fold"]["z_nm"], 4)
     assert f"**{low} nm < Z < {high} nm**" in text
     assert f"Z = {low} nm and {high} nm" in text

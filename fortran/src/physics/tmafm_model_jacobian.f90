@@ -21,10 +21,11 @@
 !>    (zero where tmafm_vdw clamps rho at 1/2 or sin(theta1) at 0);
 !>  - a viscoelastic sample (tmafm_viscoelastic, docs/model.md §14) in contact: f = max(X - (1 - r)
 !>    w, 0) minus the law's adhesion (0, 4/3 or c_H: it does not relax, docs/model.md §16; under
-!>    'dmt_vdw' the flight's attraction sees the undeformed surface), and the state has a third block, the dashpot coordinate w with
-!>    w' = (max(X, (1 - r) w) - w)/T: the row of w is (X_a/T, 0, -1/T) while X > (1 - r) w and
-!>    (0, 0, -r/T) otherwise (in flight X = 0), and the column of w in a'' is df/dw = -(1 - r)
-!>    while X > (1 - r) w (the force's kink there is continuous: no saltation).
+!>    'dmt_vdw' the flight's attraction sees the undeformed surface), and the state has a third
+!>    block, the dashpot coordinate w with w' = (max(X, (1 - r) w) - w)/T: the row of w is
+!>    (X_a/T, 0, -1/T) while X > (1 - r) w and (0, 0, -r/T) otherwise (in flight X = 0), and the
+!>    column of w in a'' is df/dw = -(1 - r) while X > (1 - r) w (the force's kink there is
+!>    continuous: no saltation).
 !> theta1 = pi/2 - theta - atan(|t|) or, under E7, + atan(t).
 module tmafm_model_jacobian
    use tmafm_kinds, only: dp

@@ -20,10 +20,12 @@
 !>    df/dV_T = 2 c_H sin(theta1)/(eps rho^3), df/dtheta1 = 2 c_H V_T cos(theta1)/(eps rho^3)
 !>    (zero where tmafm_vdw clamps rho at 1/2 or sin(theta1) at 0);
 !>  - a viscoelastic sample (tmafm_viscoelastic, docs/model.md §14) in contact: f = max(X - (1 - r)
-!>    w, 0) [- 4/3], and the state has a third block, the dashpot coordinate w with
-!>    w' = (max(X, (1 - r) w) - w)/T: the row of w is (X_a/T, 0, -1/T) while X > (1 - r) w and
-!>    (0, 0, -r/T) otherwise (in flight X = 0), and the column of w in a'' is df/dw = -(1 - r)
-!>    while X > (1 - r) w (the force's kink there is continuous: no saltation).
+!>    w, 0) minus the law's adhesion (0, 4/3 or c_H: it does not relax, docs/model.md §16; under
+!>    'dmt_vdw' the flight's attraction sees the undeformed surface), and the state has a third
+!>    block, the dashpot coordinate w with w' = (max(X, (1 - r) w) - w)/T: the row of w is
+!>    (X_a/T, 0, -1/T) while X > (1 - r) w and (0, 0, -r/T) otherwise (in flight X = 0), and the
+!>    column of w in a'' is df/dw = -(1 - r) while X > (1 - r) w (the force's kink there is
+!>    continuous: no saltation).
 !> theta1 = pi/2 - theta - atan(|t|) or, under E7, + atan(t).
 module tmafm_model_jacobian
    use tmafm_kinds, only: dp
@@ -77,7 +79,13 @@ contains
       do j = 1, n
          slope = slope + model%scaled_slope(j)*y(j)
       end do
-      if (model%sls%on) then
+      dp1_dw = 0
+      dp2_dw = 0
+      if (.not. in_contact) then
+         ! 'dmt_vdw' in flight (with a viscoelastic sample too: the attraction sees the
+         ! undeformed surface, docs/model.md §16, and w relaxes on its own, as set above).
+         call vdw_flight_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
+      else if (model%sls%on) then
          call sls_partials(model, vt, slope, y(iw), p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt, dp1_dw, &
                            dp2_dw, hertz, dx_dvt, dx_dt)
          ! w' = (max(X, (1 - r) w) - w)/T.
@@ -92,10 +100,8 @@ contains
             jac(iw, j) = w_rate_x*(dx_dvt*model%tip(j) + dx_dt*model%scaled_slope(j))
          end do
          jac(iw, iw) = w_rate_w
-      else if (in_contact) then
-         call contact_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
       else
-         call vdw_flight_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
+         call contact_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
       end if
       associate (s => model%scene)
          do i = 1, n
@@ -129,11 +135,7 @@ contains
       call contact_angle_sin_cos(model%sin_theta, model%cos_theta, slope, &
                                  model%errata%e7_signed_slope, sin1, cos1)
       call hertz_groups(model, vt, sin1, cos1, normal, friction, dn_dvt, dh_dvt, dn_dth, dh_dth)
-      if (model%long_range) then
-         normal = normal - model%scene%vdw_adhesion
-      else if (model%law == law_dmt) then
-         normal = normal - dmt_adhesion
-      end if
+      normal = normal - law_adhesion(model)
       dth_dt = angle_rate(model, slope)
       call brackets(model, sin1, cos1, normal, friction, dn_dvt, dh_dvt, dn_dth, dh_dth, dth_dt, &
                     p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
@@ -193,7 +195,8 @@ contains
          dn_dth = 0
          dn_dw = 0
       end if
-      if (model%law == law_dmt) normal = normal - dmt_adhesion
+      ! The adhesion acts outside the contact zone and does not relax (docs/model.md §16).
+      normal = normal - law_adhesion(model)
       call brackets(model, sin1, cos1, normal, friction, dn_dvt, dh_dvt, dn_dth, dh_dth, dth_dt, &
                     p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
       dp1_dw = model%kappa5*dn_dw*sin1
@@ -224,6 +227,18 @@ contains
          dh_dth = 0
       end if
    end subroutine hertz_groups
+
+   !> The law's adhesion in contact, subtracted from the normal-force group: 0 (Hertz), 4/3 (DMT)
+   !> or c_H ('dmt_vdw': the attraction's value at contact).
+   pure real(dp) function law_adhesion(model) result(adhesion)
+      type(model_t), intent(in) :: model
+      adhesion = 0
+      if (model%long_range) then
+         adhesion = model%scene%vdw_adhesion
+      else if (model%law == law_dmt) then
+         adhesion = dmt_adhesion
+      end if
+   end function law_adhesion
 
    !> dtheta1/dt: 1/(1 + t^2) under E7 (theta1 = pi/2 - theta + atan t), -sign(t)/(1 + t^2) as
    !> printed (theta1 = pi/2 - theta - atan |t|).

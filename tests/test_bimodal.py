@@ -297,3 +297,23 @@ def test_second_tone_keys_refused_in_one_line(extra, words):
     with pytest.raises(tmafm.InputError, match=words.replace("(", r"\(")) as info:
         tmafm.Config("tapping_polystyrene", physical=extra)
     assert "\n" not in str(info.value)
+
+
+def test_a_two_tone_approach_reports_each_tones_setpoint():
+    """An approach curve on a bimodal base given by both free amplitudes: far from the sample
+    setpoint (tone 1) and setpoint_2 (tone 2) are 1 to the steady test's tolerance; tapping, both
+    move off 1, and amplitude is tone 1's lock-in."""
+    physical = {"spring_constant": 2.8, "resonance_frequency": 75e3, "quality_factor": 30.0,
+                "tip_mass_ratio": 0.01, "length": 225e-6, "tip_position": 225e-6,
+                "drive_frequency": 75e3, "free_amplitude": 10e-9,
+                "drive_frequency_2": 525e3, "free_amplitude_2": 0.5e-9, "tip_sample_distance": 1e-6}
+    base = tmafm.Config({"model": {"n_modes": 3, "contact_law": "dmt"}, "physical": physical,
+                         "solver": {"method": "flight_exact", "rtol": 1e-10, "atol": 1e-14}})
+    ds = tmafm.approach(base, z=[1e-6, 6e-9], retract=False, max_periods=2000, steady_tol=1e-9,
+                        workers=1)
+    a = ds.sel(direction="approach")
+    assert (a.steady.values == 1).all()
+    assert float(a.setpoint[0]) == pytest.approx(1.0, abs=1e-6)
+    assert float(a.setpoint_2[0]) == pytest.approx(1.0, abs=1e-6)
+    assert float(a.setpoint[1]) < 0.9 and abs(float(a.setpoint_2[1]) - 1) > 1e-3
+    assert np.array_equal(a.amplitude.values, a.tone1_amplitude.values)

@@ -209,31 +209,35 @@ _LONG_NAMES = {"physical.tip_sample_distance": "tip-sample distance Z",
 
 def _free_amplitude(ds, base_groups: dict, label: str = "approach") -> None:
     """A physical scene given by its free amplitude A0 (&physical free_amplitude): ``setpoint``
-    = amplitude/A0 (the setpoint A/A0 of AM-AFM) and, for one A0, the attribute
-    free_amplitude (in the amplitude's unit, nm).  A0 may be a curve key.  Where A0 = 0 there
-    is no setpoint: NaN there, and one tmafm.TmafmWarning saying so (not inf)."""
-    unit = ds["amplitude"].attrs.get("units") if "amplitude" in ds else None
-    if unit != "nm":
-        return
-    if "physical.free_amplitude" in ds.coords:
-        a0_nm = ds["physical.free_amplitude"] * 1e9
-        text = "A0: the curve's free amplitude"
-        zero = a0_nm.values == 0
-    else:
-        a0 = base_groups.get("physical", {}).get("free_amplitude")
-        if a0 is None:
-            return
-        a0_nm = float(a0) * 1e9
-        ds.attrs["free_amplitude"] = a0_nm
-        text = f"A0: the free amplitude {a0_nm:.6g} nm"
-        zero = np.array([a0_nm == 0])
-    if zero.any():
-        warnings.warn(f"{label}: &physical free_amplitude = 0 in {int(zero.sum())} of {zero.size} "
-                      f"curves: the setpoint A/A0 is NaN there (no free amplitude to divide by)",
-                      TmafmWarning, stacklevel=4)
-        a0_nm = a0_nm.where(a0_nm != 0) if not isinstance(a0_nm, float) else np.nan
-    ds["setpoint"] = ds["amplitude"] / a0_nm
-    ds["setpoint"].attrs = {"units": "1", "long_name": f"setpoint A/A0 ({text})"}
+    = amplitude/A0 (the setpoint A/A0 of AM-AFM; with two tones tone 1's) and, for one A0, the
+    attribute free_amplitude (in the amplitude's unit, nm).  A second tone given by its free
+    amplitude (free_amplitude_2) adds ``setpoint_2`` = tone2_amplitude/A0,2 the same way.  A0
+    may be a curve key.  Where A0 = 0 there is no setpoint: NaN there, and one
+    tmafm.TmafmWarning saying so (not inf)."""
+    for key, amplitude, setpoint, ratio in (("free_amplitude", "amplitude", "setpoint", "A/A0"),
+                                            ("free_amplitude_2", "tone2_amplitude", "setpoint_2", "A2/A0,2")):
+        unit = ds[amplitude].attrs.get("units") if amplitude in ds else None
+        if unit != "nm":
+            continue
+        if f"physical.{key}" in ds.coords:
+            a0_nm = ds[f"physical.{key}"] * 1e9
+            text = "A0: the curve's free amplitude"
+            zero = a0_nm.values == 0
+        else:
+            a0 = base_groups.get("physical", {}).get(key)
+            if a0 is None:
+                continue
+            a0_nm = float(a0) * 1e9
+            ds.attrs[key] = a0_nm
+            text = f"A0: the free amplitude {a0_nm:.6g} nm"
+            zero = np.array([a0_nm == 0])
+        if zero.any():
+            warnings.warn(f"{label}: &physical {key} = 0 in {int(zero.sum())} of {zero.size} "
+                          f"curves: the setpoint A/A0 is NaN there (no free amplitude to divide by)",
+                          TmafmWarning, stacklevel=4)
+            a0_nm = a0_nm.where(a0_nm != 0) if not isinstance(a0_nm, float) else np.nan
+        ds[setpoint] = ds[amplitude] / a0_nm
+        ds[setpoint].attrs = {"units": "1", "long_name": f"setpoint {ratio} ({text})"}
 
 
 def _jump_flags(data: dict, shape: tuple, reverse: bool, jump_threshold: float) -> np.ndarray:

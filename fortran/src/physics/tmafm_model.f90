@@ -7,8 +7,11 @@
 !>                  F = alpha2 Omega^2 (alpha1 m + (1 + mu) q) sin - alpha2 Omega C q cos.
 !> In contact:      C += alpha4 p p^T, K -= P2 G,
 !>                  F += F_damp + (L/d) P1 p + (g0/d) P2 r.
+!> With every part (a general drive, a liquid, a viscoelastic sample, van der Waals attraction in
+!> flight) the terms add up (docs/model.md §16) and composed_kernel evaluates them all, with the
+!> tip-sample law composed in tip_sample_forces; the elastic one-tone scenes keep the kernels below.
 !> M is constant: it is factored once (LAPACK dpotrf) and M^-1 is applied to every
-!> constant matrix and vector at set-up.  The right-hand side is one kernel with no
+!> constant matrix and vector at set-up.  The elastic one-tone right-hand side is one kernel with no
 !> allocation and no temporaries: a'' = B (a, a') + w_s sin(Omega tau) + w_c cos(Omega tau),
 !> with B = -M^-1 [Lambda | alpha3 I] folded at set-up; in contact the axial term
 !> P2 M^-1 G a and the rank-one tip and moment terms are added, from three dot products

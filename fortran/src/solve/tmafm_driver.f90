@@ -49,7 +49,7 @@ contains
       end if
       if (present(progress_unit)) progress%unit = progress_unit
       if (present(poll)) progress%poll => poll
-      call init_trajectory(traj, settings, model%n_modes)
+      call init_trajectory(traj, settings, model%n_modes, with_dashpot=model%sls%on)
       if (model%long_range .and. vdw_method_refused(settings%method)) then
          ! The input check refuses this first (tmafm_namelist check_vdw); a model built otherwise too.
          ierr = err_input

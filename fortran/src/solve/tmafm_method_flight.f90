@@ -8,6 +8,7 @@ module tmafm_method_flight
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok
    use tmafm_model, only: model_t
+   use tmafm_viscoelastic, only: sls_free_relaxation
    use tmafm_settings, only: run_settings_t
    use tmafm_trajectory, only: trajectory_t, check_blowup, progress_t
    use tmafm_flight, only: free_flight_t
@@ -92,6 +93,9 @@ contains
                call flight%samples(count, traj%tau(k:k + count - 1), sin_block, cos_block, size(traj%tau), k, &
                                    traj%a, traj%adot)
                call traj%commit_rows(model, count, sin_block, cos_block)
+               ! The sample's surface recovers in closed form while the tip is away.
+               if (allocated(traj%dashpot)) traj%dashpot(k:k + count - 1) = &
+                  sls_free_relaxation(model%sls, flight%dashpot0, traj%tau(k:k + count - 1) - tau)
                left = left - count
                ! A long flight (no contact for many periods) must still heed a Ctrl-C.
                call progress%tick(traj%tau(k + count - 1), settings%tau_end, ierr, errmsg)

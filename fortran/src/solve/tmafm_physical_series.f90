@@ -5,7 +5,7 @@
 !> F_h = (E1 I/L^2) kappa6 h at the samples in contact (V_T <= 0), 0 elsewhere (under
 !> 'dmt_vdw' F_n is the attraction in flight too), with the model's own kappa5, kappa6 (the
 !> convention's, E4) and f_c, h (docs/model.md section 6).  With a viscoelastic sample F_n is
-!> the instantaneous elastic part (the samples do not hold the sample's dashpot state).
+!> the sample's force at its state (a, a', w), the delayed part included (trajectory_t%dashpot).
 module tmafm_physical_series
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok, err_input
@@ -65,7 +65,14 @@ contains
          series(k, 3) = scales%length*dot_product(model%tip, traj%a(k, :))
          if (traj%contact(k) /= 1 .and. .not. model%long_range) cycle
          state = model%forces_in_phase(traj%tau(k), traj%a(k, :), traj%contact(k) == 1)
-         series(k, 4) = scales%force*model%kappa5*state%normal
+         if (allocated(traj%dashpot)) then
+            ! A viscoelastic sample: the force of its state (a, a', w), the delayed part included.
+            series(k, 4) = scales%force*model%normal_force(traj%tau(k), &
+                                                           [traj%a(k, :), traj%adot(k, :), traj%dashpot(k)], &
+                                                           traj%contact(k) == 1)
+         else
+            series(k, 4) = scales%force*model%kappa5*state%normal
+         end if
          series(k, 5) = scales%force*model%kappa6*state%friction
       end do
    end subroutine physical_series

@@ -39,6 +39,9 @@ module tmafm_trajectory
       real(dp), allocatable :: a(:, :)
       !> Modal velocities, samples x N.
       real(dp), allocatable :: adot(:, :)
+      !> With a viscoelastic sample: its dashpot coordinate w at the samples (tmafm_viscoelastic);
+      !> not allocated without one.
+      real(dp), allocatable :: dashpot(:)
       !> Times of the phase changes (located switches, or step starts for rk4_paper).
       real(dp), allocatable :: switch_tau(:)
       !> Number of entries of switch_tau in use.
@@ -132,10 +135,12 @@ module tmafm_trajectory
 contains
 
    !> Allocate a trajectory for a run of `settings` with n_modes modes.
-   subroutine init_trajectory(traj, settings, n_modes)
+   subroutine init_trajectory(traj, settings, n_modes, with_dashpot)
       type(trajectory_t), intent(out) :: traj
       type(run_settings_t), intent(in) :: settings
       integer, intent(in) :: n_modes
+      !> Keep the viscoelastic sample's dashpot coordinate at the samples too.
+      logical, intent(in), optional :: with_dashpot
       integer :: n, k
       n = sample_count(settings)
       allocate (traj%tau(n), traj%vt(n), traj%vtdot(n), traj%contact(n), traj%a(n, n_modes), &
@@ -151,6 +156,9 @@ contains
          traj%tau(k) = real(k - 1, dp)*settings%sample_dtau
       end do
       traj%sample_dtau = settings%sample_dtau
+      if (present(with_dashpot)) then
+         if (with_dashpot) allocate (traj%dashpot(n), source=0.0_dp)
+      end if
    end subroutine init_trajectory
 
    pure function trajectory_next_time(self) result(tau)
@@ -208,6 +216,7 @@ contains
       k = self%next_sample
       if (k == 1) call model%phase(self%sample_dtau, self%step_sin, self%step_cos)
       call put_row(model%n_modes, size(self%tau), k, y, self%a, self%adot)
+      if (allocated(self%dashpot) .and. size(y) > 2*model%n_modes) self%dashpot(k) = y(2*model%n_modes + 1)
       call model%gap_at_phase(y, sin_phase, cos_phase, vt, vtdot)
       self%vt(k) = vt
       self%vtdot(k) = vtdot

@@ -63,7 +63,7 @@ def test_composed_trajectory_equals_the_independent_peer(case):
                                                                  method_error)
 
 
-@pytest.mark.parametrize("case", ["tones+sls", "sls+vdw", "liquid+sls", "tones+liquid+sls+vdw"])
+@pytest.mark.parametrize("case", ["tones+liquid", "tones+sls", "sls+vdw", "liquid+sls", "tones+liquid+sls+vdw"])
 def test_energy_balance_closes_with_every_part(case):
     scene, law = CASES[case]
     method = "dop853" if law == "dmt_vdw" else "flight_exact"
@@ -82,8 +82,9 @@ def test_energy_balance_closes_with_every_part(case):
     # rtol 1e-11 on the orbit: the balance closes far inside 1e-6 of the drive's work.
     assert abs(balance) <= 1e-6 * drive, (case, balance, drive)
     # The sample's loss is there and is a loss.
-    assert total("dissipated_viscoelastic") > 1e-3 * drive
-    assert abs(balance + total("dissipated_viscoelastic")) > 100 * abs(balance)
+    if "sls" in case:
+        assert total("dissipated_viscoelastic") > 1e-3 * drive
+        assert abs(balance + total("dissipated_viscoelastic")) > 100 * abs(balance)
 
 
 @pytest.mark.parametrize("method", ["rk4_paper", "rk4_event"])
@@ -159,3 +160,30 @@ def test_tip_sample_power_holds_the_sample_loss():
     assert float(at.tip_sample_power / at.dissipated_power) == pytest.approx(
         channels / float(at.dissipated_energy), rel=1e-12)
     assert float(at.dissipated_viscoelastic) > 1e-3 * channels
+
+
+@pytest.mark.parametrize("case", ["tones+liquid", "liquid+sls", "tones+sls"])
+def test_flight_exact_observables_of_composed_scenes_agree_with_dop853(case):
+    """flight_exact's closed-form observables over its flights (a'.C a' with the liquid's C_jj,
+    each tone's drive and velocity parts) against dop853's Gauss-Legendre sums on its dense
+    output at a tighter tolerance: every column, per period, within 10x flight_exact's own error
+    (its change from rtol 1e-10 to 1e-11), or 1e-9 of the column's scale.  (With tones in a
+    liquid the tones' velocity parts once left the liquid's damping out of the beam
+    dissipation: 38 % off.)  Hertz, so that every period has flights and taps."""
+    scene, _ = CASES[case]
+    runs = {}
+    for label, method, rtol in (("exact", "flight_exact", 1e-11), ("looser", "flight_exact", 1e-10),
+                                ("reference", "dop853", 1e-12)):
+        runs[label] = tmafm.observe(SCENE, scene=scene, model={"contact_law": "hertz"}, max_periods=6,
+                                    stop_at_steady=False, solver={"method": method, "rtol": rtol, "atol": 1e-20})
+    got, looser, ref = (runs[k].per_period for k in ("exact", "looser", "reference"))
+    assert np.all(ref["contacts_per_period"] >= 1)
+    for name, values in ref.items():
+        a, b, c = (np.asarray(x, float) for x in (got[name], values, looser[name]))
+        assert np.array_equal(np.isnan(a), np.isnan(b)), name
+        own = 10 * np.nanmax(np.abs(c - a))
+        if "phase" in name:
+            assert np.nanmax(np.abs(a - b)) <= max(1e-7, own), name
+        else:
+            scale = np.nanmax(np.abs(b)) or 1.0
+            assert np.nanmax(np.abs(a - b)) <= max(1e-9 * scale, own), (name, np.nanmax(np.abs(a - b)) / scale)

@@ -256,6 +256,8 @@ contains
       type(free_flight_t), intent(in) :: flight
       integer :: n, nt, k, l, t, m
       complex(dp) :: rot
+      real(dp) :: weight(self%n_modes)
+      complex(dp) :: weighted(self%n_modes)
       n = self%n_modes
       nt = self%n_terms
       m = 2*n
@@ -285,21 +287,26 @@ contains
          end associate
          self%particular_size = self%particular_size + abs(self%tone_state(1:n, t))
       end do
+      ! |a'|^2 in a liquid is a'.C a' (C_jj per mode, as observables_init's gram and herm): the
+      ! tones' velocity parts carry C_jj there too; in air 1 (alpha3 outside, the same bits).
+      weight = 1
+      if (model%has_medium) weight = model%modal_damping
       do t = 1, self%n_tones
+         weighted = weight*self%tone_state(n + 1:m, t)
          do k = 1, nt
             associate (vk => flight%vectors(n + 1:m, k))
                self%tone_drive_plus(k, t) = sum(vk*self%tone_force(:, t))
                self%tone_drive_minus(k, t) = sum(vk*conjg(self%tone_force(:, t)))
-               self%tone_part_plus(k, t) = sum(vk*self%tone_state(n + 1:m, t))
-               self%tone_part_minus(k, t) = sum(vk*conjg(self%tone_state(n + 1:m, t)))
+               self%tone_part_plus(k, t) = sum(vk*weighted)
+               self%tone_part_minus(k, t) = sum(vk*conjg(weighted))
             end associate
          end do
          do l = 1, self%n_tones
             associate (ql => self%tone_state(n + 1:m, l))
                self%tone_qg(l, t) = sum(ql*self%tone_force(:, t))
                self%tone_qcg(l, t) = sum(ql*conjg(self%tone_force(:, t)))
-               self%tone_qq(l, t) = sum(ql*self%tone_state(n + 1:m, t))
-               self%tone_qcq(l, t) = sum(ql*conjg(self%tone_state(n + 1:m, t)))
+               self%tone_qq(l, t) = sum(ql*weighted)
+               self%tone_qcq(l, t) = sum(ql*conjg(weighted))
             end associate
          end do
       end do

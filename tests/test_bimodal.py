@@ -259,15 +259,19 @@ def test_steady_tone_phase_has_no_wrap():
     assert steady["tone2_amplitude"] == pytest.approx(math.cos(math.radians(1.0)), rel=1e-14)
 
 
+#: A calibrated cantilever (k = 2.8 N/m, f0 = 75 kHz, Q = 30) driven at f0 and at 7 f0, each tone
+#: given in Hz and by the tip's free amplitude there, 1 um from the sample.
+BIMODAL_PHYSICAL = {"spring_constant": 2.8, "resonance_frequency": 75e3, "quality_factor": 30.0,
+                    "tip_mass_ratio": 0.01, "length": 225e-6, "tip_position": 225e-6,
+                    "drive_frequency": 75e3, "free_amplitude": 10e-9,
+                    "drive_frequency_2": 525e3, "free_amplitude_2": 0.5e-9, "tip_sample_distance": 1e-6}
+
 def test_second_tone_in_hz_and_by_its_free_amplitude():
     """Bimodal AFM as practised: the second tone given in Hz and by the tip's free amplitude
     there (&physical drive_frequency_2, free_amplitude_2).  Far from the sample each tone's
     lock-in of a long flight_exact run is its free amplitude to 1e-6 (the tones' responses
     superpose), amplitude is tone 1's, and omega_2 = 2 pi f_2 t0."""
-    physical = {"spring_constant": 2.8, "resonance_frequency": 75e3, "quality_factor": 30.0,
-                "tip_mass_ratio": 0.01, "length": 225e-6, "tip_position": 225e-6,
-                "drive_frequency": 75e3, "free_amplitude": 10e-9,
-                "drive_frequency_2": 525e3, "free_amplitude_2": 0.5e-9, "tip_sample_distance": 1e-6}
+    physical = BIMODAL_PHYSICAL
     config = tmafm.Config({"model": {"n_modes": 3, "contact_law": "dmt"}, "physical": physical,
                            "solver": {"method": "flight_exact", "rtol": 1e-12, "atol": 1e-16}})
     t0 = config.derived["time_scale"]
@@ -303,10 +307,7 @@ def test_a_two_tone_approach_reports_each_tones_setpoint():
     """An approach curve on a bimodal base given by both free amplitudes: far from the sample
     setpoint (tone 1) and setpoint_2 (tone 2) are 1 to the steady test's tolerance; tapping, both
     move off 1, and amplitude is tone 1's lock-in."""
-    physical = {"spring_constant": 2.8, "resonance_frequency": 75e3, "quality_factor": 30.0,
-                "tip_mass_ratio": 0.01, "length": 225e-6, "tip_position": 225e-6,
-                "drive_frequency": 75e3, "free_amplitude": 10e-9,
-                "drive_frequency_2": 525e3, "free_amplitude_2": 0.5e-9, "tip_sample_distance": 1e-6}
+    physical = BIMODAL_PHYSICAL
     base = tmafm.Config({"model": {"n_modes": 3, "contact_law": "dmt"}, "physical": physical,
                          "solver": {"method": "flight_exact", "rtol": 1e-10, "atol": 1e-14}})
     ds = tmafm.approach(base, z=[1e-6, 6e-9], retract=False, max_periods=2000, steady_tol=1e-9,

@@ -35,6 +35,15 @@ def _first_mode(model):
     return values[np.argmin(np.where(values.imag >= 0, abs(values), np.inf))]
 
 
+def _settled_observation(config):
+    """observe() run until every free transient has decayed below e^-21 (the slowest eigenvalue
+    of the model's free phase, numpy), so the last period is the steady free response."""
+    values, _ = _companion_eigenvalues(config.model())
+    period = 2 * math.pi / config.scene["omega"]
+    n_periods = math.ceil(21 / min(-values.real) / period) + 2
+    return tmafm.observe(config, max_periods=n_periods, stop_at_steady=False)
+
+
 @pytest.mark.parametrize("n_modes", [3, 6])
 @pytest.mark.parametrize("convention", ["paper", "consistent"])
 def test_a_calibrated_cantilever_has_its_k_f0_and_q_in_the_model_matrices(n_modes, convention):
@@ -102,11 +111,7 @@ def test_a_scene_given_by_its_free_amplitude_reaches_it_far_from_the_sample():
                 "drive_frequency": 290e3, "free_amplitude": 20e-9}
     config = tmafm.Config({"model": {"n_modes": 3}, "physical": physical,
                            "solver": {"method": "flight_exact", "rtol": 1e-12, "atol": 1e-16}})
-    # The slowest decay of the free beam (every mode's transient dies at least as fast).
-    values, _ = _companion_eigenvalues(config.model())
-    period = 2 * math.pi / config.scene["omega"]
-    n_periods = math.ceil(21 / min(-values.real) / period) + 2
-    obs = tmafm.observe(config, max_periods=n_periods, stop_at_steady=False)
+    obs = _settled_observation(config)
     assert obs.per_period["min_gap"][-1] > 0  # never in contact
     d = config.derived["gap"]
     assert obs.per_period["amplitude"][-1] * d == pytest.approx(20e-9, rel=1e-6)
@@ -394,10 +399,7 @@ def test_a_free_amplitude_in_water_is_reached_far_from_the_sample():
     physical = {**IN_WATER, "drive_frequency": 115e3, "free_amplitude": 5e-9, "tip_sample_distance": 1e-6}
     config = tmafm.Config({"model": {"n_modes": 3}, "physical": physical,
                            "solver": {"method": "flight_exact", "rtol": 1e-12, "atol": 1e-16}})
-    values, _ = _companion_eigenvalues(config.model())
-    period = 2 * math.pi / config.scene["omega"]
-    n_periods = math.ceil(21 / min(-values.real) / period) + 2
-    obs = tmafm.observe(config, max_periods=n_periods, stop_at_steady=False)
+    obs = _settled_observation(config)
     assert obs.per_period["min_gap"][-1] > 0
     d = config.derived["gap"]
     assert obs.per_period["amplitude"][-1] * d == pytest.approx(5e-9, rel=1e-6)
@@ -410,10 +412,7 @@ def test_the_derived_free_amplitude_in_a_liquid_is_the_one_that_runs():
     config = tmafm.Config({"model": {"n_modes": 2}, "physical": physical,
                            "solver": {"method": "flight_exact", "rtol": 1e-12, "atol": 1e-16}},
                           )
-    values, _ = _companion_eigenvalues(config.model())
-    period = 2 * math.pi / config.scene["omega"]
-    n_periods = math.ceil(21 / min(-values.real) / period) + 2
-    obs = tmafm.observe(config, max_periods=n_periods, stop_at_steady=False)
+    obs = _settled_observation(config)
     run = obs.per_period["amplitude"][-1] * config.derived["gap"]
     assert config.derived["free_amplitude"] == pytest.approx(run, rel=1e-6)
 

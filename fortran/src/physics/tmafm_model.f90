@@ -182,7 +182,8 @@ module tmafm_model
       !> The normal force kappa5 f of the tip-sample law at a state y (a, a'[, w]) and time tau: in
       !> contact, and under 'dmt_vdw' in flight too (the phase by the sign of V_T, or as given).
       procedure :: normal_force => model_normal_force
-      !> The explicit M, C, K, F of Eq. (15) at one state, for checks and analysis.
+      !> The explicit M, C, K, F of Eq. (15) at one state (a only: a viscoelastic sample's force
+      !> is its elastic part, the dashpot w is not taken), for checks and analysis.
       procedure :: matrices => model_matrices
       !> The power of each generalized force on the modes, and the modal energy, at one state.
       procedure :: energy_flow => model_energy_flow

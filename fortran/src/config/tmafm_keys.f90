@@ -146,7 +146,21 @@ module tmafm_keys
       key_t('scene', 'drive_phase', key_real, -2*half_pi, 2*half_pi, unit='rad', &
             meaning='phase phi_1 of the drive tone alpha2 sin(Omega tau + phi_1)'), &
       key_t('scene', 'drive_phase_2', key_real, -2*half_pi, 2*half_pi, unit='rad', &
-            meaning='phase phi_2 of the second tone alpha2_2 sin(Omega_2 tau + phi_2)')]
+            meaning='phase phi_2 of the second tone alpha2_2 sin(Omega_2 tau + phi_2)'), &
+      key_t('scene', 'electrostatic_strength', key_real, 0, 1.0e6_dp, unit='1', omit_default=.true., &
+            meaning='electrostatic force of a biased tip: eps_r eps0 V^2/(1.5 gamma R); 0 = off '// &
+            '(docs/model.md section 17)'), &
+      key_t('scene', 'electrostatic_radius', key_real, 0, 1.0e3_dp, .false., unit='1', omit_default=.true., &
+            meaning="electrostatic force: the tip apex's radius over gap, R/d"), &
+      key_t('scene', 'cone_half_angle', key_real, 0, half_pi, .false., upper_open=.true., unit='rad', &
+            omit_default=.true., meaning="electrostatic force: half-angle theta0 of the tip's cone "// &
+            '(its height is g0)'), &
+      key_t('scene', 'double_layer_strength', key_real, -1.0e6_dp, 1.0e6_dp, unit='1', omit_default=.true., &
+            rule='with double_layer_range > 0', &
+            meaning='electrical double layer: 8 eps_r eps0 psi_t psi_s/(3 gamma lambda_D), its force at '// &
+            'zero separation; 0 = off (docs/model.md section 17)'), &
+      key_t('scene', 'double_layer_range', key_real, 0, 1.0e3_dp, .false., unit='1', omit_default=.true., &
+            meaning='electrical double layer: Debye length over gap, lambda_D/d')]
 
    type(key_t), parameter :: physical_rows(*) = [ &
       key_t('physical', 'length', key_real, 0, 1, .false., unit='m', meaning='beam length L'), &
@@ -231,7 +245,34 @@ module tmafm_keys
             rule='instead of drive_angular_frequency_2', meaning='second drive tone: frequency omega_2/(2 pi)'), &
       key_t('physical', 'free_amplitude_2', key_real, 0, 1, unit='m', rule='instead of drive_amplitude_2', &
             meaning="the tip's steady amplitude at the second tone far from the sample (V_T's lock-in "// &
-            "there); sets drive_amplitude_2")]
+            "there); sets drive_amplitude_2"), &
+      key_t('physical', 'tip_bias', key_real, -1.0e3_dp, 1.0e3_dp, unit='V', omit_default=.true., &
+            meaning='electrostatic force: the bias V_t of the tip over the grounded sample '// &
+            '(docs/model.md section 17)'), &
+      key_t('physical', 'contact_potential', key_real, -10, 10, unit='V', omit_default=.true., &
+            meaning='electrostatic force: the contact potential difference V_cpd; the force sees '// &
+            '(tip_bias - contact_potential)^2'), &
+      key_t('physical', 'cone_half_angle', key_real, 0, half_pi, .false., upper_open=.true., unit='rad', &
+            omit_default=.true., meaning="electrostatic force: half-angle theta0 of the tip's cone "// &
+            '(its height is tip_length)'), &
+      key_t('physical', 'medium_permittivity', key_real, 1, 1.0e3_dp, unit='1', omit_default=.true., &
+            meaning='relative permittivity eps_r of the medium between tip and sample (1 = vacuum, '// &
+            '78.4 = water at 25 C)'), &
+      key_t('physical', 'debye_length', key_real, 0, 1.0e-3_dp, unit='m', omit_default=.true., &
+            rule='0 (= from ionic_strength) or > 0; not with ionic_strength', &
+            meaning='electrical double layer: the Debye length lambda_D'), &
+      key_t('physical', 'ionic_strength', key_real, 0, 1.0e4_dp, unit='mol/m^3', omit_default=.true., &
+            rule='instead of debye_length', &
+            meaning='electrical double layer: ionic strength I of a 1:1 electrolyte (mol/m^3 = mM), '// &
+            'lambda_D = sqrt(eps_r eps0 k_B T/(2 N_A e^2 I))'), &
+      key_t('physical', 'temperature', key_real, 0, 1.0e4_dp, .false., unit='K', omit_default=.true., &
+            meaning='temperature T (of the electrolyte, for lambda_D)'), &
+      key_t('physical', 'tip_surface_potential', key_real, -10, 10, unit='V', omit_default=.true., &
+            rule='with sample_surface_potential and a Debye length', &
+            meaning="electrical double layer: the tip's surface potential psi_t"), &
+      key_t('physical', 'sample_surface_potential', key_real, -10, 10, unit='V', omit_default=.true., &
+            rule='with tip_surface_potential and a Debye length', &
+            meaning="electrical double layer: the sample's surface potential psi_s")]
 
    type(key_t), parameter :: initial_rows(*) = [ &
       key_t('initial', 'a0', key_list, -1, 1, unit='d', &

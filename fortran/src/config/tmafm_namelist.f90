@@ -308,6 +308,38 @@ contains
       config%scene = scene_from_values(values)
    end subroutine read_scene
 
+   !> The double layer's &physical keys v (in the order of physical_names): the two surface
+   !> potentials together, with a Debye length from debye_length or ionic_strength (not both).
+   subroutine check_double_layer(p, g, v, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_group_t), intent(in) :: g
+      real(dp), intent(in) :: v(:)
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      real(dp) :: debye, ionic, tip_psi, sample_psi
+      ierr = ok
+      errmsg = ''
+      debye = v(index_of(physical_names, 'debye_length'))
+      ionic = v(index_of(physical_names, 'ionic_strength'))
+      tip_psi = v(index_of(physical_names, 'tip_surface_potential'))
+      sample_psi = v(index_of(physical_names, 'sample_surface_potential'))
+      if (debye > 0 .and. ionic > 0) then
+         call key_error(p, entry_or_default(g, 'ionic_strength', ionic), &
+                        'give the Debye length once: debye_length or ionic_strength, not both', ierr, errmsg)
+      else if ((tip_psi /= 0) .neqv. (sample_psi /= 0)) then
+         if (tip_psi /= 0) then
+            call key_error(p, entry_or_default(g, 'tip_surface_potential', tip_psi), &
+                           'needs sample_surface_potential /= 0 too (the double layer)', ierr, errmsg)
+         else
+            call key_error(p, entry_or_default(g, 'sample_surface_potential', sample_psi), &
+                           'needs tip_surface_potential /= 0 too (the double layer)', ierr, errmsg)
+         end if
+      else if (tip_psi /= 0 .and. .not. (debye > 0 .or. ionic > 0)) then
+         call key_error(p, entry_or_default(g, 'tip_surface_potential', tip_psi), &
+                        'needs a Debye length: debye_length > 0 or ionic_strength > 0', ierr, errmsg)
+      end if
+   end subroutine check_double_layer
+
    !> A pair of keys that are both > 0 or both 0 (a liquid's two keys): a one-line error on the
    !> key given > 0 without its partner.
    subroutine check_pair(p, g, name1, value1, name2, value2, ierr, errmsg)
@@ -430,6 +462,9 @@ contains
          call key_error(p, fixed, 'must be 0 or <= youngs_modulus_sample = '//real_text(v(7)), ierr, errmsg)
          return
       end if
+      ! The double layer (docs/model.md §17): both surface potentials, and one Debye length.
+      call check_double_layer(p, g, v, ierr, errmsg)
+      if (ierr /= ok) return
       if (given(25)) v(20) = 2*acos(-1.0_dp)*v(25)
       if (given(38)) v(35) = 2*acos(-1.0_dp)*v(38)
       phys = physical_from_values(v)
@@ -718,6 +753,41 @@ contains
       end if
    end subroutine check_vdw
 
+   !> A force at a distance (electrostatic, double layer: docs/model.md §17) acts in flight: a
+   !> method that integrates the flight, as under 'dmt_vdw'.  The message names the key that
+   !> turns the force on, as the user wrote it.
+   subroutine check_surface_forces(label, config, ierr, errmsg)
+      character(len=*), intent(in) :: label
+      type(config_t), intent(in) :: config
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      character(len=:), allocatable :: given
+      ierr = ok
+      errmsg = ''
+      if (.not. vdw_method_refused(config%solver%method)) return
+      if (config%scene%electrostatic_strength > 0) then
+         if (.not. config%from_physical) then
+            given = '&scene electrostatic_strength = '//real_text(config%scene%electrostatic_strength)
+         else if (config%physical%tip_bias /= 0) then
+            given = '&physical tip_bias = '//real_text(config%physical%tip_bias)
+         else
+            given = '&physical contact_potential = '//real_text(config%physical%contact_potential)
+         end if
+      else if (config%scene%double_layer_strength /= 0) then
+         if (config%from_physical) then
+            given = '&physical tip_surface_potential = '//real_text(config%physical%tip_surface_potential)
+         else
+            given = '&scene double_layer_strength = '//real_text(config%scene%double_layer_strength)
+         end if
+      else
+         return
+      end if
+      ierr = err_input
+      errmsg = label//": &solver method = '"//trim(config%solver%method)//"': a force at a distance ("// &
+               given//') acts in flight, whose exact solution is force-free; use dop853, dopri5, '// &
+               'rk4_event or rk4_paper'
+   end subroutine check_surface_forces
+
    !> A viscoelastic sample needs a method that carries the dashpot's state (dopri5, dop853,
    !> flight_exact).  With n_modes = 0 the configuration runs the automatic-N search as it is
    !> made (~7 s), and the run it serves would then be refused: refused here, before the search.
@@ -832,6 +902,8 @@ contains
          end do
       end if
       call check_vdw(label, config, ierr, errmsg)
+      if (ierr /= ok) return
+      call check_surface_forces(label, config, ierr, errmsg)
       if (ierr /= ok) return
       call check_sls_method(label, config, ierr, errmsg)
       if (ierr /= ok) return

@@ -29,13 +29,14 @@ module tmafm_model
    use tmafm_galerkin, only: mode_integrals_closed_form, axial_matrix_closed_form, &
       axial_matrix_quadrature, quadrature_panels
    use tmafm_contact, only: contact_brackets_t, contact_brackets, law_hertz, law_dmt, dmt_adhesion, &
-      contact_angle_sin_cos, contact_forces
+      contact_angle_sin_cos, contact_forces, contact_angle
    use tmafm_viscoelastic, only: sls_t, sls_force_group, sls_rate, sls_viscoelastic_part
    use tmafm_scene, only: scene_t
    use tmafm_errata, only: errata_t
    use tmafm_hydrodynamics, only: modal_fluid_loads
    use tmafm_vdw, only: law_dmt_vdw, vdw_brackets, vdw_normal_group
    use tmafm_drive, only: drive_t, init_drive
+   use tmafm_surface_forces, only: surface_forces_t, surface_force_group, flight_separation
    implicit none
    private
 
@@ -69,8 +70,13 @@ module tmafm_model
       real(dp) :: kappa6 = 0
       !> Terms that do not vanish identically for this scene; the others are skipped.
       logical :: has_contact_damping = .true., has_axial_stiffness = .true., has_moment = .true.
-      !> 'dmt_vdw': a tip-sample force also out of contact (tmafm_vdw), so the flight is forced too.
+      !> A tip-sample force also out of contact ('dmt_vdw', tmafm_vdw, or a force at a distance,
+      !> tmafm_surface_forces), so the flight is forced too.
       logical :: long_range = .false.
+      !> The forces at a distance (electrostatic, double layer) that add to the law (off: none).
+      type(surface_forces_t) :: surface
+      !> Their normal-force group at contact (constant in contact: they see the separation a0).
+      real(dp) :: surface_at_contact = 0
       !> The elastic one-tone right-hand side goes to general_kernel: N > rows_per_block.
       logical :: general = .false.
       !> Mode roots beta_j.
@@ -266,7 +272,11 @@ contains
       end if
 
       model%has_contact_damping = scene%alpha4 /= 0
-      model%long_range = law == law_dmt_vdw
+      model%surface = surface_forces_t(scene%electrostatic_strength, scene%electrostatic_radius, &
+                                       scene%cone_half_angle, scene%g0_over_d, scene%double_layer_strength, &
+                                       scene%double_layer_range, scene%vdw_range)
+      if (model%surface%on) model%surface_at_contact = surface_force_group(model%surface, scene%vdw_range)
+      model%long_range = law == law_dmt_vdw .or. model%surface%on
       model%general = n > rows_per_block
       ! Every part beyond the elastic one-tone contact in air-or-liquid goes to the one composed
       ! kernel; the fast kernels stay as the elastic scenes had them.
@@ -562,9 +572,7 @@ contains
       scaled_slope = dot_product(self%slope, a)/self%scene%l_over_d
       if (self%long_range) then
          ! The phase by the sign of V_T (a run's located switches put it there).
-         state = vdw_brackets(vt <= 0, vt, scaled_slope, self%scene%theta, self%scene%beta, self%kappa5, &
-                              self%kappa6, self%errata%e7_signed_slope, self%scene%vdw_adhesion, &
-                              self%scene%vdw_range)
+         state = phase_brackets(self, vt <= 0, vt, scaled_slope)
          return
       end if
       state = contact_brackets(vt, scaled_slope, self%scene%theta, self%scene%beta, self%law, &
@@ -586,10 +594,42 @@ contains
                                base, base_rate, base_accel)
       vt = dot_product(self%tip, a) + base + self%scene%delta_hat
       scaled_slope = dot_product(self%slope, a)/self%scene%l_over_d
-      state = vdw_brackets(in_contact, vt, scaled_slope, self%scene%theta, self%scene%beta, self%kappa5, &
-                           self%kappa6, self%errata%e7_signed_slope, self%scene%vdw_adhesion, &
-                           self%scene%vdw_range)
+      state = phase_brackets(self, in_contact, vt, scaled_slope)
    end function model_forces_in_phase
+
+   !> The brackets of the law in a phase, with a force in flight ('dmt_vdw' or a force at a
+   !> distance): the law's in contact (under 'dmt_vdw' with c_H), the van der Waals tail in flight
+   !> under 'dmt_vdw' (else nothing), and the forces at a distance added in both phases (at the
+   !> contact separation in contact).
+   pure function phase_brackets(self, in_contact, vt, scaled_slope) result(state)
+      type(model_t), intent(in) :: self
+      logical, intent(in) :: in_contact
+      real(dp), intent(in) :: vt
+      real(dp), intent(in) :: scaled_slope
+      type(contact_brackets_t) :: state
+      real(dp) :: sin1, cos1, normal
+      if (self%law == law_dmt_vdw) then
+         state = vdw_brackets(in_contact, vt, scaled_slope, self%scene%theta, self%scene%beta, self%kappa5, &
+                              self%kappa6, self%errata%e7_signed_slope, self%scene%vdw_adhesion, &
+                              self%scene%vdw_range)
+      else if (in_contact) then
+         state = contact_brackets(vt, scaled_slope, self%scene%theta, self%scene%beta, self%law, &
+                                  self%kappa5, self%kappa6, self%errata%e7_signed_slope)
+      else
+         state%theta1 = contact_angle(self%scene%theta, scaled_slope, self%errata%e7_signed_slope)
+      end if
+      if (.not. self%surface%on) return
+      call contact_angle_sin_cos(self%sin_theta, self%cos_theta, scaled_slope, self%errata%e7_signed_slope, &
+                                 sin1, cos1)
+      if (in_contact) then
+         normal = self%surface_at_contact
+      else
+         normal = surface_force_group(self%surface, flight_separation(self%surface, vt, sin1))
+      end if
+      state%normal = state%normal + normal
+      state%transverse = state%transverse + self%kappa5*normal*sin1
+      state%axial = state%axial - self%kappa5*normal*cos1
+   end function phase_brackets
 
    !> kappa5 f: the normal force group of the elastic law (§6), or with a viscoelastic sample
    !> and y = (a, a', w) the sample's (tmafm_viscoelastic), in the units of the brackets.
@@ -996,7 +1036,11 @@ contains
          transverse = 0
          axial = 0
          if (.not. self%long_range) return
-         normal = vdw_normal_group(.false., vt, sin1, 0.0_dp, self%scene%vdw_adhesion, self%scene%vdw_range)
+         normal = 0
+         if (self%law == law_dmt_vdw) &
+            normal = vdw_normal_group(.false., vt, sin1, 0.0_dp, self%scene%vdw_adhesion, self%scene%vdw_range)
+         if (self%surface%on) &
+            normal = normal + surface_force_group(self%surface, flight_separation(self%surface, vt, sin1))
          transverse = self%kappa5*normal*sin1
          axial = -self%kappa5*normal*cos1
          return
@@ -1012,7 +1056,8 @@ contains
    end subroutine tip_sample_forces
 
    !> The adhesion subtracted from the normal force group in contact: DMT's 4/3, the van der
-   !> Waals c_H under 'dmt_vdw' (its force at the surface), none under Hertz.
+   !> Waals c_H under 'dmt_vdw' (its force at the surface), none under Hertz; less the forces at
+   !> a distance at the contact separation.
    pure real(dp) function contact_adhesion(self) result(adhesion)
       type(model_t), intent(in) :: self
       select case (self%law)
@@ -1023,6 +1068,8 @@ contains
       case default
          adhesion = 0
       end select
+      ! The forces at a distance at the contact separation: an attraction adds to the adhesion.
+      if (self%surface%on) adhesion = adhesion - self%surface_at_contact
    end function contact_adhesion
 
    !> dydt = (a', a'') from the folded terms: the drive and the columns of B, which do not
@@ -1134,7 +1181,7 @@ contains
             force = force + (base_damping(self, tau) + s%l_over_d*state%transverse)*self%tip &
                     + s%g0_over_d*state%axial*self%moment_shape
          else if (self%long_range) then
-            ! 'dmt_vdw' in flight: the attraction, with no contact damping.
+            ! A force in flight ('dmt_vdw', forces at a distance), with no contact damping.
             state = self%forces_in_phase(tau, a, .false.)
             stiffness = stiffness - state%axial*self%axial
             force = force + s%l_over_d*state%transverse*self%tip + s%g0_over_d*state%axial*self%moment_shape

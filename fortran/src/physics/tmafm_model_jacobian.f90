@@ -19,6 +19,9 @@
 !>  - 'dmt_vdw' in flight: f = -c_H/rho^2, rho = 1 + V_T sin(theta1)/eps, h = 0, so
 !>    df/dV_T = 2 c_H sin(theta1)/(eps rho^3), df/dtheta1 = 2 c_H V_T cos(theta1)/(eps rho^3)
 !>    (zero where tmafm_vdw clamps rho at 1/2 or sin(theta1) at 0);
+!>  - a force at a distance (tmafm_surface_forces, docs/model.md §17) in flight adds g(s) to f,
+!>    s = eps + V_T sin(theta1), so df/dV_T += g'(s) sin(theta1), df/dtheta1 += g'(s) V_T cos(theta1)
+!>    (zero where s is clamped at eps/2 or sin(theta1) at 0); in contact it adds the constant g(eps);
 !>  - a viscoelastic sample (tmafm_viscoelastic, docs/model.md §14) in contact: f = max(X - (1 - r)
 !>    w, 0) minus the law's adhesion (0, 4/3 or c_H: it does not relax, docs/model.md §16; under
 !>    'dmt_vdw' the flight's attraction sees the undeformed surface), and the state has a third
@@ -31,6 +34,8 @@ module tmafm_model_jacobian
    use tmafm_kinds, only: dp
    use tmafm_model, only: model_t
    use tmafm_contact, only: law_dmt, dmt_adhesion, contact_angle_sin_cos
+   use tmafm_vdw, only: law_dmt_vdw
+   use tmafm_surface_forces, only: surface_force_group, surface_force_slope, flight_separation
    implicit none
    private
 
@@ -82,9 +87,9 @@ contains
       dp1_dw = 0
       dp2_dw = 0
       if (.not. in_contact) then
-         ! 'dmt_vdw' in flight (with a viscoelastic sample too: the attraction sees the
-         ! undeformed surface, docs/model.md §16, and w relaxes on its own, as set above).
-         call vdw_flight_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
+         ! A force in flight (with a viscoelastic sample too: the attraction sees the undeformed
+         ! surface, docs/model.md §16, and w relaxes on its own, as set above).
+         call flight_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
       else if (model%sls%on) then
          call sls_partials(model, vt, slope, y(iw), p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt, dp1_dw, &
                            dp2_dw, hertz, dx_dvt, dx_dt)
@@ -141,32 +146,44 @@ contains
                     p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
    end subroutine contact_partials
 
-   !> The brackets under 'dmt_vdw' in flight (the attraction alone) and their partial derivatives
-   !> with respect to V_T and t.
-   pure subroutine vdw_flight_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
+   !> The brackets in flight (the van der Waals attraction under 'dmt_vdw', the forces at a
+   !> distance) and their partial derivatives with respect to V_T and t.
+   pure subroutine flight_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: vt
       real(dp), intent(in) :: slope
       real(dp), intent(out) :: p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt
-      real(dp) :: sin1, cos1, ratio, normal, dn_dvt, dn_dth, c_h, eps, pull
+      real(dp) :: sin1, cos1, ratio, normal, dn_dvt, dn_dth, c_h, eps, pull, separation
       call contact_angle_sin_cos(model%sin_theta, model%cos_theta, slope, &
                                  model%errata%e7_signed_slope, sin1, cos1)
-      c_h = model%scene%vdw_adhesion
       eps = model%scene%vdw_range
-      ratio = 1 + vt*max(sin1, 0.0_dp)/eps
       dn_dvt = 0
       dn_dth = 0
-      if (ratio < 0.5_dp) then
-         ratio = 0.5_dp
-      else if (sin1 > 0) then
-         pull = 2*c_h/(eps*ratio**3)
-         dn_dvt = pull*sin1
-         dn_dth = pull*vt*cos1
+      normal = 0
+      if (model%law == law_dmt_vdw) then
+         c_h = model%scene%vdw_adhesion
+         ratio = 1 + vt*max(sin1, 0.0_dp)/eps
+         if (ratio < 0.5_dp) then
+            ratio = 0.5_dp
+         else if (sin1 > 0) then
+            pull = 2*c_h/(eps*ratio**3)
+            dn_dvt = pull*sin1
+            dn_dth = pull*vt*cos1
+         end if
+         normal = -c_h/(ratio*ratio)
       end if
-      normal = -c_h/(ratio*ratio)
+      if (model%surface%on) then
+         separation = flight_separation(model%surface, vt, sin1)
+         normal = normal + surface_force_group(model%surface, separation)
+         if (sin1 > 0 .and. eps + vt*sin1 >= eps/2) then
+            pull = surface_force_slope(model%surface, separation)
+            dn_dvt = dn_dvt + pull*sin1
+            dn_dth = dn_dth + pull*vt*cos1
+         end if
+      end if
       call brackets(model, sin1, cos1, normal, 0.0_dp, dn_dvt, 0.0_dp, dn_dth, 0.0_dp, angle_rate(model, slope), &
                     p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
-   end subroutine vdw_flight_partials
+   end subroutine flight_partials
 
    !> The brackets of a viscoelastic sample in contact at gap vt, slope t and dashpot coordinate w,
    !> their partial derivatives with respect to V_T, t and w, and the Hertz variable X = A^3 with
@@ -229,15 +246,17 @@ contains
    end subroutine hertz_groups
 
    !> The law's adhesion in contact, subtracted from the normal-force group: 0 (Hertz), 4/3 (DMT)
-   !> or c_H ('dmt_vdw': the attraction's value at contact).
+   !> or c_H ('dmt_vdw': the attraction's value at contact), less the forces at a distance at the
+   !> contact separation (tmafm_model's contact_adhesion).
    pure real(dp) function law_adhesion(model) result(adhesion)
       type(model_t), intent(in) :: model
       adhesion = 0
-      if (model%long_range) then
+      if (model%law == law_dmt_vdw) then
          adhesion = model%scene%vdw_adhesion
       else if (model%law == law_dmt) then
          adhesion = dmt_adhesion
       end if
+      if (model%surface%on) adhesion = adhesion - model%surface_at_contact
    end function law_adhesion
 
    !> dtheta1/dt: 1/(1 + t^2) under E7 (theta1 = pi/2 - theta + atan t), -sign(t)/(1 + t^2) as

@@ -13,9 +13,13 @@ module tmafm_scene
    public :: scene_t, physical_t, scene_from_physical
    public :: scene_names, scene_values, physical_names, physical_values, scene_depends_on
    public :: scene_from_values, physical_from_values
-   public :: beam_rigidity, beam_mass_per_length
+   public :: beam_rigidity, beam_mass_per_length, debye_length_of
 
    real(dp), parameter :: pi = acos(-1.0_dp)
+   !> The vacuum permittivity eps0 (F/m, CODATA 2022), Boltzmann's constant k_B (J/K), the
+   !> elementary charge e (C) and Avogadro's number N_A (1/mol; the last three exact in SI).
+   real(dp), parameter :: vacuum_permittivity = 8.8541878188e-12_dp, boltzmann = 1.380649e-23_dp, &
+      elementary_charge = 1.602176634e-19_dp, avogadro = 6.02214076e23_dp
 
    !> Dimensionless groups that define a scene.
    type :: scene_t
@@ -67,6 +71,18 @@ module tmafm_scene
       !> phi_1, phi_2: the tones' phases (rad): Y = alpha2 sin(Omega tau + phi_1) + ...
       real(dp) :: drive_phase = 0.0_dp
       real(dp) :: drive_phase_2 = 0.0_dp
+      !> c_E = eps_r eps0 V^2/(1.5 gamma R): the electrostatic force's strength in units of the
+      !> contact's force scale (tmafm_surface_forces, docs/model.md §17); 0: off.
+      real(dp) :: electrostatic_strength = 0.0_dp
+      !> R/d: the tip's apex radius over the gap (the electrostatic force's sphere).
+      real(dp) :: electrostatic_radius = 0.004_dp
+      !> theta0: the half-angle of the tip's cone (rad), for the electrostatic force.
+      real(dp) :: cone_half_angle = pi/9
+      !> c_DL = 8 eps_r eps0 psi_t psi_s/(3 gamma lambda_D): the double layer's strength at zero
+      !> separation in units of the contact's force scale; 0: off.
+      real(dp) :: double_layer_strength = 0.0_dp
+      !> lambda_D/d: the Debye length over the gap.
+      real(dp) :: double_layer_range = 2.0e-4_dp
    end type scene_t
 
    !> Physical inputs in SI units; converted to a scene_t by Eq. (12).
@@ -169,16 +185,35 @@ module tmafm_scene
       logical :: by_drive_frequency_2 = .false.
       !> .true. when the second tone is given by free_amplitude_2.
       logical :: by_free_amplitude_2 = .false.
+      !> The tip's bias V_t (V) over the grounded sample (the electrostatic force; 0: off).
+      real(dp) :: tip_bias = 0.0_dp
+      !> The contact potential difference V_cpd (V): the force sees V = tip_bias - V_cpd.
+      real(dp) :: contact_potential = 0.0_dp
+      !> The half-angle theta0 of the tip's cone (rad).
+      real(dp) :: cone_half_angle = pi/9
+      !> The relative permittivity eps_r of the medium between tip and sample.
+      real(dp) :: medium_permittivity = 1.0_dp
+      !> The Debye length lambda_D (m); 0: from ionic_strength.
+      real(dp) :: debye_length = 0.0_dp
+      !> The ionic strength I of a 1:1 electrolyte (mol/m^3 = mM), for lambda_D.
+      real(dp) :: ionic_strength = 0.0_dp
+      !> The temperature T (K).
+      real(dp) :: temperature = 298.15_dp
+      !> The tip's and the sample's surface potentials psi_t, psi_s (V), for the double layer.
+      real(dp) :: tip_surface_potential = 0.0_dp
+      real(dp) :: sample_surface_potential = 0.0_dp
    end type physical_t
 
    !> The &scene keys, in the order of scene_values (their ranges: config/tmafm_keys.f90).
-   character(len=*), parameter :: scene_names(23) = [character(len=19) :: 'alpha1', 'alpha2', &
+   character(len=*), parameter :: scene_names(28) = [character(len=22) :: 'alpha1', 'alpha2', &
       'alpha3', 'alpha4', 'alpha5', 'alpha6', 'beta', 'omega', 'theta', 'l_over_d', 'g0_over_d', &
       'delta_hat', 'xi0', &
       'medium_mass', 'medium_reynolds', 'vdw_adhesion', 'vdw_range', 'sls_relaxation_time', &
-      'sls_modulus_ratio', 'alpha2_2', 'omega_2', 'drive_phase', 'drive_phase_2']
+      'sls_modulus_ratio', 'alpha2_2', 'omega_2', 'drive_phase', 'drive_phase_2', &
+      'electrostatic_strength', 'electrostatic_radius', 'cone_half_angle', 'double_layer_strength', &
+      'double_layer_range']
    !> The &physical keys, in the order of physical_values.
-   character(len=*), parameter :: physical_names(39) = [character(len=25) :: 'length', 'width', &
+   character(len=*), parameter :: physical_names(48) = [character(len=25) :: 'length', 'width', &
       'thickness', 'density', 'youngs_modulus_tip', 'poisson_ratio_tip', 'youngs_modulus_sample', &
       'poisson_ratio_sample', 'tip_radius', 'adhesion_energy', 'tilt', 'gap', 'tip_length', &
       'static_offset', 'tip_position', 'tip_mass', 'beam_damping', 'contact_damping', &
@@ -187,7 +222,9 @@ module tmafm_scene
       'drive_frequency', 'free_amplitude', 'tip_sample_distance', &
       'medium_density', 'medium_viscosity', 'hamaker', 'intermolecular_distance', &
       'sample_relaxation_time', 'sample_modulus_relaxed', 'drive_amplitude_2', &
-      'drive_angular_frequency_2', 'drive_phase', 'drive_phase_2', 'drive_frequency_2', 'free_amplitude_2']
+      'drive_angular_frequency_2', 'drive_phase', 'drive_phase_2', 'drive_frequency_2', 'free_amplitude_2', &
+      'tip_bias', 'contact_potential', 'cone_half_angle', 'medium_permittivity', 'debye_length', &
+      'ionic_strength', 'temperature', 'tip_surface_potential', 'sample_surface_potential']
 
 contains
 
@@ -200,7 +237,8 @@ contains
                 scene%g0_over_d, scene%delta_hat, scene%xi0, &
                 scene%medium_mass, scene%medium_reynolds, scene%vdw_adhesion, scene%vdw_range, &
                 scene%sls_relaxation_time, scene%sls_modulus_ratio, scene%alpha2_2, scene%omega_2, &
-                scene%drive_phase, scene%drive_phase_2]
+                scene%drive_phase, scene%drive_phase_2, scene%electrostatic_strength, scene%electrostatic_radius, &
+                scene%cone_half_angle, scene%double_layer_strength, scene%double_layer_range]
    end function scene_values
 
    !> The physical inputs as an array, in the order of physical_names.
@@ -217,7 +255,9 @@ contains
                 phys%medium_density, phys%medium_viscosity, phys%hamaker, phys%intermolecular_distance, &
                 phys%sample_relaxation_time, phys%sample_modulus_relaxed, phys%drive_amplitude_2, &
                 phys%drive_angular_frequency_2, phys%drive_phase, phys%drive_phase_2, phys%drive_frequency_2, &
-                phys%free_amplitude_2]
+                phys%free_amplitude_2, phys%tip_bias, phys%contact_potential, phys%cone_half_angle, &
+                phys%medium_permittivity, phys%debye_length, phys%ionic_strength, phys%temperature, &
+                phys%tip_surface_potential, phys%sample_surface_potential]
    end function physical_values
 
    !> The scene whose groups are `values`, in the order of scene_names (scene_values' inverse).
@@ -247,6 +287,11 @@ contains
       scene%omega_2 = values(21)
       scene%drive_phase = values(22)
       scene%drive_phase_2 = values(23)
+      scene%electrostatic_strength = values(24)
+      scene%electrostatic_radius = values(25)
+      scene%cone_half_angle = values(26)
+      scene%double_layer_strength = values(27)
+      scene%double_layer_range = values(28)
    end function scene_from_values
 
    !> The physical inputs whose values are `v`, in the order of physical_names (physical_values'
@@ -293,6 +338,15 @@ contains
       phys%drive_phase_2 = v(37)
       phys%drive_frequency_2 = v(38)
       phys%free_amplitude_2 = v(39)
+      phys%tip_bias = v(40)
+      phys%contact_potential = v(41)
+      phys%cone_half_angle = v(42)
+      phys%medium_permittivity = v(43)
+      phys%debye_length = v(44)
+      phys%ionic_strength = v(45)
+      phys%temperature = v(46)
+      phys%tip_surface_potential = v(47)
+      phys%sample_surface_potential = v(48)
    end function physical_from_values
 
    !> Which &physical keys (indices into physical_names) scene group k depends on by Eq. (12).
@@ -302,7 +356,8 @@ contains
       ! 1 length, 2 width, 3 thickness, 4 density, 5 E1, 6 nu1, 7 E2, 8 nu2, 9 R, 10 gamma,
       ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega,
       ! 21 k, 22 f0, 23 Q, 24 M/(m L), 25 omega/(2 pi), 26 A0, 27 Z, 28 rho_f, 29 eta, 30 H, 31 a0,
-      ! 32 T2, 33 E2_inf, 34 f_2, 35 omega_2, 36 phi_1, 37 phi_2, 38 omega_2/(2 pi), 39 A0_2.
+      ! 32 T2, 33 E2_inf, 34 f_2, 35 omega_2, 36 phi_1, 37 phi_2, 38 omega_2/(2 pi), 39 A0_2,
+      ! 40 V_t, 41 V_cpd, 42 theta0, 43 eps_r, 44 lambda_D, 45 I, 46 T, 47 psi_t, 48 psi_s.
       select case (k)
       case (1)
          keys = [16, 4, 2, 3, 1, 24]
@@ -348,8 +403,18 @@ contains
          keys = [35, 4, 2, 3, 1, 5, 21, 22, 38]
       case (22)
          keys = [36]
-      case default
+      case (23)
          keys = [37]
+      case (24)
+         keys = [40, 41, 43, 10, 9]
+      case (25)
+         keys = [9, 12, 27]
+      case (26)
+         keys = [42]
+      case (27)
+         keys = [47, 48, 44, 45, 46, 43, 10]
+      case default
+         keys = [44, 45, 46, 43, 12, 27]
       end select
    end function scene_depends_on
 
@@ -379,7 +444,7 @@ contains
       type(physical_t), intent(in) :: phys
       type(scene_t) :: scene
       real(dp) :: mass_per_length, rigidity, e_star, g_tip, g_sample, g_star
-      real(dp) :: damping_scale, time_unit, d, e_star_relaxed, sample_relaxed
+      real(dp) :: damping_scale, time_unit, d, e_star_relaxed, sample_relaxed, voltage, debye
 
       d = phys%gap
       mass_per_length = beam_mass_per_length(phys)
@@ -434,6 +499,33 @@ contains
       scene%omega_2 = phys%drive_angular_frequency_2*time_unit
       scene%drive_phase = phys%drive_phase
       scene%drive_phase_2 = phys%drive_phase_2
+      ! The forces at a distance (docs/model.md §17), in the units of the contact's force
+      ! 1.5 pi gamma R; their geometry only where they are on (else the &scene defaults stay).
+      voltage = phys%tip_bias - phys%contact_potential
+      scene%electrostatic_strength = phys%medium_permittivity*vacuum_permittivity*voltage**2 &
+                                     /(1.5_dp*phys%adhesion_energy*phys%tip_radius)
+      if (scene%electrostatic_strength > 0) then
+         scene%electrostatic_radius = phys%tip_radius/d
+         scene%cone_half_angle = phys%cone_half_angle
+      end if
+      debye = debye_length_of(phys)
+      if (debye > 0 .and. phys%tip_surface_potential*phys%sample_surface_potential /= 0) then
+         scene%double_layer_strength = 8*phys%medium_permittivity*vacuum_permittivity &
+                                       *phys%tip_surface_potential*phys%sample_surface_potential &
+                                       /(3*phys%adhesion_energy*debye)
+         scene%double_layer_range = debye/d
+      end if
    end function scene_from_physical
+
+   !> The Debye length lambda_D (m) of a physical scene: debye_length where given, else that of a
+   !> 1:1 electrolyte of ionic strength I at temperature T, sqrt(eps_r eps0 k_B T/(2 N_A e^2 I));
+   !> 0 with neither.
+   pure real(dp) function debye_length_of(phys) result(debye)
+      type(physical_t), intent(in) :: phys
+      debye = phys%debye_length
+      if (debye > 0 .or. .not. (phys%ionic_strength > 0)) return
+      debye = sqrt(phys%medium_permittivity*vacuum_permittivity*boltzmann*phys%temperature &
+                   /(2*avogadro*elementary_charge**2*phys%ionic_strength))
+   end function debye_length_of
 
 end module tmafm_scene

@@ -51,11 +51,18 @@ contains
       if (present(poll)) progress%poll => poll
       call init_trajectory(traj, settings, model%n_modes, with_dashpot=model%sls%on)
       if (model%long_range .and. vdw_method_refused(settings%method)) then
-         ! The input check refuses this first (tmafm_namelist check_vdw); a model built otherwise too.
+         ! The input check refuses this first (tmafm_namelist check_vdw, check_surface_forces); a
+         ! model built otherwise too.
          ierr = err_input
-         errmsg = "&solver method = '"//trim(settings%method)// &
-                  "': does not support &model contact_law = 'dmt_vdw' (its flight is the force-free "// &
-                  "solution; use dop853, dopri5, rk4_event or rk4_paper)"
+         if (model%surface%on) then
+            errmsg = "&solver method = '"//trim(settings%method)// &
+                     "': a force at a distance (electrostatic or double layer) acts in flight, whose exact "// &
+                     "solution is force-free; use dop853, dopri5, rk4_event or rk4_paper"
+         else
+            errmsg = "&solver method = '"//trim(settings%method)// &
+                     "': does not support &model contact_law = 'dmt_vdw' (its flight is the force-free "// &
+                     "solution; use dop853, dopri5, rk4_event or rk4_paper)"
+         end if
          return
       end if
       select case (trim(settings%method))

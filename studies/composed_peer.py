@@ -1,5 +1,6 @@
 """The composed peer: every optional part of the model (a drive of one or two tones with phases,
-a liquid, a viscoelastic sample, van der Waals attraction) written again in numpy from
+a liquid, a viscoelastic sample, van der Waals attraction, the electrostatic and double-layer
+forces at a distance) written again in numpy from
 docs/model.md, and integrated with ``scipy.integrate.solve_ivp`` (DOP853) phase by phase, with
 every switch V_T = 0 a terminal event.
 
@@ -52,6 +53,10 @@ class ComposedPeer:
         if s["alpha2_2"] != 0:
             self.tones.append((s["alpha2_2"], s["omega_2"], s["drive_phase_2"]))
         self.sls = s["sls_relaxation_time"] > 0
+        # The forces at a distance (docs/model.md §17): on when their strengths are.
+        self.electrostatic = s["electrostatic_strength"] > 0
+        self.double_layer = s["double_layer_strength"] != 0
+        self.far = self.law == "dmt_vdw" or self.electrostatic or self.double_layer
         self.size = 2 * n + (1 if self.sls else 0)
 
     def base(self, t):
@@ -72,20 +77,42 @@ class ComposedPeer:
             return math.pi / 2 - s["theta"] + math.atan(t)
         return math.pi / 2 - s["theta"] - math.atan(abs(t))
 
+    def distant(self, separation):
+        """The forces at a distance at separation s/d: Hudlet's sphere + cone and the screened
+        double layer, in the units of §6 (docs/model.md §17)."""
+        s = self.scene
+        f = 0.0
+        if self.electrostatic:
+            rho, angle, height = s["electrostatic_radius"], s["cone_half_angle"], s["g0_over_d"]
+            b = rho * (1 - math.sin(angle))
+            sphere = rho**2 * (1 - math.sin(angle)) / (separation * (separation + b))
+            cone = (math.log(height / (separation + b)) - 1
+                    + rho * math.cos(angle)**2 / math.sin(angle) / (separation + b)) / math.log(math.tan(angle / 2))**2
+            f -= s["electrostatic_strength"] * (sphere + cone)
+        if self.double_layer:
+            f += s["double_layer_strength"] * math.exp(-separation / s["double_layer_range"])
+        return f
+
     def normal_group(self, vt, theta1, w, in_contact):
         """The normal force group f (units of §6) and the Hertz variable X."""
         s = self.scene
+        eps = s["vdw_range"]
         if not in_contact:
-            if self.law != "dmt_vdw":
-                return 0.0, 0.0
-            ratio = max(1 + vt * max(math.sin(theta1), 0.0) / s["vdw_range"], 0.5)
-            return -s["vdw_adhesion"] / ratio**2, 0.0
+            f = 0.0
+            if self.law == "dmt_vdw":
+                ratio = max(1 + vt * max(math.sin(theta1), 0.0) / eps, 0.5)
+                f = -s["vdw_adhesion"] / ratio**2
+            if self.electrostatic or self.double_layer:
+                f += self.distant(max(eps + vt * max(math.sin(theta1), 0.0), eps / 2))
+            return f, 0.0
         x = (max(-vt, 0.0) * math.sin(theta1) / s["beta"]) ** 1.5
         f = max(x - (1 - s["sls_modulus_ratio"]) * w, 0.0) if self.sls else x
         if self.law == "dmt":
             f -= 4.0 / 3.0
         elif self.law == "dmt_vdw":
             f -= s["vdw_adhesion"]
+        if self.electrostatic or self.double_layer:
+            f += self.distant(eps)
         return f, x
 
     def rhs(self, t, y, in_contact):
@@ -96,7 +123,7 @@ class ComposedPeer:
         acc = (-self.minv @ (self.c * adot) - self.minv_lambda @ a
                - accel * self.inertial - rate * self.damped)
         x = 0.0
-        if in_contact or self.law == "dmt_vdw":
+        if in_contact or self.far:
             vt = self.p @ a + base + s["delta_hat"]
             th = self.theta1(a)
             f, x = self.normal_group(vt, th, w, in_contact)

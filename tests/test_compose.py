@@ -23,6 +23,9 @@ TONES = {"alpha2_2": 2e-4, "omega_2": 6.0, "drive_phase": 0.4, "drive_phase_2": 
 LIQUID = {"medium_mass": 0.1, "medium_reynolds": 10.0}
 SLS = {"sls_relaxation_time": 0.5, "sls_modulus_ratio": 0.4}
 VDW = {"vdw_adhesion": 0.5, "vdw_range": 2e-4}
+# The forces at a distance (docs/model.md §17): a biased tip, and a double layer in a liquid.
+ELECTROSTATIC = {"electrostatic_strength": 0.05, "electrostatic_radius": 0.004, "cone_half_angle": 0.35}
+DOUBLE_LAYER = {"double_layer_strength": 0.3, "double_layer_range": 3e-4}
 
 CASES = {
     "tones+liquid": ({**TONES, **LIQUID}, "hertz"),
@@ -32,7 +35,18 @@ CASES = {
     "liquid+vdw": ({**LIQUID, **VDW}, "dmt_vdw"),
     "liquid+sls": ({**LIQUID, **SLS}, "dmt"),
     "tones+liquid+sls+vdw": ({**TONES, **LIQUID, **SLS, **VDW}, "dmt_vdw"),
+    "electrostatic+dmt": (ELECTROSTATIC, "dmt"),
+    "electrostatic+tones+sls": ({**ELECTROSTATIC, **TONES, **SLS}, "hertz"),
+    "double_layer+liquid+vdw": ({**DOUBLE_LAYER, **LIQUID, **VDW}, "dmt_vdw"),
+    "double_layer+liquid": ({**DOUBLE_LAYER, **LIQUID}, "hertz"),
+    "all_forces_at_a_distance+sls+vdw": ({**ELECTROSTATIC, **DOUBLE_LAYER, **SLS, **VDW}, "dmt_vdw"),
 }
+
+
+def _forced_flight(scene, law):
+    """A force acts in flight: 'dmt_vdw' or a force at a distance (no flight_exact)."""
+    return law == "dmt_vdw" or scene.get("electrostatic_strength", 0) > 0 \
+        or scene.get("double_layer_strength", 0) != 0
 
 
 def _run(scene, law, method, rtol):
@@ -52,7 +66,7 @@ def test_composed_trajectory_equals_the_independent_peer(case):
     peer_error = np.max(np.abs(loose - reference)) / scale
     # Both phases must be visited, else the test would not compose the contact with the rest.
     assert np.any(reference < 0) and np.any(reference > 0)
-    methods = ["dop853", "dopri5"] if law == "dmt_vdw" else ["dop853", "dopri5", "flight_exact"]
+    methods = ["dop853", "dopri5"] if _forced_flight(scene, law) else ["dop853", "dopri5", "flight_exact"]
     for method in methods:
         tight = _run(scene, law, method, 1e-11)
         looser = _run(scene, law, method, 1e-9)
@@ -63,10 +77,11 @@ def test_composed_trajectory_equals_the_independent_peer(case):
                                                                  method_error)
 
 
-@pytest.mark.parametrize("case", ["tones+liquid", "tones+sls", "sls+vdw", "liquid+sls", "tones+liquid+sls+vdw"])
+@pytest.mark.parametrize("case", ["tones+liquid", "tones+sls", "sls+vdw", "liquid+sls", "tones+liquid+sls+vdw",
+                                  "electrostatic+tones+sls", "double_layer+liquid"])
 def test_energy_balance_closes_with_every_part(case):
     scene, law = CASES[case]
-    method = "dop853" if law == "dmt_vdw" else "flight_exact"
+    method = "dop853" if _forced_flight(scene, law) else "flight_exact"
     obs = tmafm.observe(SCENE, scene=scene, model={"contact_law": law},
                         solver={"method": method, "rtol": 1e-11, "atol": 1e-15}, max_periods=200)
     assert obs.period >= 1

@@ -23,6 +23,11 @@ TONES_3_2 = {"alpha2_2": 2e-4, "omega_2": 5.7}
 #: A liquid (per-mode added mass and damping) and a second tone on the vdW scene (2:1).
 LIQUID = {"medium_mass": 0.02, "medium_reynolds": 200.0}
 VDW_TONE = {"alpha2_2": 4e-7, "omega_2": 7.032030537000301, "drive_phase": 0.3}
+#: The forces at a distance (docs/model.md §17): a biased tip, and a double layer.
+ELECTROSTATIC = {"electrostatic_strength": 0.05, "electrostatic_radius": 0.004, "cone_half_angle": 0.35}
+DOUBLE_LAYER = {"double_layer_strength": 0.3, "double_layer_range": 3e-5}
+#: A method that integrates a forced flight (bistable_n2 runs flight_exact).
+DOP853 = {"solver": {"method": "dop853"}}
 #: The vdW scene with two modes.
 N2 = {"model": {"n_modes": 2}, "initial": {"a0": [0.0, 0.0]}}
 
@@ -80,6 +85,13 @@ def _fd_jacobian(model, tau, y, in_contact):
     ("sls_vdw_flight", VDW, {"scene": {**SLS, "theta": 0.1}}, 3e-5, False, 3.0),
     ("tones_vdw_flight", VDW, {"scene": VDW_TONE}, 3e-5, False, None),
     ("tones_liquid_sls", BISTABLE, {"scene": {**TONES_2, **LIQUID, **SLS}}, -4e-4, True, 0.5),
+    # The forces at a distance in flight (their separation's slope partials with a tilt), on
+    # their own and with the vdW tail, and their constant part in contact.
+    ("electrostatic_flight", BISTABLE, {"scene": {**ELECTROSTATIC, "theta": 0.2}, **DOP853}, 3e-5, False,
+     None),
+    ("double_layer_vdw_flight", VDW, {"scene": {**DOUBLE_LAYER, "theta": 0.1}}, 2e-5, False, None),
+    ("electrostatic_dmt_contact", BISTABLE, {"model": {"contact_law": "dmt"}, "scene": ELECTROSTATIC, **DOP853},
+     -4e-4, True, None),
 ])
 def test_jacobian_equals_finite_differences_of_the_right_hand_side(name, source, overrides, vt,
                                                                    in_contact, w):

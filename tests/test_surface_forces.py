@@ -247,3 +247,37 @@ def test_the_executable_refuses_with_a_nonzero_exit_and_writes_nothing(tmp_path)
     assert "tip_bias" in done.stderr and "flight_exact" in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "out.dat").exists()
+
+
+def test_model_md_quotes_the_study_and_the_study_reproduces():
+    """docs/model.md §17 quotes studies/results/surface_forces.json (written by
+    `python studies/surface_forces_example.py`); its examples are recomputed here and agree with
+    the JSON to the runs' steady tolerance (1e-8 of the orbit)."""
+    import json
+    import sys
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[1]
+    data = json.loads((repo / "studies" / "results" / "surface_forces.json").read_text())
+    text = (repo / "docs" / "model.md").read_text()
+    section = text[text.index("## 17. Forces at a distance"):]
+    kelvin = data["kelvin_parabola"]
+    for k in (0, 1, 2):
+        assert f"{kelvin['phase_deg'][k]:.4f}°".replace("-", "−") in section
+    assert f"vertex is at {kelvin['vertex_V']:.4f} V" in section
+    ring = data["ring_down"]
+    assert f"falls by {-ring['shift_Hz']:.3f} Hz" in section
+    assert f"−f0/(2k) dF/dz = {ring['formula_Hz']:.3f} Hz".replace("= -", "= −") in section
+    assert f"{ring['shift_Hz'] / ring['formula_Hz'] - 1:.1e}".replace("e-04", " × 10⁻⁴") in section
+    for ionic, row in data["dlvo_water"].items():
+        line = (f"| {ionic} | {row['debye_length_nm']:.2f} | {row['amplitude']:.3f} | {row['phase']:.2f} | "
+                f"{row['peak_force']:.3f} | {row['min_force']:.3f} |").replace("-", "−")
+        assert line in section, line
+    sys.path.insert(0, str(repo / "studies"))
+    import surface_forces_example as study
+
+    again = study.kelvin_parabola()
+    assert again["vertex_V"] == pytest.approx(kelvin["vertex_V"], abs=1e-6)
+    assert again["phase_deg"] == pytest.approx(kelvin["phase_deg"], abs=1e-5)
+    for ionic, row in study.dlvo().items():
+        assert row == pytest.approx(data["dlvo_water"][ionic], rel=1e-6, abs=1e-6)

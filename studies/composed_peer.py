@@ -105,6 +105,16 @@ class ComposedPeer:
             if self.electrostatic or self.double_layer:
                 f += self.distant(max(eps + vt * max(math.sin(theta1), 0.0), eps / 2))
             return f, 0.0
+        if self.law == "jkr":
+            # The JKR neck (docs/model.md §18): D = A^2 - (4/3) sqrt(A), f = A^3 - 2 A^1.5 on the
+            # stable branch sqrt(A) >= 3^(-1/3), the largest real root of x^4 - (4/3) x - D.
+            depth = -vt * math.sin(theta1) / s["beta"]
+            roots = np.roots([1.0, 0.0, 0.0, -4.0 / 3.0, -depth])
+            x = max(max(r.real for r in roots if abs(r.imag) <= 1e-9 * max(1.0, abs(r))), 3 ** (-1 / 3))
+            f = x**6 - 2 * x**3
+            if self.electrostatic or self.double_layer:
+                f += self.distant(max(s["vdw_range"] + vt * max(math.sin(theta1), 0.0), s["vdw_range"]))
+            return f, 0.0
         x = (max(-vt, 0.0) * math.sin(theta1) / s["beta"]) ** 1.5
         f = max(x - (1 - s["sls_modulus_ratio"]) * w, 0.0) if self.sls else x
         if self.law == "dmt":
@@ -129,6 +139,11 @@ class ComposedPeer:
             f, x = self.normal_group(vt, th, w, in_contact)
             depth = max(-vt, 0.0)
             friction = math.sqrt(depth * math.sin(th) / s["beta"]) * depth * math.cos(th) if in_contact else 0.0
+            if in_contact and self.law == "jkr":
+                # The neck's radius (A = x^2) with the signed depth.
+                depth = -vt
+                radius = self.jkr_radius(vt, th)
+                friction = radius * depth * math.cos(th)
             p1 = self.kappa5 * f * math.sin(th) + self.kappa6 * friction * math.cos(th)
             p2 = -self.kappa5 * f * math.cos(th) + self.kappa6 * friction * math.sin(th)
             push = s["l_over_d"] * p1
@@ -141,6 +156,19 @@ class ComposedPeer:
             relaxing = 1 - s["sls_modulus_ratio"]
             out.append([(max(x, relaxing * w) - w) / s["sls_relaxation_time"]])
         return np.concatenate(out)
+
+    def jkr_radius(self, vt, theta1):
+        """The JKR contact radius A at gap vt (the root of normal_group's quartic, squared)."""
+        depth = -vt * math.sin(theta1) / self.scene["beta"]
+        roots = np.roots([1.0, 0.0, 0.0, -4.0 / 3.0, -depth])
+        x = max(max(r.real for r in roots if abs(r.imag) <= 1e-9 * max(1.0, abs(r))), 3 ** (-1 / 3))
+        return x * x
+
+    def pull_off_gap(self, y):
+        """The gap at which a JKR neck breaks, V_T = 3^(-1/3) beta/sin(theta1) (0 for other laws)."""
+        if self.law != "jkr":
+            return 0.0
+        return 3 ** (-1 / 3) * self.scene["beta"] / math.sin(self.theta1(y[: self.n]))
 
     def solve(self, tau_end, sample_dtau, rtol=1e-11, atol=1e-15):
         """V_T at the samples 0, sample_dtau, ..., tau_end, from the state at rest."""
@@ -159,8 +187,9 @@ class ComposedPeer:
         while t < samples[-1]:
             side = -1.0 if in_contact else 1.0
 
-            def event(tt, yy, _in_contact, side=side):
-                return side * self.gap(tt, yy) + margin
+            def event(tt, yy, _in_contact, side=side, in_contact=in_contact):
+                offset = self.pull_off_gap(yy) if in_contact else 0.0
+                return side * (self.gap(tt, yy) - offset) + margin
             event.terminal = True
             event.direction = -1
             sol = solve_ivp(self.rhs, (t, samples[-1]), y, method="DOP853", rtol=rtol, atol=atol,

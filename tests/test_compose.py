@@ -40,6 +40,10 @@ CASES = {
     "double_layer+liquid+vdw": ({**DOUBLE_LAYER, **LIQUID, **VDW}, "dmt_vdw"),
     "double_layer+liquid": ({**DOUBLE_LAYER, **LIQUID}, "hertz"),
     "all_forces_at_a_distance+sls+vdw": ({**ELECTROSTATIC, **DOUBLE_LAYER, **SLS, **VDW}, "dmt_vdw"),
+    # The JKR neck (docs/model.md §18): its pull-off above the surface is a switch of its own.
+    "jkr": ({}, "jkr"),
+    "jkr+tones+liquid": ({**TONES, **LIQUID}, "jkr"),
+    "jkr+electrostatic": (ELECTROSTATIC, "jkr"),
 }
 
 
@@ -78,7 +82,7 @@ def test_composed_trajectory_equals_the_independent_peer(case):
 
 
 @pytest.mark.parametrize("case", ["tones+liquid", "tones+sls", "sls+vdw", "liquid+sls", "tones+liquid+sls+vdw",
-                                  "electrostatic+tones+sls", "double_layer+liquid"])
+                                  "electrostatic+tones+sls", "double_layer+liquid", "jkr", "jkr+tones+liquid"])
 def test_energy_balance_closes_with_every_part(case):
     scene, law = CASES[case]
     method = "dop853" if _forced_flight(scene, law) else "flight_exact"
@@ -100,6 +104,10 @@ def test_energy_balance_closes_with_every_part(case):
     if "sls" in case:
         assert total("dissipated_viscoelastic") > 1e-3 * drive
         assert abs(balance + total("dissipated_viscoelastic")) > 100 * abs(balance)
+    # The JKR neck's loss likewise, with the taps going past pull-off.
+    if "jkr" in case:
+        assert total("dissipated_adhesion") > 1e-3 * drive
+        assert abs(balance + total("dissipated_adhesion")) > 100 * abs(balance)
 
 
 @pytest.mark.parametrize("method", ["rk4_paper", "rk4_event"])

@@ -20,7 +20,7 @@ __all__ = ["Model", "ContactState", "POWER_NAMES"]
 
 #: The powers of Model.energy_flow, in the core's order (tmafm_model power_* indices).
 POWER_NAMES = ("drive", "beam_damping", "contact_damping", "contact_normal", "contact_friction",
-               "contact_viscoelastic")
+               "contact_viscoelastic", "contact_adhesion")
 
 
 class ContactState(NamedTuple):

@@ -42,7 +42,7 @@ module tmafm_keys
    real(dp), parameter :: half_pi = acos(-1.0_dp)/2
 
    !> The words of the string keys that take one from a fixed set.
-   character(len=*), parameter :: contact_laws(*) = [character(len=8) :: 'hertz', 'dmt', 'dmt_vdw']
+   character(len=*), parameter :: contact_laws(*) = [character(len=8) :: 'hertz', 'dmt', 'dmt_vdw', 'jkr']
    character(len=*), parameter :: conventions(*) = [character(len=10) :: 'paper', 'consistent']
    !> The values &output format accepts: 'text' (columns after '#' header lines) or 'npy'.
    character(len=*), parameter :: output_formats(*) = [character(len=8) :: 'text', 'npy']
@@ -96,9 +96,9 @@ module tmafm_keys
             "V_T range, on the search's own grid (never sample_dtau)"), &
       key_t('model', 'mode_horizon', key_real, 0, max_mode_horizon, .false., unit='tau', &
             meaning='with n_modes = 0: length of the runs that compare N and N+1'), &
-      key_t('model', 'contact_law', key_string, first_word=law_words, last_word=law_words + 2, unit='-', &
-            meaning="Hertz or DMT contact, or 'dmt_vdw': DMT with van der Waals attraction out of contact "// &
-            "(docs/model.md 6a)"), &
+      key_t('model', 'contact_law', key_string, first_word=law_words, last_word=law_words + 3, unit='-', &
+            meaning="Hertz or DMT contact, 'dmt_vdw': DMT with van der Waals attraction out of contact "// &
+            "(docs/model.md 6a), or 'jkr': JKR adhesion with its neck and pull-off (docs/model.md 18)"), &
       key_t('model', 'convention', key_string, first_word=convention_words, last_word=convention_words + 1, &
             unit='-', meaning="'paper' (the printed equations) or 'consistent' (errata corrected)"), &
       key_t('model', 'errata', key_string, unit='-', &

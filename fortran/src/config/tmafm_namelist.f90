@@ -753,6 +753,36 @@ contains
       end if
    end subroutine check_vdw
 
+   !> contact_law = 'jkr' (docs/model.md §18): its neck breaks above the surface, a switch off
+   !> V_T = 0 that the adaptive pairs locate (dop853, dopri5, flight_exact's contacts) and the
+   !> fixed-step loops do not; and the JKR law is elastic: a viscoelastic sample under it is not
+   !> modelled (refused, not ignored).
+   subroutine check_jkr(label, config, ierr, errmsg)
+      character(len=*), intent(in) :: label
+      type(config_t), intent(in) :: config
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      ierr = ok
+      errmsg = ''
+      if (trim(config%contact_law) /= 'jkr') return
+      if (trim(config%solver%method) == 'rk4_paper' .or. trim(config%solver%method) == 'rk4_event') then
+         ierr = err_input
+         errmsg = label//": &solver method = '"//trim(config%solver%method)//"': does not support &model "// &
+                  "contact_law = 'jkr' (its neck breaks above the surface, a switch its loops do not locate; "// &
+                  "use dop853, dopri5 or flight_exact)"
+      else if (config%scene%sls_relaxation_time > 0) then
+         ierr = err_input
+         if (config%from_physical) then
+            errmsg = label//': &physical sample_relaxation_time = '// &
+                     real_text(config%physical%sample_relaxation_time)
+         else
+            errmsg = label//': &scene sls_relaxation_time = '//real_text(config%scene%sls_relaxation_time)
+         end if
+         errmsg = trim(errmsg)//": a viscoelastic sample is not modelled under &model contact_law = 'jkr' "// &
+                  "(the JKR law is elastic); use 'hertz', 'dmt' or 'dmt_vdw'"
+      end if
+   end subroutine check_jkr
+
    !> A force at a distance (electrostatic, double layer: docs/model.md §17) acts in flight: a
    !> method that integrates the flight, as under 'dmt_vdw'.  The message names the key that
    !> turns the force on, as the user wrote it.
@@ -904,6 +934,8 @@ contains
       call check_vdw(label, config, ierr, errmsg)
       if (ierr /= ok) return
       call check_surface_forces(label, config, ierr, errmsg)
+      if (ierr /= ok) return
+      call check_jkr(label, config, ierr, errmsg)
       if (ierr /= ok) return
       call check_sls_method(label, config, ierr, errmsg)
       if (ierr /= ok) return

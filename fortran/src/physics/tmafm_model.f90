@@ -37,6 +37,7 @@ module tmafm_model
    use tmafm_vdw, only: law_dmt_vdw, vdw_brackets, vdw_normal_group
    use tmafm_drive, only: drive_t, init_drive
    use tmafm_surface_forces, only: surface_forces_t, surface_force_group, flight_separation
+   use tmafm_jkr, only: law_jkr, jkr_radius, jkr_force_group, jkr_pull_off_depth
    implicit none
    private
 
@@ -159,6 +160,9 @@ module tmafm_model
       !> The drive's tones and their common frequency (tmafm_drive); the phase the fast forms
       !> take is that of drive%fundamental.
       type(drive_t) :: drive
+      !> .true. when contact ends elsewhere than at V_T = 0: the JKR neck breaks at its pull-off
+      !> (switch_offset).
+      logical :: hysteretic = .false.
       !> The right-hand side goes to composed_kernel (a viscoelastic sample, a general drive or a
       !> force in flight, in any combination): the one test the entry points make before rhs_kernel.
       logical :: special_rhs = .false.
@@ -188,6 +192,8 @@ module tmafm_model
       !> The normal force kappa5 f of the tip-sample law at a state y (a, a'[, w]) and time tau: in
       !> contact, and under 'dmt_vdw' in flight too (the phase by the sign of V_T, or as given).
       procedure :: normal_force => model_normal_force
+      !> Where the phase of a state ends, as V_T = offset, and d(offset)/dtau: 0 but for a JKR neck.
+      procedure :: switch_offset => model_switch_offset
       !> The explicit M, C, K, F of Eq. (15) at one state (a only: a viscoelastic sample's force
       !> is its elastic part, the dashpot w is not taken), for checks and analysis.
       procedure :: matrices => model_matrices
@@ -199,7 +205,7 @@ module tmafm_model
    !> Indices of the powers returned by energy_flow.
    integer, parameter, public :: power_drive = 1, power_beam_damping = 2, &
       power_contact_damping = 3, power_contact_normal = 4, power_contact_friction = 5, &
-      power_contact_viscoelastic = 6, n_powers = 6
+      power_contact_viscoelastic = 6, power_contact_adhesion = 7, n_powers = 7
 
 contains
 
@@ -280,7 +286,8 @@ contains
       model%general = n > rows_per_block
       ! Every part beyond the elastic one-tone contact in air-or-liquid goes to the one composed
       ! kernel; the fast kernels stay as the elastic scenes had them.
-      model%special_rhs = model%sls%on .or. model%drive%general .or. model%long_range
+      model%hysteretic = law == law_jkr
+      model%special_rhs = model%sls%on .or. model%drive%general .or. model%long_range .or. model%hysteretic
       model%has_axial_stiffness = model%kappa5 /= 0 .or. model%kappa6 /= 0
       model%has_moment = model%has_axial_stiffness .and. scene%g0_over_d /= 0 &
                          .and. any(model%moment_shape /= 0)
@@ -570,8 +577,9 @@ contains
               + self%scene%delta_hat
       end if
       scaled_slope = dot_product(self%slope, a)/self%scene%l_over_d
-      if (self%long_range) then
-         ! The phase by the sign of V_T (a run's located switches put it there).
+      if (self%long_range .or. self%law == law_jkr) then
+         ! The phase by the sign of V_T (a run's located switches put it there; a JKR neck
+         ! stretched above the surface needs the phase given: forces_in_phase).
          state = phase_brackets(self, vt <= 0, vt, scaled_slope)
          return
       end if
@@ -586,7 +594,7 @@ contains
       logical, intent(in) :: in_contact
       type(contact_brackets_t) :: state
       real(dp) :: vt, scaled_slope, base, base_rate, base_accel
-      if (.not. self%long_range) then
+      if (.not. (self%long_range .or. self%law == law_jkr)) then
          state = self%contact(tau, a)
          return
       end if
@@ -608,7 +616,16 @@ contains
       real(dp), intent(in) :: scaled_slope
       type(contact_brackets_t) :: state
       real(dp) :: sin1, cos1, normal
-      if (self%law == law_dmt_vdw) then
+      if (self%law == law_jkr .and. in_contact) then
+         ! The JKR neck with the forces at a distance at its separation (tip_sample_forces).
+         state%theta1 = contact_angle(self%scene%theta, scaled_slope, self%errata%e7_signed_slope)
+         call contact_angle_sin_cos(self%sin_theta, self%cos_theta, scaled_slope, self%errata%e7_signed_slope, &
+                                    sin1, cos1)
+         call jkr_contact(self, vt, sin1, cos1, state%radius, state%normal, state%friction)
+         state%transverse = self%kappa5*state%normal*sin1 + self%kappa6*state%friction*cos1
+         state%axial = -self%kappa5*state%normal*cos1 + self%kappa6*state%friction*sin1
+         return
+      else if (self%law == law_dmt_vdw) then
          state = vdw_brackets(in_contact, vt, scaled_slope, self%scene%theta, self%scene%beta, self%kappa5, &
                               self%kappa6, self%errata%e7_signed_slope, self%scene%vdw_adhesion, &
                               self%scene%vdw_range)
@@ -656,6 +673,36 @@ contains
       if (self%sls%on .and. size(y) > 2*n) &
          force = force + self%kappa5*sls_viscoelastic_part(self%sls, state%radius**3, y(2*n + 1))
    end function model_normal_force
+
+   !> The tip gap at which a phase ends, V_T = offset, and the offset's rate at a state y = (a, a'):
+   !> 0 and 0, but for a JKR neck (in contact under 'jkr'), which breaks at the normal indentation
+   !> D_c beta, V_T = -D_c beta/sin(theta1), so offset' = -offset cos(theta1)/sin(theta1) dtheta1/dtau.
+   pure subroutine model_switch_offset(self, y, in_contact, offset, rate)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: y(:)
+      logical, intent(in) :: in_contact
+      real(dp), intent(out) :: offset
+      real(dp), intent(out) :: rate
+      real(dp) :: slope, slope_rate, sin1, cos1, angle_rate
+      integer :: n, j
+      offset = 0
+      rate = 0
+      if (.not. (in_contact .and. self%hysteretic)) return
+      n = self%n_modes
+      slope = 0
+      slope_rate = 0
+      do j = 1, n
+         slope = slope + self%scaled_slope(j)*y(j)
+         slope_rate = slope_rate + self%scaled_slope(j)*y(n + j)
+      end do
+      call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope, self%errata%e7_signed_slope, sin1, cos1)
+      ! A beam bent past the tilt (sin(theta1) <= 0) keeps the neck: it breaks only below it.
+      sin1 = max(sin1, epsilon(1.0_dp))
+      offset = -jkr_pull_off_depth*self%scene%beta/sin1
+      angle_rate = slope_rate/(1 + slope*slope)
+      if (.not. self%errata%e7_signed_slope) angle_rate = -sign(1.0_dp, slope)*angle_rate
+      rate = -offset*cos1/sin1*angle_rate
+   end subroutine model_switch_offset
 
    !> d(delta_n)/dtau for the normal indentation delta_n = -V_T sin(theta1) (§6), given sin and
    !> cos of theta1: -V_T' sin(theta1) - V_T cos(theta1) theta1', theta1' from the slope's rate
@@ -1032,6 +1079,12 @@ contains
       real(dp), intent(out) :: hertz
       real(dp) :: radius, friction, normal
       hertz = 0
+      if (in_contact .and. self%law == law_jkr) then
+         call jkr_contact(self, vt, sin1, cos1, radius, normal, friction)
+         transverse = self%kappa5*normal*sin1 + self%kappa6*friction*cos1
+         axial = -self%kappa5*normal*cos1 + self%kappa6*friction*sin1
+         return
+      end if
       if (.not. in_contact) then
          transverse = 0
          axial = 0
@@ -1054,6 +1107,26 @@ contains
       transverse = transverse + self%kappa5*normal*sin1
       axial = axial - self%kappa5*normal*cos1
    end subroutine tip_sample_forces
+
+   !> The JKR law while the neck holds (docs/model.md §18): at the normal indentation D =
+   !> -V_T sin(theta1)/beta (negative with the neck stretched above the surface) the contact
+   !> radius A of the stable branch, the force group f = A^3 - 2 A^(3/2), and the Mindlin friction
+   !> group h = A (-V_T) cos(theta1); the forces at a distance add at the tip's separation, a0
+   !> while the tip is at or below the surface.
+   pure subroutine jkr_contact(self, vt, sin1, cos1, radius, normal, friction)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in) :: vt
+      real(dp), intent(in) :: sin1
+      real(dp), intent(in) :: cos1
+      real(dp), intent(out) :: radius
+      real(dp), intent(out) :: normal
+      real(dp), intent(out) :: friction
+      radius = jkr_radius(-vt*sin1/self%scene%beta)
+      normal = jkr_force_group(radius)
+      friction = radius*(-vt*cos1)
+      if (self%surface%on) normal = normal + surface_force_group(self%surface, &
+         max(flight_separation(self%surface, vt, sin1), self%scene%vdw_range))
+   end subroutine jkr_contact
 
    !> The adhesion subtracted from the normal force group in contact: DMT's 4/3, the van der
    !> Waals c_H under 'dmt_vdw' (its force at the surface), none under Hertz; less the forces at
@@ -1284,6 +1357,15 @@ contains
             power(power_contact_viscoelastic) = -s%l_over_d*self%kappa5*delayed &
                                                 *normal_indentation_rate(self, tau, a, adot, sin1, cos1)
             power(power_contact_normal) = power(power_contact_normal) - power(power_contact_viscoelastic)
+         end if
+         if (in_contact .and. self%hysteretic) then
+            ! The JKR neck's work on the normal indentation, -(L/d) kappa5 f dD_n/dtau, is its own
+            ! channel: over a whole tap (D_n from 0 back to the pull-off D_c beta) it is minus the
+            ! hysteresis loop's area, the energy the neck takes (docs/model.md §18).  The normal
+            ! power keeps the rest, so the powers still sum to dE/dtau.
+            power(power_contact_adhesion) = -s%l_over_d*self%kappa5*jkr_force_group(state%radius) &
+                                            *normal_indentation_rate(self, tau, a, adot, sin1, cos1)
+            power(power_contact_normal) = power(power_contact_normal) - power(power_contact_adhesion)
          end if
       end associate
    end subroutine model_energy_flow

@@ -6,6 +6,7 @@ module tmafm_simulation
    use tmafm_modes, only: max_modes
    use tmafm_contact, only: law_hertz, law_dmt
    use tmafm_vdw, only: law_dmt_vdw
+   use tmafm_jkr, only: law_jkr
    use tmafm_model, only: model_t, init_model
    use tmafm_drive, only: drive_t, init_drive
    use tmafm_driver, only: run_trajectory
@@ -32,6 +33,7 @@ contains
       law = law_hertz
       if (trim(config%contact_law) == 'dmt') law = law_dmt
       if (trim(config%contact_law) == 'dmt_vdw') law = law_dmt_vdw
+      if (trim(config%contact_law) == 'jkr') law = law_jkr
       call init_model(model, config%n_modes, config%scene, law, config_errata(config), ierr, errmsg)
    end subroutine build_model
 

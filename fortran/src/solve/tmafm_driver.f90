@@ -65,6 +65,15 @@ contains
          end if
          return
       end if
+      if (model%hysteretic .and. (trim(settings%method) == method_rk4_paper &
+                                  .or. trim(settings%method) == method_rk4_event)) then
+         ! The input check refuses this first (tmafm_namelist check_jkr); a model built otherwise too.
+         ierr = err_input
+         errmsg = "&solver method = '"//trim(settings%method)//"': does not support &model contact_law = 'jkr' "// &
+                  "(its neck breaks above the surface, a switch its loops do not locate; use dop853, dopri5 "// &
+                  "or flight_exact)"
+         return
+      end if
       select case (trim(settings%method))
       case (method_rk4_paper)
          call run_rk4_paper(model, settings, y0, traj, ierr, errmsg, progress, observer)

@@ -164,6 +164,33 @@ contains
       self%h = settings%dtau
    end subroutine adaptive_init
 
+   !> V_T and its rate less the gap where the phase ends and its rate (model_t%switch_offset: a
+   !> JKR neck breaks above the surface), so that the phase's switch is where they cross zero.
+   pure subroutine past_offset(model, y, in_contact, vt, rate)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: y(:)
+      logical, intent(in) :: in_contact
+      real(dp), intent(inout) :: vt
+      real(dp), intent(inout) :: rate
+      real(dp) :: offset, offset_rate
+      call model%switch_offset(y, in_contact, offset, offset_rate)
+      vt = vt - offset
+      rate = rate - offset_rate
+   end subroutine past_offset
+
+   !> The switch function's V_T part at (tau, y) in a phase: V_T less the phase's offset.
+   pure real(dp) function switch_gap(model, tau, y, in_contact) result(gap)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: y(:)
+      logical, intent(in) :: in_contact
+      real(dp) :: offset, offset_rate
+      gap = model%tip_gap(tau, y)
+      if (.not. model%hysteretic) return
+      call model%switch_offset(y, in_contact, offset, offset_rate)
+      gap = gap - offset
+   end function switch_gap
+
    !> V_T, dV_T/dtau and the switch margin (tmafm_events) at a state, given sin and cos of the
    !> drive phase there.
    pure subroutine gap_state(model, sin_phase, cos_phase, y, vt, rate, margin, drive)
@@ -228,6 +255,7 @@ contains
                side = phase_sign(self%in_contact)
                call model%phase(tau, sin_test, cos_test)
                call gap_state(model, sin_test, cos_test, y, vt0, rate0, margin0, drive)
+               if (model%hysteretic) call past_offset(model, y, self%in_contact, vt0, rate0)
                phase_start = .true.
                call controller%restart()
                if (self%warped) then
@@ -279,6 +307,7 @@ contains
             ! (no sin/cos and no dot products here).
             vt1 = pair%vt_end
             rate1 = pair%rate_end
+            if (model%hysteretic) call past_offset(model, y_new, self%in_contact, vt1, rate1)
             call model%drive_signals(pair%sin_end, pair%cos_end, base1, base_rate1, drive1)
             margin1 = switch_margin(model, y_new)
             ! G's rates per unit of the step variable: dtau/ds = 1, or 2 sigma when warped.
@@ -296,6 +325,7 @@ contains
                call pair%dense(s_test/h, y_sample)
                call model%phase(map%time_at(s_test/h), sin_test, cos_test)
                call gap_state(model, sin_test, cos_test, y_sample, vt_test, rate_test, margin_test, drive)
+               if (model%hysteretic) call past_offset(model, y_sample, self%in_contact, vt_test, rate_test)
                if (side*vt_test + margin0 > 0) status = no_event
             end if
             theta_low = 0
@@ -314,14 +344,14 @@ contains
                ! the last point the dip search cleared), not at s_test/h.
                call build_dense(self, model, traj, dense_ready)
                call pair%dense(s_test/h, y_sample)
-               g_test = side*model%tip_gap(map%time_at(s_test/h), y_sample) + margin0
+               g_test = side*switch_gap(model, map%time_at(s_test/h), y_sample, self%in_contact) + margin0
                call root%start(theta_low, g_low, s_test/h, g_test, 4*epsilon(1.0_dp)*abs(tau)/h_time)
                do while (.not. root%converged())
                   call traj%charge(settings, tau, 1, ierr, errmsg)
                   if (ierr /= ok) return
                   call root%next_point(theta)
                   call pair%dense(theta, y_sample)
-                  call root%update(side*model%tip_gap(map%time_at(theta), y_sample) + margin0)
+                  call root%update(side*switch_gap(model, map%time_at(theta), y_sample, self%in_contact) + margin0)
                end do
                call root%end_with_sign(-1.0_dp, theta)
                tau_end = map%time_at(theta)
@@ -343,6 +373,8 @@ contains
                call build_dense(self, model, traj, dense_ready)
                call pair%dense(map%theta_at(traj%next_time()), y_sample)
                call traj%store(model, y_sample)
+               ! A JKR neck holds above the surface: the sample's phase is the run's, not V_T's sign.
+               if (model%hysteretic) traj%contact(traj%next_sample - 1) = merge(1, 0, self%in_contact)
             end do
             if (present(observer)) then
                if (observer%needs_dense(tau, step_taken)) call build_dense(self, model, traj, dense_ready)

@@ -118,6 +118,12 @@ contains
          end if
          return
       end if
+      if (model%hysteretic) then
+         ierr = err_input
+         errmsg = "stroboscopic map: &model contact_law = 'jkr': its neck's pull-off (a switch off V_T = 0) "// &
+                  "has no saltation matrix here; continue 'hertz', 'dmt' or 'dmt_vdw' scenes"
+         return
+      end if
       if (model%law /= law_hertz .and. model%law /= law_dmt .and. model%law /= law_dmt_vdw) then
          ierr = err_input
          write (errmsg, '(a,i0,a)') 'stroboscopic map: &model contact_law = ', model%law, &

@@ -11,7 +11,7 @@ module tmafm_observable_table
       obs_amplitude, obs_phase, obs_mean_deflection, obs_min_gap, obs_peak_force, obs_min_force, obs_contact_time, &
       obs_contacts, obs_dissipated, obs_dissipated_beam, obs_dissipated_contact_damping, &
       obs_dissipated_friction, obs_drive_work, obs_virial, obs_contact_normal_work, &
-      obs_dissipated_viscoelastic, ext_max_contact, &
+      obs_dissipated_viscoelastic, obs_dissipated_adhesion, ext_max_contact, &
       ext_min_contact, ext_max_free, ext_min_free, obs_tone_amplitude, obs_tone_phase
    implicit none
    private
@@ -83,6 +83,8 @@ module tmafm_observable_table
                        obs_contact_normal_work), &
       observable_row_t('dissipated_viscoelastic', group_energy, energy_unit, 'aJ', scale_energy, kind_column, &
                        obs_dissipated_viscoelastic), &
+      observable_row_t('dissipated_adhesion', group_energy, energy_unit, 'aJ', scale_energy, kind_column, &
+                       obs_dissipated_adhesion), &
       observable_row_t('tone1_amplitude', group_lockin, 'd', 'nm', scale_length, kind_column, &
                        obs_tone_amplitude(1)), &
       observable_row_t('tone1_phase', group_lockin, 'deg', 'deg', scale_one, kind_column, obs_tone_phase(1)), &

@@ -27,7 +27,8 @@ module tmafm_observers
    use tmafm_kinds, only: dp
    use tmafm_drive, only: max_tones
    use tmafm_model, only: model_t, n_powers, power_drive, power_beam_damping, &
-      power_contact_damping, power_contact_normal, power_contact_friction, power_contact_viscoelastic
+      power_contact_damping, power_contact_normal, power_contact_friction, power_contact_viscoelastic, &
+      power_contact_adhesion
    use tmafm_contact, only: contact_brackets_t
    use tmafm_embedded_pair, only: embedded_pair_t
    use tmafm_flight, only: free_flight_t
@@ -46,14 +47,14 @@ module tmafm_observers
       obs_contact_time, obs_contacts, obs_dissipated, obs_dissipated_beam, &
       obs_dissipated_contact_damping, obs_dissipated_friction, obs_drive_work, obs_virial, &
       obs_contact_normal_work, obs_dissipated_viscoelastic, ext_max_contact, ext_min_contact, ext_max_free, &
-      ext_min_free, obs_tone_amplitude, obs_tone_phase, obs_min_force
+      ext_min_free, obs_tone_amplitude, obs_tone_phase, obs_min_force, obs_dissipated_adhesion
 
    !> Columns of observer_t%values.
    integer, parameter :: obs_amplitude = 1, obs_phase = 2, obs_mean_deflection = 3, obs_min_gap = 4, &
       obs_peak_force = 5, obs_contact_time = 6, obs_contacts = 7, obs_dissipated = 8, &
       obs_dissipated_beam = 9, obs_dissipated_contact_damping = 10, obs_dissipated_friction = 11, &
       obs_drive_work = 12, obs_virial = 13, obs_contact_normal_work = 14, &
-      obs_dissipated_viscoelastic = 15, obs_min_force = 20, n_observables = 20
+      obs_dissipated_viscoelastic = 15, obs_min_force = 20, obs_dissipated_adhesion = 21, n_observables = 21
    !> Columns of each drive tone's lock-in amplitude and phase (tone k: obs_tone_amplitude(k)).
    integer, parameter :: obs_tone_amplitude(max_tones) = [16, 18], obs_tone_phase(max_tones) = [17, 19]
    !> Observable groups, bits of observer_t%groups: V_T's harmonics, phase and mean deflection;
@@ -203,7 +204,7 @@ contains
       if (iand(groups, group_energy) /= 0) computed([obs_dissipated, obs_dissipated_beam, &
                                                       obs_dissipated_contact_damping, obs_dissipated_friction, &
                                                       obs_drive_work, obs_virial, obs_contact_normal_work, &
-                                                      obs_dissipated_viscoelastic]) = .true.
+                                                      obs_dissipated_viscoelastic, obs_dissipated_adhesion]) = .true.
    end function group_columns
 
    subroutine observer_init(self, model, max_periods, harmonics, p_max, tol, repeats, &
@@ -807,8 +808,10 @@ contains
          v(obs_dissipated_contact_damping) = -self%acc_powers(power_contact_damping)
          v(obs_dissipated_friction) = -self%acc_powers(power_contact_friction)
          v(obs_dissipated_viscoelastic) = -self%acc_powers(power_contact_viscoelastic)
+         v(obs_dissipated_adhesion) = -self%acc_powers(power_contact_adhesion)
          v(obs_dissipated) = v(obs_dissipated_beam) + v(obs_dissipated_contact_damping) &
-                             + v(obs_dissipated_friction) + v(obs_dissipated_viscoelastic)
+                             + v(obs_dissipated_friction) + v(obs_dissipated_viscoelastic) &
+                             + v(obs_dissipated_adhesion)
          v(obs_drive_work) = self%acc_powers(power_drive)
          v(obs_virial) = self%acc_virial/period
          v(obs_contact_normal_work) = self%acc_powers(power_contact_normal)

@@ -11,6 +11,7 @@ module tmafm_physical_series
    use tmafm_errors, only: ok, err_input
    use tmafm_contact, only: contact_brackets_t, law_hertz, law_dmt
    use tmafm_vdw, only: law_dmt_vdw
+   use tmafm_jkr, only: law_jkr
    use tmafm_model, only: model_t, init_model
    use tmafm_units, only: scales_t, scales_from_physical
    use tmafm_config, only: config_t
@@ -56,6 +57,7 @@ contains
       law = law_hertz
       if (trim(config%contact_law) == 'dmt') law = law_dmt
       if (trim(config%contact_law) == 'dmt_vdw') law = law_dmt_vdw
+      if (trim(config%contact_law) == 'jkr') law = law_jkr
       call init_model(model, config%n_modes, config%scene, law, config_errata(config), ierr, errmsg)
       if (ierr /= ok) return
       scales = scales_from_physical(config%physical)

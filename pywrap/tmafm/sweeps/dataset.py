@@ -30,7 +30,8 @@ POWER = ("pW", "steady power dissipated (dissipated_energy over the drive period
 #: The power dissipated in the tip-sample contact alone, as AM-AFM reads it from the phase
 #: (contact damping and friction; not the cantilever's own damping), in pW.
 TIP_SAMPLE = ("pW", "steady power dissipated in the tip-sample contact ((dissipated_contact_"
-                    "damping + dissipated_friction + dissipated_viscoelastic) over the drive period)")
+                    "damping + dissipated_friction + dissipated_viscoelastic + dissipated_adhesion) over "
+                    "the drive period)")
 
 
 def _steady_variables(summaries: list[dict], shape: tuple, dims: tuple, units: dict,
@@ -99,8 +100,9 @@ def _steady_columns(columns: dict, physical: dict, period, steady, failed, perio
             # Every tip-sample loss channel: the contact damper, friction and the sample's own
             # viscoelastic loss (docs/model.md §16).
             contact = physical["dissipated_contact_damping"] + physical["dissipated_friction"]
-            if "dissipated_viscoelastic" in physical:
-                contact = contact + physical["dissipated_viscoelastic"]
+            for channel in ("dissipated_viscoelastic", "dissipated_adhesion"):
+                if channel in physical:
+                    contact = contact + physical[channel]
             data["tip_sample_power"] = xr.Variable(
                 dims, (contact * joule * per_second / 1e-12).reshape(shape),
                 attrs={"units": POWER[0], "units_system": "physical", "long_name": TIP_SAMPLE[1]})

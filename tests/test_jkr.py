@@ -1,0 +1,156 @@
+"""The JKR law (docs/model.md §18): an adhesive neck made at contact and broken at the JKR pull-off,
+past the undeformed surface, so each tap that goes past pull-off loses the area of the hysteresis
+loop.
+
+Oracles, each independent of the code under test:
+- the JKR closed form in SI (Johnson, Kendall and Roberts 1971), its contact radius solved here by
+  bracketing on the stable branch, not by the core's Newton iteration in its own units;
+- the hysteresis loop's area, integrated here by quadrature along the branch;
+- the composed peer (studies/composed_peer.py), whose JKR radius is the largest real root of the
+  quartic by numpy's companion matrix and whose pull-off is a solve_ivp event of its own
+  (tests/test_compose.py runs it against the core).
+"""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+from scipy.optimize import brentq
+
+import tmafm
+
+BASE = "tapping_polystyrene"
+JKR = {"model": {"contact_law": "jkr"}, "solver": {"method": "dop853"}}
+#: tapping_polystyrene's tip and sample (SI).
+RADIUS, WORK = 10e-9, 0.035
+E_STAR = 1 / ((1 - 0.27**2) / 130e9 + (1 - 0.3**2) / 1.2e9)
+
+
+def jkr_radius(delta):
+    """a on the stable branch at normal indentation delta (m): delta = a^2/R - sqrt(2 pi w a/E*)."""
+    a_c = (math.pi * WORK * RADIUS**2 / (8 * E_STAR)) ** (1 / 3)
+
+    def gap(a):
+        return a * a / RADIUS - math.sqrt(2 * math.pi * WORK * a / E_STAR) - delta
+
+    high = 2 * a_c
+    while gap(high) < 0:
+        high *= 2
+    return brentq(gap, a_c, high, xtol=1e-30, rtol=4e-16, maxiter=500)
+
+
+def jkr_force(a):
+    """F = 4 E* a^3/(3 R) - sqrt(8 pi w E* a^3) (N)."""
+    return 4 * E_STAR * a**3 / (3 * RADIUS) - math.sqrt(8 * math.pi * WORK * E_STAR * a**3)
+
+
+def pull_off_indentation():
+    """delta_c = -(3/4) (pi^2 w^2 R/E*^2)^(1/3)."""
+    return -0.75 * (math.pi**2 * WORK**2 * RADIUS / E_STAR**2) ** (1 / 3)
+
+
+def _neck_force(model, vt):
+    """The core's normal force (N), normal indentation (m) and contact radius at gap vt, with the
+    neck held (phase 'in contact' whatever the sign of vt)."""
+    n = model.n_modes
+    a = np.zeros(n)
+    v0 = model.contact(0.0, a).vt
+    a[0] = (vt - v0) / model.tip[0]
+    _, _, state = model.trajectory_energy_flow([0.0], a[None, :], np.zeros((1, n)), [1])
+    theta1, radius, normal = state[0, 0], state[0, 1], state[0, 2]
+    d = model.config.derived["length_scale"]
+    return normal * 1.5 * math.pi * WORK * RADIUS, -vt * math.sin(theta1) * d, radius
+
+
+def test_the_neck_force_is_the_jkr_closed_form_on_both_branches():
+    model = tmafm.Model(BASE, **JKR)
+    d = model.config.derived["length_scale"]
+    delta_c = pull_off_indentation()
+    # Loading (delta > 0) and the neck stretched above the surface, down to just above pull-off.
+    for target in (2e-9, 0.5e-9, 1e-12, 0.0, 0.3 * delta_c, 0.9 * delta_c, 0.999 * delta_c):
+        vt = -target / d
+        for _ in range(3):
+            force, delta, _ = _neck_force(model, vt)
+            vt = vt * (target / delta) if delta else vt
+        force, delta, _ = _neck_force(model, vt)
+        expected = jkr_force(jkr_radius(delta))
+        assert force == pytest.approx(expected, rel=1e-9, abs=1e-9 * abs(jkr_force(jkr_radius(0.0)))), target
+    # The force where the neck forms (-(4/3) pi w R) and where it breaks (-(5/6) pi w R).
+    assert _neck_force(model, 0.0)[0] == pytest.approx(-4 / 3 * math.pi * WORK * RADIUS, rel=1e-12)
+    at_pull_off = jkr_force((math.pi * WORK * RADIUS**2 / (8 * E_STAR)) ** (1 / 3))
+    assert at_pull_off == pytest.approx(-5 / 6 * math.pi * WORK * RADIUS, rel=1e-12)
+    # Without the neck (in flight) nothing acts, whatever the gap: the approach branch is 0 until contact.
+    n = model.n_modes
+    a = np.zeros(n)
+    a[0] = 1e-4 / model.tip[0]
+    _, _, state = model.trajectory_energy_flow([0.0], a[None, :], np.zeros((1, n)), [0])
+    assert state[0, 2] == 0
+
+
+def hysteresis_energy():
+    """-integral of F d(delta) from delta_c to 0 along the branch (J), by quadrature in a."""
+    a_c = (math.pi * WORK * RADIUS**2 / (8 * E_STAR)) ** (1 / 3)
+    a_0 = jkr_radius(0.0)
+
+    def integrand(a):
+        return jkr_force(a) * (2 * a / RADIUS - 0.5 * math.sqrt(2 * math.pi * WORK / (E_STAR * a)))
+
+    value, error = quad(integrand, a_c, a_0, epsabs=0, epsrel=1e-13, limit=200)
+    return -value
+
+
+def test_each_tap_loses_the_area_of_the_jkr_hysteresis_loop():
+    """Over a steady tapping orbit the neck's channel (dissipated_adhesion) is, per contact, the
+    loop's area, whatever else the tap does; the energy balance closes with it."""
+    energy = hysteresis_energy()
+    # The literature's 7.12 (w^5 R^4/E*^2)^(1/3) to its printed digits.
+    assert energy == pytest.approx(7.12 * (WORK**5 * RADIUS**4 / E_STAR**2) ** (1 / 3), rel=2e-3)
+    obs = tmafm.observe(BASE, max_periods=6000, steady_tol=1e-8, physical={"tip_sample_distance": 12e-9},
+                        model={"contact_law": "jkr"}, solver={"method": "dop853", "rtol": 1e-11, "atol": 1e-16})
+    assert obs.steady, obs.unsteady_reason
+    p = obs.physical
+    orbit = slice(len(p["drive_work"]) - obs.period, None)
+    contacts = float(np.sum(p["contacts_per_period"][orbit]))
+    assert contacts >= 1
+    per_tap = float(np.sum(p["dissipated_adhesion"][orbit])) * 1e-18 / contacts
+    assert per_tap == pytest.approx(energy, rel=1e-6)
+    balance = float(np.sum(p["drive_work"][orbit] + p["contact_normal_work"][orbit] - p["dissipated_energy"][orbit]))
+    assert abs(balance) <= 1e-6 * float(np.sum(p["drive_work"][orbit]))
+    # The phase contrast's source: the neck's loss is a share of what the tip-sample contact takes.
+    assert 0 < float(np.sum(p["dissipated_adhesion"][orbit])) < float(np.sum(p["dissipated_energy"][orbit]))
+
+
+def test_the_neck_breaks_above_the_surface_and_the_samples_say_so():
+    """A run's contact flags are the neck's phase: samples with the neck stretched (V_T > 0) are in
+    contact, and every contact ends at the pull-off gap -D_c beta/sin(theta1), not at V_T = 0."""
+    result = tmafm.run(BASE, physical={"tip_sample_distance": 12e-9}, model={"contact_law": "jkr"},
+                       solver={"method": "dop853", "rtol": 1e-10, "atol": 1e-15, "tau_end": 400.0},
+                       output={"sample_dtau": 0.002})
+    stretched = (result.contact == 1) & (result.vt > 0)
+    assert stretched.any()
+    scene = tmafm.Config(BASE, physical={"tip_sample_distance": 12e-9}, **JKR).scene
+    # sin(theta1) = cos(theta + atan|t|) with the scaled slope |t| ~ 1e-4 here: the pull-off gap is
+    # 3^(-1/3) beta/cos(theta) to 1e-3, and the samples (0.002 tau apart) come within 10 % of it.
+    pull_off = 3 ** (-1 / 3) * scene["beta"] / math.cos(scene["theta"])
+    assert 0.9 * pull_off <= np.max(result.vt[stretched]) <= 1.001 * pull_off
+    # Out of contact nothing is below the surface.
+    assert np.all(result.vt[result.contact == 0] > 0)
+
+
+@pytest.mark.parametrize("overrides, message", [
+    ({"solver": {"method": "rk4_paper"}}, "rk4_paper.*jkr"),
+    ({"solver": {"method": "rk4_event"}}, "rk4_event.*jkr"),
+    ({"solver": {"method": "dop853"}, "physical": {"sample_relaxation_time": 1e-6}},
+     "sample_relaxation_time.*viscoelastic sample is not modelled under"),
+])
+def test_what_the_jkr_law_does_not_support_is_refused_in_one_line(overrides, message):
+    with pytest.raises(tmafm.InputError, match=message) as err:
+        tmafm.Config(BASE, model={"contact_law": "jkr"}, **overrides)
+    assert "\n" not in str(err.value)
+
+
+def test_continuation_of_a_jkr_scene_is_refused_with_a_reason():
+    with pytest.raises(tmafm.TmafmError, match="jkr"):
+        tmafm.continuation(tmafm.Config(BASE, **JKR), "physical.tip_sample_distance", 12e-9, 11e-9,
+                           max_points=2)

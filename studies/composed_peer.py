@@ -108,9 +108,7 @@ class ComposedPeer:
         if self.law == "jkr":
             # The JKR neck (docs/model.md §18): D = A^2 - (4/3) sqrt(A), f = A^3 - 2 A^1.5 on the
             # stable branch sqrt(A) >= 3^(-1/3), the largest real root of x^4 - (4/3) x - D.
-            depth = -vt * math.sin(theta1) / s["beta"]
-            roots = np.roots([1.0, 0.0, 0.0, -4.0 / 3.0, -depth])
-            x = max(max(r.real for r in roots if abs(r.imag) <= 1e-9 * max(1.0, abs(r))), 3 ** (-1 / 3))
+            x = math.sqrt(self.jkr_radius(vt, theta1))
             f = x**6 - 2 * x**3
             if self.electrostatic or self.double_layer:
                 f += self.distant(max(s["vdw_range"] + vt * max(math.sin(theta1), 0.0), s["vdw_range"]))
@@ -161,7 +159,9 @@ class ComposedPeer:
         """The JKR contact radius A at gap vt (the root of normal_group's quartic, squared)."""
         depth = -vt * math.sin(theta1) / self.scene["beta"]
         roots = np.roots([1.0, 0.0, 0.0, -4.0 / 3.0, -depth])
-        x = max(max(r.real for r in roots if abs(r.imag) <= 1e-9 * max(1.0, abs(r))), 3 ** (-1 / 3))
+        real = [r.real for r in roots if abs(r.imag) <= 1e-9 * max(1.0, abs(r))]
+        # Below the pull-off (a stage past the event) no root is real: the branch's end.
+        x = max(real + [3 ** (-1 / 3)])
         return x * x
 
     def pull_off_gap(self, y):

@@ -37,7 +37,7 @@ def jkr_radius(delta):
     high = 2 * a_c
     while gap(high) < 0:
         high *= 2
-    return brentq(gap, a_c, high, xtol=1e-30, rtol=4e-16, maxiter=500)
+    return brentq(gap, a_c, high, xtol=1e-30, rtol=1e-15, maxiter=500)
 
 
 def jkr_force(a):

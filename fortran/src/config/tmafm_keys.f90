@@ -97,6 +97,7 @@ module tmafm_keys
       key_t('model', 'mode_horizon', key_real, 0, max_mode_horizon, .false., unit='tau', &
             meaning='with n_modes = 0: length of the runs that compare N and N+1'), &
       key_t('model', 'contact_law', key_string, first_word=law_words, last_word=law_words + 3, unit='-', &
+            rule="'jkr' with method dop853, dopri5 or flight_exact", &
             meaning="Hertz or DMT contact, 'dmt_vdw': DMT with van der Waals attraction out of contact "// &
             "(docs/model.md 6a), or 'jkr': JKR adhesion with its neck and pull-off (docs/model.md 18)"), &
       key_t('model', 'convention', key_string, first_word=convention_words, last_word=convention_words + 1, &

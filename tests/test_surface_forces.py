@@ -76,11 +76,11 @@ def test_in_contact_the_electrostatic_force_is_its_value_at_the_contact_separati
     biased = tmafm.Model(BASE, physical=BIASED, solver=DOP853)
     for vt in (-1e-5, -1e-4):
         added = _force(biased, vt)[0] - _force(plain, vt)[0]
-        assert added == pytest.approx(hudlet(A0, 2.1, RADIUS, 0.3, 12e-6), rel=1e-12)
+        assert added == pytest.approx(hudlet(A0, 2.1, RADIUS, 0.3, 12e-6), rel=1e-12, abs=0)
     # Under Hertz (no adhesion jump) the force is continuous at the switch: V_T = 0 from above
     # equals the contact's value.
     hertz = tmafm.Model(BASE, physical=BIASED, model={"contact_law": "hertz"}, solver=DOP853)
-    assert _force(hertz, 1e-18)[0] == pytest.approx(_force(hertz, -1e-18)[0], rel=1e-9)
+    assert _force(hertz, 1e-18)[0] == pytest.approx(_force(hertz, -1e-18)[0], rel=1e-9, abs=0)
 
 
 def test_the_electrostatic_force_tends_to_the_sphere_plane_and_to_the_cone():
@@ -98,7 +98,7 @@ def test_the_electrostatic_force_tends_to_the_sphere_plane_and_to_the_cone():
     c1 = -1 / b + k2 * (math.log(height / b) - 1 + radius * math.cos(angle) ** 2 / math.sin(angle) / b) / radius
     at_contact = _force(model, -1e-16, radius=radius)[0]
     sphere = -math.pi * EPS0 * volts**2 * radius / 1e-15
-    assert at_contact / sphere - 1 == pytest.approx(c1 * 1e-15, rel=1e-5)
+    assert at_contact / sphere - 1 == pytest.approx(c1 * 1e-15, rel=1e-5, abs=0)
     assert abs(at_contact / sphere - 1) < 1e-9
     d = model.config.derived["length_scale"]
     errors = []
@@ -107,7 +107,7 @@ def test_the_electrostatic_force_tends_to_the_sphere_plane_and_to_the_cone():
         sphere = -math.pi * EPS0 * volts**2 * radius / sep
         errors.append((force / sphere - 1) / sep)
     # First order: the error over s is C1, to O(s/b).
-    assert errors == pytest.approx([c1, c1], rel=50 * 2e-8 / b)
+    assert errors == pytest.approx([c1, c1], rel=50 * 2e-8 / b, abs=0)
     # The cone far from a small apex (R = 1 nm, H = 12 um): F/F_cone - 1 = (c - b)/(s (ln(H/s) - 1))
     # + O((R/s)^2), c = R cos^2(theta0)/sin(theta0), b = R (1 - sin(theta0)).
     small = 1e-9
@@ -119,7 +119,7 @@ def test_the_electrostatic_force_tends_to_the_sphere_plane_and_to_the_cone():
         force, sep, _ = _force(model, s / d, radius=small)
         logarithm = math.log(height / sep) - 1
         cone = -math.pi * EPS0 * volts**2 * k2 * logarithm
-        assert (force / cone - 1) * sep * logarithm == pytest.approx(first_order, rel=20 * small / sep), s
+        assert (force / cone - 1) * sep * logarithm == pytest.approx(first_order, rel=20 * small / sep, abs=0), s
     assert abs(force / cone - 1) < 2e-3
 
 
@@ -133,8 +133,8 @@ def test_the_debye_length_of_an_electrolyte_is_the_textbook_one():
         model = tmafm.Model(BASE, physical={**WATER, "ionic_strength": ionic, "tip_surface_potential": -0.03,
                                             "sample_surface_potential": -0.05}, solver=DOP853)
         d = model.config.derived["length_scale"]
-        assert model.scene["double_layer_range"] * d == pytest.approx(0.304e-9 / math.sqrt(ionic / 1000), rel=2e-3)
-        assert model.scene["double_layer_range"] * d == pytest.approx(debye_length(78.4, ionic), rel=1e-13)
+        assert model.scene["double_layer_range"] * d == pytest.approx(0.304e-9 / math.sqrt(ionic / 1000), rel=2e-3, abs=0)
+        assert model.scene["double_layer_range"] * d == pytest.approx(debye_length(78.4, ionic), rel=1e-13, abs=0)
 
 
 @pytest.mark.parametrize("law", ["hertz", "dmt_vdw"])
@@ -156,7 +156,7 @@ def test_the_double_layer_and_dlvo_are_the_closed_forms_at_three_debye_lengths(l
         expected = 4 * math.pi * RADIUS * 78.4 * EPS0 * 0.03 * 0.05 / lam * math.exp(-s / lam)
         if law == "dmt_vdw":
             expected -= hamaker * RADIUS / (6 * s**2)
-        assert force == pytest.approx(expected, rel=1e-12), multiple
+        assert force == pytest.approx(expected, rel=1e-12, abs=0), multiple
 
 
 def test_off_is_free_and_bit_for_bit_the_scene_without_the_keys():
@@ -197,7 +197,7 @@ def test_a_free_cantilevers_frequency_shift_is_minus_f0_over_2k_times_the_force_
     together < 0.5 % of Delta f."""
     f_free, _ = _ring_down_frequency(0.0)
     f_biased, config = _ring_down_frequency(1.0)
-    assert f_free == pytest.approx(70e3, rel=1e-7)
+    assert f_free == pytest.approx(70e3, rel=1e-7, abs=0)
     separation = A0 + 10e-9
     for _ in range(60):
         separation = A0 + 10e-9 + hudlet(separation, 1.0, RADIUS, math.pi / 9, 15e-6) / 2.0
@@ -206,7 +206,7 @@ def test_a_free_cantilevers_frequency_shift_is_minus_f0_over_2k_times_the_force_
                 - hudlet(separation - h, 1.0, RADIUS, math.pi / 9, 15e-6)) / (2 * h)
     expected = -70e3 / (2 * 2.0) * gradient
     assert expected < -50
-    assert f_biased - f_free == pytest.approx(expected, rel=5e-3)
+    assert f_biased - f_free == pytest.approx(expected, rel=5e-3, abs=0)
 
 
 @pytest.mark.parametrize("physical, key", [

@@ -1,5 +1,6 @@
 """A random campaign over the composed model (docs/model.md §16): contact laws, parts (two tones,
-phases, a liquid, a viscoelastic sample, van der Waals), methods and N, each a short run or an
+phases, a liquid, a viscoelastic sample, van der Waals, the forces at a distance, the JKR neck),
+methods and N, each a short run or an
 observed run of Fig. 2's scene from the installed package.
 
     /opt/tmafm-venv/bin/python studies/compose_fuzz.py [--count 600] [--seed 7]
@@ -25,7 +26,7 @@ import tmafm
 def case(rng: random.Random) -> dict:
     """One random combination of the parts, a method and N."""
     scene = {}
-    law = rng.choice(["hertz", "dmt", "dmt_vdw"])
+    law = rng.choice(["hertz", "dmt", "dmt_vdw", "jkr"])
     if rng.random() < 0.5:
         scene.update(alpha2_2=rng.choice([0.0, 1e-5, 3e-4]), omega_2=rng.choice([4.0, 6.0, 3.0, 2.5]))
     if rng.random() < 0.3:
@@ -36,6 +37,14 @@ def case(rng: random.Random) -> dict:
         scene.update(sls_relaxation_time=rng.choice([1e-3, 0.1, 5.0]), sls_modulus_ratio=rng.choice([0.05, 0.5, 1.0]))
     if law == "dmt_vdw":
         scene.update(vdw_adhesion=rng.choice([0.1, 1.0, 5.0]), vdw_range=rng.choice([1e-5, 2e-4, 1e-2]))
+    # The forces at a distance (docs/model.md §17), with hostile geometry now and then.
+    if rng.random() < 0.3:
+        scene.update(electrostatic_strength=rng.choice([1e-3, 0.05, 2.0]),
+                     electrostatic_radius=rng.choice([1e-4, 0.004, 0.5]),
+                     cone_half_angle=rng.choice([0.05, 0.35, 1.5]))
+    if rng.random() < 0.3:
+        scene.update(double_layer_strength=rng.choice([-1.0, 0.3, 20.0]),
+                     double_layer_range=rng.choice([1e-6, 3e-4, 0.1]))
     scene.update(delta_hat=rng.choice([-2e-4, 0.0, 3e-4, 1e-3]))
     n = rng.choice([1, 2, 4, 6])
     return dict(model={"contact_law": law, "n_modes": n}, scene=scene,

@@ -247,7 +247,7 @@ def test_model_arguments_that_are_fine_still_work(model):
     assert np.array_equal(model.derivative(0.0, np.zeros(2 * n), np.True_),
                           model.derivative(0, [0] * (2 * n), 1))
     power, energy, state = model.trajectory_energy_flow([], np.zeros((0, n)), np.zeros((0, n)), [])
-    assert power.shape == (0, len(tmafm.POWER_NAMES)) == (0, 6) and energy.shape == (0,) and state.shape == (0, 6)
+    assert power.shape == (0, len(tmafm.POWER_NAMES)) == (0, 7) and energy.shape == (0,) and state.shape == (0, 6)
 
 
 def test_observe_refuses_a_thread_count_that_crashed_the_interpreter():

@@ -12,7 +12,8 @@ __all__ = ["plot_branch", "render"]
 
 #: Marker of each label.
 _MARKERS = {"fold": ("o", "fold"), "period_doubling": ("s", "period doubling"),
-            "neimark_sacker": ("D", "Neimark-Sacker"), "grazing": ("^", "grazing")}
+            "neimark_sacker": ("D", "Neimark-Sacker"), "grazing": ("^", "grazing"),
+            "contact_sequence": ("v", "contact sequence changes")}
 
 
 def _check(ds):

@@ -1,0 +1,230 @@
+"""tmafm.continuation (issue 28): every branch end has a reason, non-smooth points are crossed
+(the tapping_polystyrene S-curve in one call, its folds against 0.005 nm warm-started sweeps;
+Fig. 4's period-1 branch past a change of its contact sequence), restarts from a Dataset point
+(direction at a fold, the period-2 switch at a doubling), and the refusals
+(docs/continuation.md, sections 5-6)."""
+
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import tmafm
+from tmafm import continuation as cont
+
+INPUTS = Path(__file__).resolve().parents[1] / "inputs"
+BISTABLE = str(INPUTS / "sweeps" / "bistable_n2.nml")
+FIG4 = str(INPUTS / "fig4a.nml")
+KEY_Z = "physical.tip_sample_distance"
+#: The fine sweeps' step (m) and half width around each fold.
+FINE_STEP, FINE_HALF = 0.005e-9, 0.03e-9
+
+
+def _tapping():
+    return tmafm.Config("tapping_polystyrene", physical={"drive_frequency": 301e3})
+
+
+@pytest.fixture(scope="module")
+def s_curve():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", tmafm.ContinuationWarning)
+        return cont.continuation(_tapping(), KEY_Z, 30e-9, 14e-9, max_points=400, switch=False)
+
+
+def _fine_sweep(ds, fold_index, direction):
+    """A warm-started sweep in FINE_STEP steps through the fold from the continued stable orbit
+    nearest it on its stable side (approach: above it, retract: below it); the two Z values
+    the amplitude jumps between (the largest amplitude step by far)."""
+    z = ds[KEY_Z].values
+    fold = z[fold_index]
+    sign = 1.0 if direction == "approach" else -1.0
+    stable = ds["stable"].values & (ds["label"].values == "")
+    candidates = [i for i in range(len(z)) if stable[i] and sign * (z[i] - fold) >= FINE_HALF
+                  and ds["contacts"].values[i] == 1]
+    first = min(candidates, key=lambda i: abs(z[i] - fold))
+    state = ds["state"].values[first, 0]
+    n = len(state) // 2
+    grid = z[first] - sign * FINE_STEP * np.arange(0, int(round(abs(z[first] - fold) / FINE_STEP))
+                                                   + int(FINE_HALF / FINE_STEP) + 1)
+    base = tmafm.Config(_tapping(), initial={"a0": list(state[:n]), "adot0": list(state[n:])})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", tmafm.UnsteadyWarning)
+        out = tmafm.approach(base, z=grid, retract=False, max_periods=6000, workers=1)
+    amplitude = out.sel(direction="approach")["amplitude"].values
+    steps = np.abs(np.diff(amplitude))
+    k = int(np.argmax(steps))
+    assert steps[k] > 20 * np.max(np.delete(steps, k))
+    return sorted((grid[k], grid[k + 1]))
+
+
+def test_s_curve_in_one_call_through_grazing_and_both_folds(s_curve):
+    """tapping_polystyrene driven at 301 kHz, continued in Z from 30 nm to 14 nm in one call:
+    the free orbit grazes the sample, the branch is posed again past the grazing, turns at the
+    lower fold (where an approach jumps), runs back up unstable to the upper fold (where a
+    retract jumps) and down to 14 nm; the branch ends at stop, with no warning.  Each fold lies
+    within one step of where a 0.005 nm warm-started sweep jumps."""
+    ds = s_curve
+    labels = list(ds["label"].values)
+    assert labels.count("grazing") == 1 and labels.count("fold") == 2
+    assert ds["end_reason"].values[-1] == "stop" and ds[KEY_Z].values[-1] <= 14e-9
+    z = ds[KEY_Z].values
+    g = labels.index("grazing")
+    # The grazing orbit, the last free one, is located to the smallest step (ds_min = 1e-4 ds
+    # of the scaled arclength, 1e-4 x 0.02 x 16 nm in Z; the free orbit's smallest gap moves
+    # with Z one to one): it touches no more than that far away.
+    assert 0 <= ds["min_gap_si"].values[g] <= 1e-4 * 0.02 * 16.0
+    assert 19.2e-9 < z[g] < 19.4e-9
+    folds = sorted(i for i, lab in enumerate(labels) if lab == "fold")
+    lower, upper = sorted(folds, key=lambda i: z[i])
+    assert z[lower] < z[g] < z[upper]
+    for index, direction in ((lower, "approach"), (upper, "retract")):
+        low, high = _fine_sweep(ds, index, direction)
+        assert low - FINE_STEP <= z[index] <= high + FINE_STEP, (direction, z[index], low, high)
+        mu = ds["multiplier_re"].values[index] + 1j * ds["multiplier_im"].values[index]
+        assert np.min(np.abs(mu - 1)) < 1e-6
+
+
+def test_grazing_reports_stability_on_either_side(s_curve):
+    """At the grazing point the multipliers jump: just before it (the free orbit) they are the
+    free system's, exp(lambda_k T), computed here from the model's matrices; just after it
+    (the first orbit in contact past it) the largest is another one, and the Dataset states
+    both."""
+    ds = s_curve
+    g = int(np.flatnonzero(ds["label"].values == "grazing")[0])
+    model = tmafm.Model(_tapping(), physical={"tip_sample_distance": float(ds[KEY_Z].values[g])})
+    n = model.n_modes
+    inv = np.linalg.inv(model.mass)
+    a = np.block([[np.zeros((n, n)), np.eye(n)],
+                  [-inv @ np.diag(model.eigen), -model.scene["alpha3"] * inv]])
+    free = np.max(np.abs(np.exp(np.linalg.eigvals(a) * 2 * np.pi / model.scene["omega"])))
+    before = float(ds["max_multiplier_before"].values[g])
+    after = float(ds["max_multiplier_after"].values[g])
+    assert abs(before - free) <= 1e-9
+    assert abs(after - before) > 1e-2
+    assert math.isnan(ds["max_multiplier_before"].values[0])
+
+
+@pytest.fixture(scope="module")
+def fig4_end():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", tmafm.ContinuationWarning)
+        return cont.continuation(FIG4, "scene.alpha2", 5e-4, 2e-3, switch=False, max_points=200)
+
+
+def test_fig4_period_one_branch_reaches_its_end_past_a_non_smooth_point(fig4_end):
+    """Fig. 4's period-1 branch in alpha2 reaches 2e-3: at alpha2 = 1.9632e-3 its contact
+    sequence changes (the corrector fails there, the orbit at the predicted point has another
+    number of contacts), the point is labelled and the branch posed again past it.  The
+    multipliers on either side agree with orbits solved by Newton alone (periodic_orbit)
+    1e-7 before it and 1e-6 after it."""
+    ds = fig4_end
+    labels = list(ds["label"].values)
+    assert labels.count("contact_sequence") == 1
+    assert ds["end_reason"].values[-1] == "stop" and ds["scene.alpha2"].values[-1] >= 2e-3
+    k = labels.index("contact_sequence")
+    value = float(ds["scene.alpha2"].values[k])
+    assert 1.963e-3 < value < 1.9634e-3
+    y = ds["state"].values[k, 0]
+    before = cont.periodic_orbit(tmafm.Model(FIG4, scene={"alpha2": value - 1e-7}), y)
+    assert abs(np.max(np.abs(before.multipliers)) - ds["max_multiplier_before"].values[k]) < 1e-3
+    # Past it, Newton alone from the point's orbit reaches the orbit the branch went on with.
+    nxt = k + 1
+    after = cont.periodic_orbit(tmafm.Model(FIG4, scene={"alpha2": float(
+        ds["scene.alpha2"].values[nxt])}), y, max_iter=60)
+    np.testing.assert_allclose(np.abs(after.multipliers), ds["multiplier_abs"].values[nxt],
+                               rtol=1e-6)
+    assert ds["max_multiplier_after"].values[k] - ds["max_multiplier_before"].values[k] > 0.3
+
+
+def test_an_early_end_warns_and_says_why():
+    """A branch cut by max_points ends with end_reason 'max_points' and a ContinuationWarning
+    naming it; the corrector's diagnostics are there for every point."""
+    with pytest.warns(tmafm.ContinuationWarning, match="max_points"):
+        ds = cont.continuation(BISTABLE, "scene.delta_hat", 8e-3, 0.0, max_points=4, switch=False)
+    assert list(ds["end_reason"].values) == ["", "", "", "max_points"]
+    assert ds["label"].values[-1] == "end"
+    assert np.all(ds["newton_iterations"].values[1:] >= 1)
+    assert np.all(ds["step"].values[1:] > 0)
+
+
+@pytest.fixture(scope="module")
+def bistable():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", tmafm.ContinuationWarning)
+        return cont.continuation(BISTABLE, "scene.delta_hat", 8e-3, 0.0, max_points=400)
+
+
+def test_bistable_diagram_each_branch_once_each_end_with_a_reason(bistable):
+    """The whole bistable_n2 diagram: one period-2 branch (born at the first doubling, meeting
+    its parent at the second), every branch ending at stop or where it rejoins its parent."""
+    ds = bistable
+    assert set(np.unique(ds["branch"].values[ds["period"].values == 2])) == {1000}
+    ends = ds["end_reason"].values[ds["end_reason"].values != ""]
+    assert sorted(ends) == ["rejoined", "stop"]
+    assert list(ds["label"].values).count("period_doubling") == 2
+
+
+def test_restart_at_a_fold_in_either_direction(bistable):
+    """From the approach fold: direction 1 goes on the way the branch went (onto the unstable
+    side), -1 back along the stable side; both start with the fold's orbit."""
+    ds = bistable
+    k = int(np.flatnonzero(ds["label"].values == "fold")[0])
+    value = float(ds["scene.delta_hat"].values[k])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", tmafm.ContinuationWarning)
+        runs = {d: cont.continuation(BISTABLE, "scene.delta_hat", None,
+                                     5e-3 if d > 0 else 1.9e-3, y0=ds.isel(point=k),
+                                     direction=d, max_points=3, switch=False)
+                for d in (1, -1)}
+    for d, run in runs.items():
+        assert run["scene.delta_hat"].values[0] == value
+        np.testing.assert_allclose(run["state"].values[0, 0], ds["state"].values[k, 0],
+                                   rtol=0, atol=1e-8 * np.max(np.abs(ds["state"].values[k, 0])))
+    assert not runs[1]["stable"].values[2] and runs[-1]["stable"].values[2]
+
+
+def test_restart_at_a_doubling_switches_to_the_period_two_branch(bistable):
+    """From the first period doubling with period = 2: the doubled branch born there, whose
+    fold is the full diagram's period-2 fold to 1e-6 relative; period = 2 from a period-1
+    start state is refused (the orbit found is period 1 run twice)."""
+    ds = bistable
+    k = int(np.flatnonzero(ds["label"].values == "period_doubling")[0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", tmafm.ContinuationWarning)
+        two = cont.continuation(BISTABLE, "scene.delta_hat", None, 4.5e-3, y0=ds.isel(point=k),
+                                period=2, max_points=80, switch=False)
+    assert np.all(two["period"].values == 2)
+    state = two["state"].values
+    assert np.all(np.max(np.abs(state[:, 0] - state[:, 1]), axis=1) > 0)
+    fold = two["scene.delta_hat"].values[two["label"].values == "fold"]
+    full = ds["scene.delta_hat"].values[(ds["label"].values == "fold") & (ds["period"].values == 2)]
+    assert len(fold) == 1 and len(full) == 1
+    assert abs(fold[0] - full[0]) <= 1e-6 * full[0]
+    with pytest.raises(tmafm.InputError, match="period = 2"):
+        cont.continuation(BISTABLE, "scene.delta_hat", 6e-3, 5e-3, y0=ds["state"].values[0, 0],
+                          period=2, max_points=3)
+
+
+@pytest.mark.parametrize("kwargs, error", [
+    ({"direction": 0}, tmafm.InputTypeError),
+    ({"direction": "up"}, tmafm.InputTypeError),
+    ({"cross": "yes"}, tmafm.InputTypeError),
+])
+def test_bad_new_arguments(kwargs, error):
+    with pytest.raises(error):
+        cont.continuation(BISTABLE, "scene.delta_hat", 6e-3, 5e-3, max_points=2, **kwargs)
+
+
+def test_bad_restarts(bistable):
+    ds = bistable
+    k = int(np.flatnonzero(ds["label"].values == "fold")[0])
+    with pytest.raises(tmafm.InputError, match="period = 2"):
+        cont.continuation(BISTABLE, "scene.delta_hat", None, 5e-3, y0=ds.isel(point=k), period=2)
+    with pytest.raises(tmafm.InputError, match="start"):
+        cont.continuation(BISTABLE, "scene.delta_hat", 1e-3, 5e-3, y0=ds.isel(point=k))
+    with pytest.raises(tmafm.InputError, match="key"):
+        cont.continuation(BISTABLE, "scene.alpha2", None, 5e-3, y0=ds.isel(point=k))
+    with pytest.raises(tmafm.InputError, match="one point"):
+        cont.continuation(BISTABLE, "scene.delta_hat", None, 5e-3, y0=ds.isel(point=[k, k + 1]))

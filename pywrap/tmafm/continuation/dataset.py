@@ -11,6 +11,7 @@ import numpy as np
 
 from .._namelist import shown
 from ..errors import ContinuationWarning, InputError, InputTypeError, SolverError
+from ..sweeps.dataset import key_units
 from ..sweeps.executors import _check_run, _dask_results, _process_pool, _progress, _results, _workers
 from ..sweeps.points import _base_config, _base_dict, _config, _split_key
 from ..sweeps.runs import _observe_one
@@ -406,6 +407,7 @@ def _dataset(xr, records, key, n_modes, m, base_config, options, start, stop):
                               {"long_name": f"{name} in SI-derived units", "units": unit})
     ds = xr.Dataset(data, coords={key: ("point", np.array([r["value"] for r in records])),
                                   "point": np.arange(n)})
+    ds[key].attrs["units"] = key_units(key)
     ds.attrs.update({"tmafm_kind": "continuation", "key": key, "start": start, "stop": stop,
                      "base": base_config.label, "n_modes": n_modes,
                      **{f"option_{k}": (int(v) if isinstance(v, bool) else v)

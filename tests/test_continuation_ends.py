@@ -13,6 +13,7 @@ import pytest
 
 import tmafm
 from tmafm import continuation as cont
+from tmafm.continuation import plots
 
 INPUTS = Path(__file__).resolve().parents[1] / "inputs"
 BISTABLE = str(INPUTS / "sweeps" / "bistable_n2.nml")
@@ -103,6 +104,9 @@ def test_grazing_reports_stability_on_either_side(s_curve):
     after = float(ds["max_multiplier_after"].values[g])
     assert abs(before - free) <= 1e-9
     assert abs(after - before) > 1e-2
+    # docs/continuation.md section 9: just past grazing unstable, the first orbit the branch
+    # goes on with (past the point) stable.
+    assert after > 1 and ds["stable"].values[g + 1] and ds["contacts"].values[g + 1] == 1
     assert math.isnan(ds["max_multiplier_before"].values[0])
 
 
@@ -257,3 +261,68 @@ def test_bistable_grazing_stability_either_side_by_iterating_the_map(bistable):
     assert rates[-1e-11] > 1.0
     assert rates[-1e-8] < 0.8 and rates[1e-8] < 0.8
     assert ds["max_multiplier_before"].values[g] < 1 < ds["max_multiplier_after"].values[g]
+
+
+def test_two_start_states_on_one_branch_trace_it_once():
+    """Two start states that Newton takes to the same orbit: the branch is traced once; the
+    second start keeps its first point, end_reason 'duplicate' naming the branch, and no
+    warning (it is not an early end)."""
+    model = tmafm.Model(BISTABLE, scene={"delta_hat": 6e-3})
+    y = cont.periodic_orbit(model, np.zeros(4)).states[0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", tmafm.ContinuationWarning)
+        ds = cont.continuation(BISTABLE, "scene.delta_hat", 6e-3, 5e-3, y0=[y, y * 1.001],
+                               max_points=40, switch=False, workers=1)
+    second = ds.where(ds["branch"] == 1, drop=True)
+    assert second.sizes["point"] == 1
+    assert second["end_reason"].values[0] == "duplicate"
+    assert "branch 0" in str(second["end_detail"].values[0])
+    assert ds.where(ds["branch"] == 0, drop=True)["end_reason"].values[-1] == "stop"
+
+
+def test_a_crossing_beyond_ds_is_not_found_and_the_end_says_so():
+    """docs/continuation.md section 9: Fig. 4's branch from alpha2 = 1.9e-3 to 2e-3 (so ds is
+    2e-6 in alpha2) cannot be posed again past its contact-sequence change (the orbit past it
+    is out of Newton's reach within ds): it ends there, 'contact_sequence', with a warning."""
+    with pytest.warns(tmafm.ContinuationWarning, match="contact_sequence"):
+        ds = cont.continuation(FIG4, "scene.alpha2", 1.9e-3, 2e-3, switch=False, max_points=100)
+    assert ds["end_reason"].values[-1] == "contact_sequence"
+    assert 1.963e-3 < ds["scene.alpha2"].values[-1] < 1.9634e-3
+
+
+def test_plot_branch_over_an_si_approach(s_curve):
+    """plot_branch draws a branch continued in physical.tip_sample_distance over an SI
+    approach (its axis z in m), the key with its unit, the SI lengths as the sweep's nm, one
+    legend entry per branch."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", tmafm.UnsteadyWarning)
+        sweep = tmafm.approach(_tapping(), z=[30e-9, 25e-9], retract=False, max_periods=50,
+                               workers=1)
+    fig, ax = plt.subplots()
+    plots.plot_branch(s_curve, None, "min_gap_si", sweep=sweep, ax=ax)
+    assert ax.get_xlabel() == "physical.tip_sample_distance [m]"
+    assert ax.get_ylabel() == "min_gap_si [nm]"
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "branch 0 (period 1)" in labels and "brute force (min_gap)" in labels
+    plt.close(fig)
+
+
+def test_the_unstable_orbit_is_one_call_away(s_curve):
+    """orbit_run: a run (the input's own solver, flight_exact at rtol 1e-9) from an unstable
+    orbit of the S-curve's middle branch over one period comes back to its section state to
+    1e-6 of the orbit's size (the run's tolerance times |mu| ~ 1.01 over one period); its
+    smallest V_T is the orbit's min_gap to the same accuracy."""
+    ds = s_curve
+    middle = np.flatnonzero(~ds["stable"].values & (ds["label"].values == ""))
+    k = int(middle[len(middle) // 2])
+    assert ds["multiplier_abs"].values[k, 0] > 1
+    result = cont.orbit_run(_tapping(), ds.isel(point=k))
+    y = ds["state"].values[k, 0]
+    n = len(y) // 2
+    end = np.concatenate([result.a[-1], result.adot[-1]])
+    assert np.max(np.abs(end - y)) <= 1e-6 * np.max(np.abs(y))
+    assert abs(np.min(result.vt) - ds["min_gap"].values[k]) <= 1e-3 * ds["amplitude"].values[k]
+    assert n == 3

@@ -277,13 +277,14 @@ def _mu_max(p: Point) -> float:
 
 
 #: Why a branch ends (Point.end_reason, the Dataset's `end_reason`): the stop value or the
-#: interval's end reached, max_points points, a doubled branch meeting its parent again, the
-#: corrector failing at a non-smooth point (a contact appearing or
-#: vanishing at grazing; the number of contacts per period changing) that could not be
-#: crossed, or failing elsewhere.
-END_REASONS = ("stop", "max_points", "rejoined", "grazing", "contact_sequence", "corrector_failed")
+#: interval's end reached, max_points points, a doubled branch meeting its parent again, a
+#: start state on a branch another start state traced (tmafm.continuation), the corrector
+#: failing at a non-smooth point (a contact appearing or vanishing at grazing; the number of
+#: contacts per period changing) that could not be crossed, or failing elsewhere.
+END_REASONS = ("stop", "max_points", "rejoined", "duplicate", "grazing", "contact_sequence",
+               "corrector_failed")
 #: Ends that are not early (no warning).
-FINISHED = ("stop", "rejoined")
+FINISHED = ("stop", "rejoined", "duplicate")
 #: Most non-smooth points one branch crosses.
 MAX_CROSSINGS = 20
 

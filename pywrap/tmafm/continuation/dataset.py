@@ -330,9 +330,42 @@ def continuation(base, key, start, stop, *, y0=None, period=None, direction=1, d
     finally:
         if bar is not None:
             bar.close()
+    results = _drop_duplicates(results, start, stop, ds_max)
     records = [r for branch in results for r in branch]
     _warn_early_ends(records, key)
     return _dataset(xr, records, key, n_modes, m, base_config, options, start, stop)
+
+
+def _drop_duplicates(results: list, start: float, stop: float, ds_max: float) -> list:
+    """Several start states on one branch trace it once: a task whose first orbit lies within
+    one largest step (ds_max, in the scaled unknowns: states over their size, the key over
+    |stop - start|) of an orbit an earlier task traced, of the same period, keeps only that
+    start, with end_reason 'duplicate' naming the branch.  (The tasks run in parallel, so the
+    later one's work is done; it is not shown twice.)"""
+    span = abs(stop - start)
+    kept = []
+    for records in results:
+        first = records[0]
+        scale = max(float(np.max(np.abs(first["states"]))), 1e-300)
+        hit = None
+        for earlier in kept:
+            for r in earlier:
+                if r["period"] != first["period"]:
+                    continue
+                gap = np.hypot(np.linalg.norm(r["states"] - first["states"]) / scale,
+                               (r["value"] - first["value"]) / span)
+                if gap <= ds_max:
+                    hit = r["branch"]
+                    break
+            if hit is not None:
+                break
+        if hit is not None:
+            only = dict(first, end_reason="duplicate",
+                        end_detail=f"the start lies on branch {hit}, traced already")
+            kept.append([only])
+        else:
+            kept.append(records)
+    return kept
 
 
 def _warn_early_ends(records: list, key: str) -> None:
@@ -343,7 +376,19 @@ def _warn_early_ends(records: list, key: str) -> None:
         text = "; ".join(f"branch {r['branch']} (period {r['period']}) at {key} = "
                          f"{r['value']:.9g}: {r['end_reason']} ({r['end_detail']})" for r in early)
         warnings.warn(f"tmafm.continuation: {len(early)} branch(es) end early: {text}",
-                      ContinuationWarning, stacklevel=3)
+                      ContinuationWarning, stacklevel=_caller_level())
+
+
+def _caller_level() -> int:
+    """The stacklevel of the first frame outside the tmafm package (the user's call, whether
+    through tmafm.continuation() or the module's function)."""
+    import sys
+    from pathlib import Path
+    package = str(Path(__file__).resolve().parents[1])
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_code.co_filename.startswith(package):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 #: The observables that are lengths (gap units d), converted as the core's min_gap row is.
@@ -413,3 +458,36 @@ def _dataset(xr, records, key, n_modes, m, base_config, options, start, stop):
                      **{f"option_{k}": (int(v) if isinstance(v, bool) else v)
                         for k, v in options.items()}})
     return ds
+
+
+def orbit_run(base, point, *, periods=None, samples=200):
+    """The trajectory of the orbit at `point` (one point of a continuation Dataset,
+    ds.isel(point=k), stable or not): a tmafm.run of `base` at the point's key value from its
+    first section state (a0, adot0) over `periods` drive periods (default: the orbit's period),
+    with base's solver, sampled `samples` times per drive period (so the last sample is at
+    the end of the last period).  An unstable orbit is followed as long as its
+    multipliers let the run's error grow no larger than wanted (|mu|^periods times the
+    solver's tolerance).  Refused for a viscoelastic sample, whose dashpot state a run cannot
+    start from."""
+    from .._run import Config
+    if not _is_dataset(point):
+        raise InputTypeError("point: must be one point of tmafm.continuation's Dataset "
+                             "(ds.isel(point=k))")
+    key = point.attrs.get("key")
+    if key is None:
+        raise InputTypeError("point: must be one point of tmafm.continuation's Dataset")
+    restart = _restart_point(point, key)
+    n = restart["period"]
+    periods = n if periods is None else _positive_int("periods", periods, 100000)
+    samples = _positive_int("samples", samples, 10 ** 6)
+    state = restart["states"][0]
+    if len(state) % 2:
+        raise InputError("orbit_run: the orbit has a viscoelastic sample's dashpot state w, which "
+                         "a run cannot start from (&initial gives a0 and adot0 only)")
+    group, name = key.split(".")
+    config = Config(_base_config(base), **{group: {name: restart["value"]}})
+    period = map_period(Model(config))
+    half = len(state) // 2
+    return Config(config, initial={"a0": list(state[:half]), "adot0": list(state[half:])},
+                  solver={"tau_end": periods * period},
+                  output={"sample_dtau": period / samples}).run()

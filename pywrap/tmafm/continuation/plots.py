@@ -72,10 +72,13 @@ def plot_branch(ds, path, variable="amplitude", sweep=None, sweep_variable=None,
         ys = y.reshape(len(x), -1)
         stable = np.asarray(sel["stable"]).astype(bool)
         color = colors[k % len(colors)]
+        name = f"branch {int(b)} (period {int(sel['period'].values[0])})"
         for i, j, st in _runs(stable):
             lo, hi = max(i - 1, 0), j  # join the stretches
             for col in range(ys.shape[1]):
-                ax.plot(x[lo:hi], ys[lo:hi, col], "-" if st else "--", color=color, lw=1.4)
+                ax.plot(x[lo:hi], ys[lo:hi, col], "-" if st else "--", color=color, lw=1.4,
+                        label=name)
+                name = None
         labels = np.asarray(sel["label"])
         for lab, (marker, text) in _MARKERS.items():
             hit = labels == lab
@@ -84,7 +87,7 @@ def plot_branch(ds, path, variable="amplitude", sweep=None, sweep_variable=None,
                         label=None if lab in shown else text)
                 shown.add(lab)
     key_unit = ds[key].attrs.get("units", "")
-    ax.set_xlabel(f"{key} [{key_unit}]" if key_unit else key)
+    ax.set_xlabel(f"{key} [{key_unit}]" if key_unit not in ("", "1") else key)
     unit = ds[variable].attrs.get("units", "")
     ax.set_ylabel(f"{variable} [{unit}]" if unit and unit != "1" else variable)
     ax.legend(fontsize=8)

@@ -36,7 +36,7 @@ def test_fold_curve_agrees_with_one_parameter_folds(upper_fold):
     branch, k, curve = upper_fold
     assert curve["end_reason"].values[-1] == "stop"
     assert curve[KEY2].values[-1] >= 6e-4
-    assert np.all(np.abs(curve["test_fold"].values) < 1e-7)
+    assert np.all(np.abs(curve["test_function"].values) < 1e-7)
     # The multiplier +1 all along: the fold's Floquet signature.
     mu = curve["multiplier_re"].values + 1j * curve["multiplier_im"].values
     assert np.all(np.min(np.abs(mu - 1), axis=1) < 1e-6)
@@ -73,3 +73,39 @@ def test_fold_curve_refusals(upper_fold):
         cont.fold_curve(BISTABLE, KEY2, branch, 6e-4, bogus=1)
     with pytest.raises(tmafm.InputTypeError):
         cont.fold_curve(BISTABLE, KEY2, branch.isel(point=k), 6e-4, direction=0)
+
+
+@pytest.fixture(scope="module")
+def doubling():
+    """The first period doubling of bistable_n2's period-1 branch (delta_hat = 2.9985e-3 at
+    alpha2 = 5e-4) and its curve in (delta_hat, alpha2) up to alpha2 = 5.5e-4."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", tmafm.ContinuationWarning)
+        branch = cont.continuation(BISTABLE, KEY, 8e-3, 0.0, max_points=50, switch=False)
+    k = int(np.flatnonzero(branch["label"].values == "period_doubling")[0])
+    assert abs(branch[KEY].values[k] - 2.9985e-3) < 1e-7
+    curve = cont.period_doubling_curve(BISTABLE, KEY2, branch.isel(point=k), 5.5e-4,
+                                       max_points=60)
+    return branch, k, curve
+
+
+def test_period_doubling_curve_agrees_with_one_parameter_doublings(doubling):
+    """At five points of the curve, a one-parameter continuation in delta_hat at that alpha2
+    from the curve's orbit, started 2e-5 above it, locates its doubling at the curve's
+    delta_hat to 1e-6 relative; a multiplier at -1 all along the curve."""
+    branch, k, curve = doubling
+    assert curve["end_reason"].values[-1] == "stop" and curve.attrs["tmafm_kind"] == \
+        "period_doubling_curve"
+    mu = curve["multiplier_re"].values + 1j * curve["multiplier_im"].values
+    assert np.all(np.min(np.abs(mu + 1), axis=1) < 1e-6)
+    picks = np.linspace(0, curve.sizes["point"] - 1, 5).round().astype(int)
+    for i in picks:
+        lam, alpha2 = float(curve[KEY].values[i]), float(curve[KEY2].values[i])
+        base = tmafm.Config(BISTABLE, scene={"alpha2": alpha2})
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", tmafm.ContinuationWarning)
+            one = cont.continuation(base, KEY, lam + 2e-5, lam - 2e-4,
+                                    y0=curve["state"].values[i, 0], max_points=40, switch=False)
+        pds = one[KEY].values[one["label"].values == "period_doubling"]
+        assert len(pds) == 1, (alpha2, one["label"].values)
+        assert abs(pds[0] - lam) <= 1e-6 * lam, (alpha2, pds[0], lam)

@@ -15,11 +15,11 @@ from __future__ import annotations
 
 from .branch import LABELS
 from .dataset import continuation, orbit_run
-from .fold_curve import fold_curve
+from .fold_curve import fold_curve, period_doubling_curve
 from .shooting import (STAT_NAMES, MapResult, Orbit, floquet_multipliers, jacobian, map_period,
                        map_size, periodic_map, periodic_orbit)
 
-__all__ = ["continuation", "fold_curve", "orbit_run", "periodic_map", "periodic_orbit",
+__all__ = ["continuation", "fold_curve", "period_doubling_curve", "orbit_run", "periodic_map", "periodic_orbit",
            "floquet_multipliers", "jacobian", "map_size", "map_period", "MapResult", "Orbit", "STAT_NAMES", "LABELS"]
 
 

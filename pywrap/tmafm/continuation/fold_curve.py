@@ -1,5 +1,6 @@
-"""Two-parameter continuation of a fold of periodic orbits (docs/continuation.md, section 5a):
-the curve of folds in two input keys (lambda, mu), by the minimally augmented system
+"""Two-parameter continuation of a fold or a period doubling of periodic orbits
+(docs/continuation.md, section 5a): the curve of folds (or doublings) in two input keys
+(lambda, mu), by the minimally augmented system
 
     F(X, lambda, mu) = 0,      g(X, lambda, mu) = 0,
 
@@ -7,7 +8,8 @@ F the multiple-shooting residual (tmafm.continuation.shooting) and g the last co
 solution of the bordered system [[J, b], [c^T, 0]] [v; g] = [0; 1], J = dF/dX the block-cyclic
 shooting Jacobian (Govaerts, *Numerical Methods for Bifurcations of Dynamical Equilibria*,
 SIAM 2000, ch. 4; the fold test of AUTO, MatCont, BifurcationKit).  g = 0 exactly where J is
-singular, which for a periodic orbit is a Floquet multiplier at +1: a fold.  The bordering
+singular, which for a periodic orbit is a Floquet multiplier at +1: a fold.  For a period
+doubling J's wrap-around block -I is replaced by +I: singular where a multiplier is -1.  The bordering
 vectors b, c are the left and right null vectors of J at the start and are replaced by w and v
 (the bordered system's own solutions) after every point, so the bordered matrix stays regular.
 The orbits, monodromy matrices and multipliers come from the core; g's gradient is a forward
@@ -29,14 +31,15 @@ from ..sweeps.points import _base_config, _base_dict, _config, _split_key
 from .shooting import (_jacobian, _merge_stats, _positive_int, _residual, _tolerance, floquet_multipliers,
                        map_size, periodic_map, state_scale)
 
-__all__ = ["fold_curve"]
+__all__ = ["fold_curve", "period_doubling_curve"]
 
 
 class _FoldProblem:
     """F = 0, g = 0 in the scaled unknowns u = (X/sx, (lambda - l0)/ls, (mu - m0)/ms)."""
 
-    def __init__(self, groups, key, key2, period, rtol, l0, ls, m0, ms, sx):
+    def __init__(self, groups, key, key2, period, rtol, l0, ls, m0, ms, sx, kind="fold"):
         self.groups, self.key, self.key2, self.period, self.rtol = groups, key, key2, period, rtol
+        self.kind = kind
         self.l0, self.ls, self.m0, self.ms, self.sx = l0, ls, m0, ms, sx
         self._config = _config(groups, {})
         self.m = map_size(self.model(l0, m0))
@@ -72,16 +75,26 @@ class _FoldProblem:
         wh = np.linalg.solve(big.T, rhs)
         return vg[:n], vg[n], wh[:n]
 
+    def test_matrix(self, maps):
+        """The matrix singular at the point followed: J = dF/dX for a fold; for a period
+        doubling J with its wrap-around block +I instead of -I (singular where the product of
+        the segments has a multiplier -1: M_i v_i = v_(i+1), M_n v_n = -v_1)."""
+        jac = _jacobian(maps)
+        if self.kind == "period_doubling":
+            n, m = self.period, self.m
+            jac[(n - 1) * m:, :m] += 2 * np.eye(m)
+        return jac
+
     def g_only(self, u) -> float:
         states, maps = self.maps(u)
-        return self.bordered(_jacobian(maps))[1]
+        return self.bordered(self.test_matrix(maps))[1]
 
     def system(self, u):
         """R = (F/sx, g) at u and its (n+1) x (n+2) Jacobian; the maps at u."""
         states, maps = self.maps(u)
         res = _residual(maps, states) / self.sx
         jx = _jacobian(maps)
-        _, g, _ = self.bordered(jx)
+        _, g, _ = self.bordered(self.test_matrix(maps))
         h = 1e-6
         columns = []
         for k in (-2, -1):  # dF/dlambda~, dF/dmu~: forward differences of the map
@@ -137,17 +150,35 @@ def _correct(problem, u_pred, direction, tol, max_iter=15):
 
 
 def _refresh_borders(problem, maps):
-    v, _, w = problem.bordered(_jacobian(maps))
+    v, _, w = problem.bordered(problem.test_matrix(maps))
     problem.c = v / np.linalg.norm(v)
     problem.b = w / np.linalg.norm(w)
 
 
 def fold_curve(base, key2, point, stop2, *, ds=0.02, ds_max=0.1, max_points=100, rtol=1e-10,
                tol=1e-9, direction=1, **unknown):
-    """The curve of folds through `point` (a 'fold' point of a tmafm.continuation Dataset,
-    ds.isel(point=k), continued in its key) in the plane of its key and key2, from key2's value
-    in base towards stop2: an xarray.Dataset along 'point' with both keys, the orbit's section
-    states, its multipliers (one at +1), g (the fold's test function, 0 to the tolerance), the
+    """The curve of folds through `point` (a 'fold' point of a tmafm.continuation Dataset) in
+    the plane of its key and key2: see _curve."""
+    return _curve("fold", base, key2, point, stop2, ds=ds, ds_max=ds_max,
+                  max_points=max_points, rtol=rtol, tol=tol, direction=direction, **unknown)
+
+
+def period_doubling_curve(base, key2, point, stop2, *, ds=0.02, ds_max=0.1, max_points=100,
+                          rtol=1e-10, tol=1e-9, direction=1, **unknown):
+    """The curve of period doublings through `point` (a 'period_doubling' point) in the plane
+    of its key and key2: as fold_curve, the bordered matrix built on J with its wrap-around
+    block +I (a multiplier -1), multipliers with one at -1 along it."""
+    return _curve("period_doubling", base, key2, point, stop2, ds=ds, ds_max=ds_max,
+                  max_points=max_points, rtol=rtol, tol=tol, direction=direction, **unknown)
+
+
+def _curve(kind, base, key2, point, stop2, *, ds, ds_max, max_points, rtol, tol, direction,
+           **unknown):
+    """The curve of `kind` points (fold, period_doubling) through `point` (such a point of a
+    tmafm.continuation Dataset, ds.isel(point=k), continued in its key) in the plane of its key
+    and key2, from key2's value in base towards stop2: an xarray.Dataset along 'point' with both
+    keys, the orbit's section states, its multipliers (one at +1, or -1), g (the test
+    function, 0 to the tolerance), the
     Newton iterations and steps, and end_reason ('stop', 'max_points' or 'corrector_failed'
     with end_detail) at the last point.  ds / ds_max / tol as tmafm.continuation's, in units of
     the Dataset's |stop - start| and of |stop2 - key2's start|; direction 1 starts with key2
@@ -163,8 +194,8 @@ def fold_curve(base, key2, point, stop2, *, ds=0.02, ds_max=0.1, max_points=100,
         if point.sizes["point"] != 1:
             raise InputError(f"point: one point of the Dataset, got {point.sizes['point']}")
         point = point.isel(point=0)
-    if str(point["label"].values) != "fold":
-        raise InputError(f"point: its label is {str(point['label'].values)!r}, not 'fold'")
+    if str(point["label"].values) != kind:
+        raise InputError(f"point: its label is {str(point['label'].values)!r}, not '{kind}'")
     key = point.attrs["key"]
     _split_key(key2)
     if key2 == key:
@@ -195,17 +226,17 @@ def fold_curve(base, key2, point, stop2, *, ds=0.02, ds_max=0.1, max_points=100,
     ls = abs(float(point.attrs["stop"]) - float(point.attrs["start"]))
     probe = Model(_config(groups, {key: lam}))
     problem = _FoldProblem(groups, key, key2, n, rtol, lam, ls, start2, abs(stop2 - start2),
-                           state_scale(probe, states))
+                           state_scale(probe, states), kind)
     u = np.concatenate([np.ravel(states) / problem.sx, [0.0, 0.0]])
-    # The borders: J's null vectors at the fold (smallest singular vectors).
+    # The borders: the test matrix's null vectors at the point (smallest singular vectors).
     maps = problem.maps(u)[1]
-    left, _, right = np.linalg.svd(_jacobian(maps))
+    left, _, right = np.linalg.svd(problem.test_matrix(maps))
     problem.b, problem.c = left[:, -1], right[-1]
     fixed = np.zeros(len(u))
     fixed[-1] = 1.0  # the first point at key2's start: lambda free, mu fixed
     out = _correct(problem, u, fixed, tol, max_iter=30)
     if out is None:
-        raise SolverError(f"fold_curve: no fold found from the point at {key} = {lam:.9g} "
+        raise SolverError(f"{kind}_curve: no {kind} found from the point at {key} = {lam:.9g} "
                           f"({problem.failure})")
     u, jac, maps, it = out
     _refresh_borders(problem, maps)
@@ -249,8 +280,8 @@ def fold_curve(base, key2, point, stop2, *, ds=0.02, ds_max=0.1, max_points=100,
         "multiplier_im": (("point", "multiplier"), mu_all.imag),
         "multiplier_abs": (("point", "multiplier"), np.abs(mu_all)),
         "stable": ("point", np.array([bool(np.max(np.abs(r["multipliers"])) < 1) for r in rows])),
-        "test_fold": ("point", np.array([r["g"] for r in rows]),
-                      {"long_name": "g of the bordered system (0 on the curve)"}),
+        "test_function": ("point", np.array([r["g"] for r in rows]),
+                          {"long_name": "g of the bordered system (0 on the curve)"}),
         "contacts": ("point", np.array([r["contacts"] for r in rows], dtype=float)),
         "min_gap": ("point", np.array([r["min_gap"] for r in rows])),
         "newton_iterations": ("point", np.array([r["iterations"] for r in rows], dtype=int)),
@@ -262,14 +293,14 @@ def fold_curve(base, key2, point, stop2, *, ds=0.02, ds_max=0.1, max_points=100,
     }
     return xr.Dataset(data, coords={key: ("point", np.array([r["lam"] for r in rows])),
                                     "point": np.arange(len(rows))},
-                      attrs={"tmafm_kind": "fold_curve", "key": key, "key2": key2,
+                      attrs={"tmafm_kind": f"{kind}_curve", "key": key, "key2": key2,
                              "start2": start2, "stop2": stop2, "period": n})
 
 
 def _row(problem, u, maps, iterations, step) -> dict:
     states, lam, mu = problem.unpack(u)
     stats = _merge_stats(maps)
-    _, g, _ = problem.bordered(_jacobian(maps))
+    _, g, _ = problem.bordered(problem.test_matrix(maps))
     return {"lam": lam, "mu": mu, "states": states, "g": g, "iterations": iterations,
             "step": step, "multipliers": floquet_multipliers([mp.monodromy for mp in maps]),
             "contacts": stats["contacts"] / problem.period, "min_gap": stats["gap_min"]}

@@ -1064,6 +1064,37 @@ def check_compose_cost(ck, group="performance"):
                 [f"{run['specialised']:,}", f"{run['composed']:,}", f"{run['ratio']:.3f}"], sec)
 
 
+def check_continuation(ck, group="continuation"):
+    """docs/performance.md's whole-diagram cost against
+    benchmarks/results/continuation_diagram_cost.json (`python
+    benchmarks/continuation_diagram_cost.py`), and docs/continuation.md's fold curves against
+    studies/results/fold_curves.json (`python studies/fold_curves.py`)."""
+    d = load(result_path("continuation_diagram_cost.json"))
+    doc, sec = "docs/performance.md", "The whole diagram at the continuation's accuracy"
+    ck.text(group, doc, "with its fold, {} points, **{} s**.",
+            [str(d["continuation_points"]), f"{d['continuation_cpu_s']:.3f}"], sec)
+    ck.text(group, doc, "rtol = 1e-12 to {} relative: that is its accuracy.",
+            [sci(d["continuation_accuracy_rel"], 2, "-")], sec)
+    ck.text(group, doc, "({} at the first level", [str(d["max_periods"])], sec)
+    ck.text(group, doc, "a budget of {} times the continuation's CPU time. It spent **{} s**",
+            [f"{d['budget_factor']:.0f}", f"{d['brute_force_cpu_s']:.3f}"], sec)
+    ck.text(group, doc, "the jumps to {} relative, far short",
+            [sci(d["brute_force_bracket_rel"], 2, "-")], sec)
+    ck.text(group, doc, "the brute force's is {}, an upper bound",
+            [f"{d['ratio_continuation_over_brute_force']:.4f}"], sec)
+    ck.value(group, "benchmarks/results/continuation_diagram_cost.json",
+             "the brute force short of the continuation's accuracy (the ratio a bound)",
+             "False", str(d["brute_force_reached_accuracy"]),
+             ok=not d["brute_force_reached_accuracy"])
+    f = load(result_path("fold_curves.json"))
+    ck.value(group, "studies/results/fold_curves.json",
+             "every fold curve within one grid step of the sweeps' jumps", "True",
+             str(f["all_within_one_step"]), ok=f["all_within_one_step"])
+    ck.text(group, "docs/continuation.md", "(approach/retract sweeps in steps of {} at {} values "
+            "of α2)", [sci(f["grid_step"], 1, "-"), ["one", "two", "three", "four", "five"]
+                       [len(f["brute_force"]) - 1]], "5a. Folds in two parameters")
+
+
 # ----------------------------------------------------------------------------- main
 GROUPS = {
     "figures": lambda ck: check_figures(ck, load(SUMMARY)),
@@ -1073,6 +1104,7 @@ GROUPS = {
     "docs": check_other_docs,
     "errata": check_errata,
     "am_afm": check_am_afm,
+    "continuation": check_continuation,
 }
 
 

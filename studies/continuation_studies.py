@@ -37,6 +37,13 @@ def _special(ds, key):
     return out
 
 
+def _ends(ds, key):
+    """Every branch's end: its number, period, value and end_reason (docs/continuation.md)."""
+    return [{"branch": int(ds["branch"].values[i]), "period": int(ds["period"].values[i]),
+             key: float(ds[key].values[i]), "end_reason": str(ds["end_reason"].values[i])}
+            for i in np.flatnonzero(ds["end_reason"].values != "")]
+
+
 def bistable():
     key = "scene.delta_hat"
     grid = np.linspace(8e-3, 0.0, 201)
@@ -60,7 +67,7 @@ def bistable():
     plots._save(fig, REPO / "docs" / "figures" / "continuation_bistable.png")
     return {"command": "tmafm.continuation(bistable_n2, 'scene.delta_hat', 8e-3, 0, "
                        "max_points=400) against tmafm.approach(bistable_n2, 201 points)",
-            "special_points": _special(ds, key),
+            "special_points": _special(ds, key), "ends": _ends(ds, key),
             "sweep_jumps": jumps, "grid_step": float(grid[0] - grid[1]),
             "points": int(ds.sizes["point"])}
 
@@ -83,7 +90,7 @@ def alpha2_route():
     return {"command": "tmafm.continuation(fig4a, 'scene.alpha2', 5e-4, 2e-3, max_points=200, "
                        "max_period=4) against tmafm.bifurcation(fig4a flight_exact rtol 1e-10, "
                        "21 values in [1e-3, 2e-3], 400 periods)",
-            "special_points": _special(ds, key),
+            "special_points": _special(ds, key), "ends": _ends(ds, key),
             "brute_force": {"alpha2": values.tolist(), "period": periods},
             "points": int(ds.sizes["point"])}
 

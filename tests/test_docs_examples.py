@@ -270,10 +270,29 @@ def _check_continuation(ns, seen, out):
     assert "grazing" in labels and labels.count("fold") == 2
     assert (ds["period"] == 2).any()
     assert ns["orbit"].stable and ns["orbit"].stats["contacts"] == 2
+    # "one period-2 branch"; every end has a reason, none early; section 7's grazing row:
+    # "max |mu| 0.7594 before, 1.129 just after"
+    assert set(ds["branch"].values[ds["period"].values == 2]) == {1000}
+    assert sorted(r for r in ds["end_reason"].values if r) == ["rejoined", "stop"]
+    g = labels.index("grazing")
+    assert round(float(one["max_multiplier_before"].values[g]), 4) == 0.7594
+    assert round(float(one["max_multiplier_after"].values[g]), 3) == 1.129
+
+
+def _check_s_curve(ns, seen, out):
+    # "grazing ... between 19.2 and 19.4 nm ... both folds ... end_reason stop"
+    ds = ns["ds"]
+    labels = list(ds["label"].values)
+    assert labels.count("grazing") == 1 and labels.count("fold") == 2
+    z = ds["physical.tip_sample_distance"].values
+    assert 19.2e-9 < z[labels.index("grazing")] < 19.4e-9
+    assert [r for r in ds["end_reason"].values if r] == ["stop"] and z[-1] <= 14e-9
 
 
 BLOCKS = {
     ("docs/continuation.md", "import tmafm"): Block(check=_check_continuation),
+    ("docs/continuation.md", 'base = tmafm.Config("tapping_polystyrene", physical={"drive_frequency": '
+                             '301e3})'): Block(check=_check_s_curve),
     ("README.md", "import tmafm"): Block(
         setup="import numpy as np\n"
               "tau, in_contact = 1.0, False\n"

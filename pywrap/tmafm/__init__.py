@@ -14,7 +14,7 @@ from ._run import COUNTER_KEYS, DERIVED_UNITS, SCENE_KEYS, SERIES_UNITS, Config,
 from ._model import POWER_NAMES, ContactState, Model
 from ._resultio import load
 from .errors import (BlowUpError, FailedRunWarning, InputError, InputFileError, InputTypeError,
-                     SolverError, TmafmError, TmafmWarning, UnsteadyWarning)
+                     SolverError, TmafmError, TmafmWarning, UnsteadyWarning, ContinuationWarning)
 from ._exe import executable
 from .observe import Observation, observe, observe_batch
 
@@ -42,5 +42,5 @@ __all__ = ["run", "resolve", "load", "Config", "Model", "Result", "ContactState"
            "POWER_NAMES", "executable",
            "TmafmError", "InputError",
            "InputTypeError", "InputFileError", "SolverError", "BlowUpError", "TmafmWarning",
-           "UnsteadyWarning", "FailedRunWarning", "__version__",
+           "UnsteadyWarning", "FailedRunWarning", "ContinuationWarning", "__version__",
            "sweep", "approach", "frequency_sweep", "bifurcation", "basin", "continuation"]

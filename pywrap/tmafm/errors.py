@@ -6,6 +6,7 @@ The Fortran core reports failures as an integer code and a one-line message
 
 __all__ = ["TmafmError", "InputError", "InputTypeError", "InputFileError", "BlowUpError",
            "SolverError", "MissingExtraError", "TmafmWarning", "UnsteadyWarning", "FailedRunWarning",
+           "ContinuationWarning",
            "raise_for"]
 
 
@@ -54,6 +55,12 @@ class FailedRunWarning(TmafmWarning):
     """Runs of a sweep failed (SolverError, BlowUpError): their points hold NaN and
     ``failed`` = 1, and the Dataset's attributes ``failures`` and ``first_failure`` say how many
     and why.  One warning per sweep (docs/sweeps.md)."""
+
+
+class ContinuationWarning(TmafmWarning):
+    """A branch of tmafm.continuation ended early (max_points, a corrector that failed, a
+    non-smooth point not crossed): the Dataset's ``end_reason`` and ``end_detail`` at the
+    branch's last point say why (docs/continuation.md, section 6)."""
 
 
 _BY_CODE = {2: InputError, 3: InputFileError, 4: BlowUpError, 5: SolverError}

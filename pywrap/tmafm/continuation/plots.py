@@ -12,7 +12,8 @@ __all__ = ["plot_branch", "render"]
 
 #: Marker of each label.
 _MARKERS = {"fold": ("o", "fold"), "period_doubling": ("s", "period doubling"),
-            "neimark_sacker": ("D", "Neimark-Sacker"), "grazing": ("^", "grazing")}
+            "neimark_sacker": ("D", "Neimark-Sacker"), "grazing": ("^", "grazing"),
+            "contact_sequence": ("v", "contact sequence changes")}
 
 
 def _check(ds):
@@ -51,8 +52,13 @@ def plot_branch(ds, path, variable="amplitude", sweep=None, sweep_variable=None,
         fig, ax = plt.subplots(figsize=(6.4, 4.2))
     if sweep is not None:
         name = sweep_variable or variable
+        if name not in sweep and name.endswith("_si") and name[:-3] in sweep:
+            name = name[:-3]  # an SI sweep holds its lengths in nm under the model's names
+        if name not in sweep:
+            from ..errors import InputError
+            raise InputError(f"plot_branch: sweep_variable = {name!r} is not in the sweep")
         y = np.asarray(sweep[name])
-        x = np.asarray(sweep[key])
+        x = np.asarray(_sweep_axis(sweep, key))
         if y.ndim > 1 and y.shape[0] == x.size:  # (key, kept): a bifurcation diagram
             x = x.reshape((-1,) + (1,) * (y.ndim - 1))
         x = np.broadcast_to(x, y.shape)  # (direction, key): an approach or frequency sweep
@@ -66,10 +72,13 @@ def plot_branch(ds, path, variable="amplitude", sweep=None, sweep_variable=None,
         ys = y.reshape(len(x), -1)
         stable = np.asarray(sel["stable"]).astype(bool)
         color = colors[k % len(colors)]
+        name = f"branch {int(b)} (period {int(sel['period'].values[0])})"
         for i, j, st in _runs(stable):
             lo, hi = max(i - 1, 0), j  # join the stretches
             for col in range(ys.shape[1]):
-                ax.plot(x[lo:hi], ys[lo:hi, col], "-" if st else "--", color=color, lw=1.4)
+                ax.plot(x[lo:hi], ys[lo:hi, col], "-" if st else "--", color=color, lw=1.4,
+                        label=name)
+                name = None
         labels = np.asarray(sel["label"])
         for lab, (marker, text) in _MARKERS.items():
             hit = labels == lab
@@ -77,7 +86,8 @@ def plot_branch(ds, path, variable="amplitude", sweep=None, sweep_variable=None,
                 ax.plot(x[hit], ys[hit, 0], marker, mfc="none", color="k", ms=7,
                         label=None if lab in shown else text)
                 shown.add(lab)
-    ax.set_xlabel(key)
+    key_unit = ds[key].attrs.get("units", "")
+    ax.set_xlabel(f"{key} [{key_unit}]" if key_unit not in ("", "1") else key)
     unit = ds[variable].attrs.get("units", "")
     ax.set_ylabel(f"{variable} [{unit}]" if unit and unit != "1" else variable)
     ax.legend(fontsize=8)
@@ -85,6 +95,19 @@ def plot_branch(ds, path, variable="amplitude", sweep=None, sweep_variable=None,
         fig.tight_layout()
         return _save(fig, path)
     return ax
+
+
+def _sweep_axis(sweep, key):
+    """The sweep's coordinate of the continued key: the key itself, or the coordinate whose
+    long_name names it (an SI approach's z names physical.tip_sample_distance)."""
+    if key in sweep.coords or key in sweep:
+        return sweep[key]
+    for name, coord in sweep.coords.items():
+        if f"({key})" in str(coord.attrs.get("long_name", "")):
+            return coord
+    from ..errors import InputError
+    raise InputError(f"plot_branch: the sweep has no coordinate of key = {key!r} "
+                     f"(coordinates {sorted(map(str, sweep.coords))})")
 
 
 def render(ds, suffix: str = ".png", **keywords) -> bytes:

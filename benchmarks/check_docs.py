@@ -674,6 +674,7 @@ def check_performance(ck, group="performance"):
 
     _etd_table(ck, group, doc)
     check_off_cost(ck, group)
+    check_forces_off_cost(ck, group)
     check_compose_cost(ck, group)
     _inventory(ck, group, doc)
 
@@ -1042,6 +1043,20 @@ def check_off_cost(ck, group="off_cost"):
         run = off["runs"][name]
         ck.text(group, doc, f"| {label} | {{}} | {{}} | +{{}} % |",
                 [f"{run['base']:,}", f"{run['head']:,}", f"{run['change_percent']:.3f}"], sec)
+
+
+def check_forces_off_cost(ck, group="off_cost"):
+    """docs/performance.md's cost of the forces at a distance and JKR when off against
+    benchmarks/results/off_cost_forces.json (`python benchmarks/off_cost.py --base fd2cc5e`)."""
+    off = load(result_path("off_cost_forces.json"))
+    doc, sec = "docs/performance.md", "Optional physics when it is off"
+    for name, label in (("fig2", "Fig. 2 by `flight_exact`, 100 periods"),
+                        ("tilted_hertz_3", "3-mode tilted scene, rtol 1e-10, 200 periods"),
+                        ("fig2_n4_rk4_paper", "`inputs/fig2_n4.nml` as packaged (`rk4_paper`)")):
+        run = off["runs"][name]
+        sign = "+" if run["change_percent"] >= 0 else "−"
+        ck.text(group, doc, f"| {label} | {{}} | {{}} | {sign}{{}} % |",
+                [f"{run['base']:,}", f"{run['head']:,}", f"{abs(run['change_percent']):.3f}"], sec)
 
 
 def check_compose_cost(ck, group="performance"):

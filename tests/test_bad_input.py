@@ -25,7 +25,7 @@ CASES = {
     "xi0_outside_beam": ("&scene xi0 = 1.5 /\n", ["xi0 = 1.5:", "<= 1.0E+000"], INPUT_ERROR),
     "beta_zero": ("&scene beta = 0.0 /\n", ["beta", "> 0.0E+000"], INPUT_ERROR),
     "nan_value": ("&scene alpha2 = NaN /\n", ["alpha2 = NaN:", "finite"], INPUT_ERROR),
-    "bad_law": ("&model contact_law = 'jkr' /\n", ["contact_law", "'jkr'", "'hertz', 'dmt' or 'dmt_vdw'"], INPUT_ERROR),
+    "bad_law": ("&model contact_law = 'mdt' /\n", ["contact_law", "'mdt'", "'hertz', 'dmt', 'dmt_vdw' or 'jkr'"], INPUT_ERROR),
     "bad_convention": ("&model convention = 'mine' /\n", ["convention", "'mine'"], INPUT_ERROR),
     "bad_errata": ("&model errata = 'E5' /\n", ["errata", "'E5'"], INPUT_ERROR),
     "bad_method": ("&solver method = 'euler' /\n", ["method", "'euler'", "rk4_paper", "flight_exact"], INPUT_ERROR),

@@ -30,6 +30,8 @@ module tmafm_batch
 
    !> Most periods one observed run may integrate.
    integer, parameter :: max_observed_periods = 10000000
+   !> Latest time an observed run may reach: the largest &solver tau_end (tmafm_keys).
+   real(dp), parameter :: max_observed_tau = 1.0e7_dp
    !> Most harmonics and largest steady period looked for.
    integer, parameter :: max_harmonics = 64, max_p_max = 1000
 
@@ -179,6 +181,16 @@ contains
       settings = chosen%solver
       ! No samples kept: the run ends at the last period boundary, or when the observer stops it.
       settings%tau_end = options%max_periods*period
+      ! The same bound as &solver tau_end's: omega = 1e-300 made a run to tau = 6E+302 that
+      ! never returned (issue 27, F10).
+      if (.not. (settings%tau_end <= max_observed_tau)) then
+         ierr = err_input
+         errmsg = '&scene omega = '//real_text(config%scene%omega)//': observe max_periods = '// &
+                  int_text(options%max_periods)//' drive periods would run to tau = '// &
+                  real_text(settings%tau_end)//', beyond the largest &solver tau_end, '// &
+                  real_text(max_observed_tau)//' (raise omega or lower max_periods)'
+         return
+      end if
       settings%sample_dtau = settings%tau_end
       call check_run_size(settings, chosen%n_modes, ierr, errmsg)
    end subroutine prepare_observed

@@ -399,3 +399,114 @@ def test_dop853_on_fig3_at_the_defaults_finds_period_one():
         exact = tmafm.observe("fig3", solver={"method": "flight_exact"}, max_periods=100)
     assert dop.period == exact.period == 1
     assert len(dop.poincare) == len(exact.poincare) == 25
+
+
+# --- F4: a zero drive under flight_exact ------------------------------------------------------
+
+def _cpu_of(call):
+    start = time.process_time()
+    value = call()
+    return time.process_time() - start, value
+
+
+def test_a_zero_drive_under_flight_exact_costs_what_a_small_one_does():
+    """alpha2 = 0 (free_amplitude = 0) left every mode exactly at rest: the extrema scans of a
+    channel of size 0 cleared no interval and halved each to its 2 000 000 points, 2.2-3 s of
+    CPU a drive period.  Now they cost what alpha2 = 1e-12 does (a thousandth of a second), and
+    the located extremes of a mode at rest are exactly 0."""
+    def observe(alpha2):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", tmafm.UnsteadyWarning)
+            return tmafm.observe("fig2_n4", max_periods=3, solver={"method": "flight_exact"},
+                                 scene={"alpha2": alpha2, "delta_hat": 1e-3})
+    small_cpu, _ = _cpu_of(lambda: observe(1e-12))
+    zero_cpu, zero = _cpu_of(lambda: observe(0.0))
+    assert zero_cpu <= 20 * small_cpu + 0.2, (zero_cpu, small_cpu)
+    values = zero.steady_values()
+    assert (values["modal_max_free"] == 0).all() and (values["modal_min_free"] == 0).all()
+    assert values["min_gap"] == values["max_gap"] == 1e-3
+    cpu, _ = _cpu_of(lambda: tmafm.observe("tapping_polystyrene", max_periods=3,
+                                           physical={"free_amplitude": 0.0}))
+    assert cpu <= 20 * small_cpu + 0.2, cpu
+
+
+# --- F10: an observed run beyond the largest tau_end ------------------------------------------
+
+def test_an_observed_run_past_the_largest_tau_end_is_refused_at_once():
+    """frequency_sweep('sweeps/vdw_attractive', omega=[1e-300]) ran 100 periods of 6e300 and
+    did not return in 60 s.  Now an observed run whose max_periods drive periods end past the
+    largest &solver tau_end (1e7) is an InputError naming omega, before any step."""
+    proc = _python("""
+        import tmafm
+        try:
+            tmafm.frequency_sweep("sweeps/vdw_attractive", omega=[1e-300], workers=1)
+        except tmafm.InputError as exc:
+            print(type(exc).__name__, exc)
+    """, timeout=60)
+    assert proc.returncode == 0 and proc.stdout.startswith("InputError "), proc
+    assert "&scene omega = 1.0E-300" in proc.stdout and "1.0E+007" in proc.stdout
+    assert len(proc.stdout.splitlines()) == 1
+    with pytest.raises(tmafm.InputError, match="max_periods = 10 drive periods"):
+        tmafm.observe("fig3", max_periods=10, scene={"omega": 1e-6})
+
+
+# --- F15: the automatic-N search has a cost bound ---------------------------------------------
+
+def test_the_automatic_n_search_stops_at_its_work_budget(tmp_path):
+    """The search had no bound but mode_horizon: extreme scenes ran 21-45 s, and over 208 s
+    (stopped at N = 20).  Now its comparison runs share a budget of steps times modes
+    (tmafm_settings search_work_budget, 4e8: the Fig. 2 scene at mode_tol = 1e-12 spends 1.2e8
+    in 19.8 s); past it the search stops with one line naming n_modes = 0 and what to change.
+    The default budget is reached only after about a minute, so the test gives a small one
+    through the test-only core (the same routine the executable calls)."""
+    from testcore import core
+    path = tmp_path / "auto.nml"
+    path.write_text("&model n_modes = 0, mode_horizon = 20, mode_tol = 1e-12 /\n"
+                    "&solver tau_end = 1, method = 'dopri5' /\n")
+    n, ierr, errmsg = core.choose_with_budget(str(path), 2e5)
+    message = errmsg.decode().strip() if isinstance(errmsg, bytes) else str(errmsg).strip()
+    assert ierr == 5 and n == 0, (ierr, message)
+    assert message.startswith("&model n_modes = 0: the search for N stopped at N = "), message
+    for words in ("spent their budget of 2.0E+005 steps times modes", "give n_modes",
+                  "mode_tol (now 1.0E-012)", "mode_horizon = 2.0E+001"):
+        assert words in message, message
+    # A budget the search does not reach changes nothing: the Fig. 2 scene's N at mode_tol 1e-2.
+    path.write_text("&model n_modes = 0 /\n&solver tau_end = 1 /\n")
+    n, ierr, errmsg = core.choose_with_budget(str(path), 4e8)
+    assert ierr == 0 and n == tmafm.Config(path).n_modes == 3
+
+
+# --- F6/F7: refusals through the calibration and the drive name the keys written -------------
+
+@pytest.mark.parametrize("old, new, words", [
+    # tip_position = 1e-20 named `length` (alpha4's list held no calibration key)
+    ("tip_position = 125.0e-6", "tip_position = 1e-20",
+     ["&physical tip_position = 1e-20 gives alpha4", "spring_constant, resonance_frequency, tip_position",
+      "(line "]),
+    # m = E1 I t0^2/L^4 overflowed at f0 = 1e-300: named `length`
+    ("resonance_frequency = 300.0e3", "resonance_frequency = 1e-300",
+     ["&physical resonance_frequency = 1e-300: gives the calibrated beam", "(line 17)"]),
+    ("spring_constant = 40.0", "spring_constant = 1e-300",
+     ["&physical spring_constant = 1e-300: gives the calibrated beam", "(line 16)"]),
+    # the second tone: the key and the number as written, with the line (it named
+    # drive_angular_frequency_2 = 0.0E+000 and 6.283185307179586E+003, without a line)
+    ("tip_sample_distance = 25.0e-9 ", "tip_sample_distance = 25.0e-9, drive_frequency_2 = 0.0, "
+     "drive_amplitude_2 = 1e-9 ", ["&physical drive_frequency_2 = 0.0: a second tone", "(line 33)"]),
+    ("tip_sample_distance = 25.0e-9 ", "tip_sample_distance = 25.0e-9, drive_frequency_2 = 1e3, "
+     "free_amplitude_2 = 1e-5 ", ["&physical drive_frequency_2 = 1e3: not commensurate with drive_frequency "
+                                  "= 3.0E+005", "nearest 1/64: drive_frequency_2 = 4.6875E+003", "(line 33)"]),
+    # free_amplitude_2 = 0.1 m named tip_sample_distance (a tie of keys whose default 0 is 'off')
+    ("tip_sample_distance = 25.0e-9 ", "tip_sample_distance = 25.0e-9, drive_frequency_2 = 1.9e6, "
+     "free_amplitude_2 = 0.1 ", ["&physical free_amplitude_2 = 0.1 gives alpha2_2"]),
+], ids=["tip_position", "resonance_frequency", "spring_constant", "tone_2_zero", "tone_2_ratio",
+        "free_amplitude_2"])
+def test_a_refusal_through_the_calibration_or_the_drive_names_the_key_written(tmp_path, old, new, words):
+    path = _tapping(tmp_path, old, new)
+    proc = subprocess.run([tmafm.executable(), "-q", path.name, "-o", "t.dat"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc
+    _one_error_line(proc, *words)
+    assert not (tmp_path / "t.dat").exists()
+    with pytest.raises(tmafm.InputError) as info:
+        tmafm.Config(path)
+    assert words[0] in str(info.value) and "\n" not in str(info.value)

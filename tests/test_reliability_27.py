@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 import tmafm
+from tmafm.observe import steady_harmonic
 from tmafm.sweeps import points, runs
 
 from conftest import INPUTS, REPO
@@ -510,3 +511,27 @@ def test_a_refusal_through_the_calibration_or_the_drive_names_the_key_written(tm
     with pytest.raises(tmafm.InputError) as info:
         tmafm.Config(path)
     assert words[0] in str(info.value) and "\n" not in str(info.value)
+
+
+# --- steady values without a steady period ----------------------------------------------------
+
+def test_steady_values_without_a_period_average_the_closest_repeats_lag():
+    """With no period found, steady_values() was the last period alone, whose
+    dissipated_viscoelastic can be negative on a double-tap orbit that alternates.  Now it is the
+    mean over the last q periods, q the lag of the closest repeat (here 2: fig2_n4 after 8
+    periods, still far from steady), in Python and in the core's steady values (sweeps) alike."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", tmafm.UnsteadyWarning)
+        obs = tmafm.observe("fig2_n4", max_periods=8, solver={"method": "flight_exact"})
+        ds = tmafm.sweep("fig2_n4", {"solver.method": ["flight_exact"]}, max_periods=8, workers=1)
+    assert obs.period == 0 and obs.evidence["closest_lag"] == 2
+    values = obs.steady_values()
+    rows = obs.per_period
+    for name in ("dissipated_energy", "contact_time", "min_gap", "peak_force"):
+        assert values[name] == pytest.approx(np.mean(rows[name][-2:]), rel=1e-15, abs=0), name
+        assert rows[name][-1] != rows[name][-2]           # one period alone is another number
+    amplitude, phase = steady_harmonic(rows["amplitude"][-2:], rows["phase"][-2:])
+    assert values["amplitude"] == pytest.approx(amplitude, rel=1e-14)
+    assert values["phase"] == pytest.approx(phase, abs=1e-12)
+    for name in ("amplitude", "phase", "dissipated_energy", "contact_time"):
+        assert float(ds[name].values.ravel()[0]) == pytest.approx(values[name], rel=1e-14, abs=1e-14), name

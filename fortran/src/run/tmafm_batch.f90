@@ -26,7 +26,7 @@ module tmafm_batch
    private
 
    public :: observe_options_t, observe_config, observe_batch, observe_states, config_scales, &
-      max_observed_periods, max_harmonics, max_p_max, steady_harmonics, steady_evidence
+      max_observed_periods, max_harmonics, max_p_max, steady_harmonics, steady_evidence, steady_window
 
    !> Most periods one observed run may integrate.
    integer, parameter :: max_observed_periods = 10000000
@@ -257,8 +257,19 @@ contains
       end select
    end subroutine steady_tolerance
 
+   !> How many of an observed run's last periods its steady values average: the period found,
+   !> or with none the lag of the closest repeat (the best candidate: a double-tap orbit that
+   !> did not settle within steady_tol alternates, and its last period alone gave a negative
+   !> dissipated_viscoelastic; issue 27), or 1; never more than the periods run (0 if none).
+   pure integer function steady_window(observer) result(last)
+      type(observer_t), intent(in) :: observer
+      last = observer%found_period
+      if (last < 1) last = observer%closest_lag
+      last = min(max(last, 1), observer%n_periods)
+   end function steady_window
+
    !> The steady harmonics of an observed run: for each harmonic k, the harmonic of V_T over
-   !> its last max(period, 1) periods (tmafm_steady_state steady_harmonic: the mean of the
+   !> its last steady_window periods (tmafm_steady_state steady_harmonic: the mean of the
    !> per-period Fourier coefficients, its phase free of the wrap at +-180); NaN when no
    !> period was run.
    subroutine steady_harmonics(observer, amplitude, phase)
@@ -269,7 +280,7 @@ contains
       amplitude = ieee_value(1.0_dp, ieee_quiet_nan)
       phase = amplitude
       m = observer%n_periods
-      last = min(max(observer%found_period, 1), m)
+      last = steady_window(observer)
       if (last < 1) return
       do k = 1, min(size(amplitude), observer%harmonics)
          call steady_harmonic(observer%harmonic_amplitude(m - last + 1:m, k), &

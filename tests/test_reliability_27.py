@@ -535,3 +535,28 @@ def test_steady_values_without_a_period_average_the_closest_repeats_lag():
     assert values["phase"] == pytest.approx(phase, abs=1e-12)
     for name in ("amplitude", "phase", "dissipated_energy", "contact_time"):
         assert float(ds[name].values.ravel()[0]) == pytest.approx(values[name], rel=1e-14, abs=1e-14), name
+
+
+def test_continuum_resonance_frequency_is_zero_exactly_when_the_tip_mass_is_inside_the_beam():
+    """It was echoed as 0.0 with the tip inside the beam, undocumented: docs/model.md and
+    output-format.md now say so; at the free end it is the continuum's frequency, below the
+    N-mode model's undamped one."""
+    at_end = tmafm.Config("tapping_polystyrene").derived
+    inside = tmafm.Config("tapping_polystyrene", physical={"tip_position": 100e-6}).derived
+    assert inside["continuum_resonance_frequency"] == 0.0
+    assert 0 < at_end["continuum_resonance_frequency"] < at_end["undamped_resonance_frequency"]
+    for doc in ("model.md", "output-format.md"):
+        assert "0 when the tip" in (REPO / "docs" / doc).read_text().replace("\n  ", " ") \
+            or "echoed as 0" in (REPO / "docs" / doc).read_text()
+
+
+def test_a_sweep_dataset_holds_the_indentation():
+    """Only the approach plot computed the indentation; the dataset had min_gap alone."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", tmafm.TmafmWarning)
+        ds = tmafm.approach("tapping_polystyrene", z=[25e-9, 0.0], retract=False, max_periods=3,
+                            workers=1, stop_at_steady=False)
+    gap, indentation = ds["min_gap"].values, ds["indentation"].values
+    assert np.array_equal(indentation, np.maximum(-gap, 0.0))
+    assert indentation[..., 0].item() == 0 and indentation[..., 1].item() > 0   # free, then tapping
+    assert ds["indentation"].attrs["units"] == ds["min_gap"].attrs["units"] == "nm"

@@ -560,3 +560,28 @@ def test_a_sweep_dataset_holds_the_indentation():
     assert np.array_equal(indentation, np.maximum(-gap, 0.0))
     assert indentation[..., 0].item() == 0 and indentation[..., 1].item() > 0   # free, then tapping
     assert ds["indentation"].attrs["units"] == ds["min_gap"].attrs["units"] == "nm"
+
+
+def test_a_smooth_crossover_is_not_marked_as_a_jump_but_hysteresis_is():
+    """Jump markers appeared where approach and retract coincide: a steep single-valued change
+    on a coarse grid looks like a jump in each direction alone."""
+    from types import SimpleNamespace
+
+    from tmafm.sweeps import curves
+
+    x = np.linspace(0, 1, 11)
+    smooth = np.tanh((x - 0.52) / 0.01)                   # one steep step, the same both ways
+    flat = np.zeros_like(x)
+
+    def flags(approach, retract):
+        data = {"amplitude": SimpleNamespace(values=np.array([approach, retract])),
+                "phase": SimpleNamespace(values=np.array([flat, flat]))}
+        return curves._jump_flags(data, (2, x.size), True, 0.2)
+
+    assert curves.mark_jumps(smooth).any()                 # each direction alone would mark it
+    assert not flags(smooth, smooth).any()
+    # Hysteresis: the approach jumps up at x = 0.6, the retract down at x = 0.3.
+    up = np.where(x >= 0.6 - 1e-12, 1.0, 0.0)
+    down = np.where(x >= 0.3 - 1e-12, 1.0, 0.0)
+    marked = flags(up, down)
+    assert marked[0].nonzero()[0].tolist() == [6] and marked[1].nonzero()[0].tolist() == [2]

@@ -272,6 +272,15 @@ def _check_continuation(ns, seen, out):
     assert ns["orbit"].stable and ns["orbit"].stats["contacts"] == 2
 
 
+def _check_time_domain(ns, seen, out):
+    """The run continues the point's orbit: its first sample is the final state, and the
+    spectrum's largest bin past 0 is the drive's (bin 4 over 4 periods)."""
+    r, state, n = ns["r"], ns["state"], ns["n"]
+    assert np.array_equal(r.a[0], state[:n])
+    assert set(ns["series"]) == {"t_s", "distance_m", "deflection_m", "normal_force_N", "friction_force_N"}
+    assert int(np.argmax(ns["spectrum"][1:])) + 1 == 4
+
+
 BLOCKS = {
     ("docs/continuation.md", "import tmafm"): Block(check=_check_continuation),
     ("README.md", "import tmafm"): Block(
@@ -302,6 +311,8 @@ BLOCKS = {
     ("docs/sweeps.md", 'ds = tmafm.approach("sweeps/bistable_n2", '
                        'delta_hat=np.linspace(8e-3, 0, 41),'): Block(
         setup="import numpy as np, tmafm", check=_check_approach_and_frequency),
+    ("docs/sweeps.md", "import numpy as np, tmafm  # the force, trajectory and spectrum at one Z "
+                       "of a curve"): Block(check=_check_time_domain),
     ("docs/sweeps.md", 'fig5 = tmafm.Config("fig5a", solver={"method": "flight_exact", '
                        '"rtol": 1e-8})'): Block(
         setup="import numpy as np, tmafm", check=_check_bifurcation),

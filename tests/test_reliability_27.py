@@ -585,3 +585,23 @@ def test_a_smooth_crossover_is_not_marked_as_a_jump_but_hysteresis_is():
     down = np.where(x >= 0.3 - 1e-12, 1.0, 0.0)
     marked = flags(up, down)
     assert marked[0].nonzero()[0].tolist() == [6] and marked[1].nonzero()[0].tolist() == [2]
+
+
+# --- a calibrated cantilever needs what a user knows ------------------------------------------
+
+def test_a_calibrated_cantilever_needs_no_tip_position_and_no_tip_mass_ratio(tmp_path):
+    """A cantilever given with its own length and no tip_position was refused (the default
+    x0 = 300e-6 m lies past L = 125e-6 m), and spring_constant without tip_mass_ratio was
+    refused.  Now the tip sits at the free end and the tip mass is 0 unless given: the same
+    scene as writing tip_position = length and tip_mass_ratio = 0."""
+    lines = [line for line in TAPPING.splitlines()
+             if not line.strip().startswith(("tip_position", "tip_mass_ratio"))]
+    short = tmp_path / "short.nml"
+    short.write_text("\n".join(lines) + "\n")
+    explicit = TAPPING.replace("tip_mass_ratio = 0.01", "tip_mass_ratio = 0.0")
+    full = tmp_path / "full.nml"
+    full.write_text(explicit)
+    a, b = tmafm.Config(short), tmafm.Config(full)
+    assert a.scene == b.scene and a.scene["xi0"] == 1.0 and a.scene["alpha1"] == 0.0
+    # The packaged input, which gives both, is unchanged by the defaults.
+    assert tmafm.Config("tapping_polystyrene").scene["alpha1"] == 0.01

@@ -375,18 +375,24 @@ contains
       end do
       if (ierr /= ok) return
       if (given(21) .or. given(22) .or. given(23) .or. given(24)) then
-         do i = 1, size(calibration)
+         ! k, f0 and Q are what a calibration measures; tip_mass_ratio is 0 (no tip mass)
+         ! unless given (issue 27: spring_constant without tip_mass_ratio was refused).
+         do i = 1, size(calibration) - 1
             if (given(index_of(physical_names, calibration(i)))) cycle
             do j = 1, size(calibration)
                if (.not. given(index_of(physical_names, calibration(j)))) cycle
                call key_error(p, g%entries(entry_at(trim(calibration(j)))), 'needs '// &
                               trim(calibration(i))//' too: the calibration is spring_constant, '// &
-                              'resonance_frequency, quality_factor and tip_mass_ratio (0 for no tip mass)', &
+                              'resonance_frequency and quality_factor (and tip_mass_ratio, 0 unless given)', &
                               ierr, errmsg)
                return
             end do
          end do
+         if (.not. given(24)) v(24) = 0
       end if
+      ! The tip sits at the free end unless tip_position says otherwise: a cantilever given with
+      ! its own length and no tip_position was refused (the default x0 = 300e-6 m > L).
+      if (.not. given(15)) v(15) = v(1)
       ! The calibration and the free amplitude are exact for the N modes that run.
       if (config%auto_modes) then
          do i = 1, 2

@@ -201,8 +201,8 @@ def _check_approach_and_frequency(ns, seen, out):
     approach, frequency = seen["ds"]
     assert approach["jump"].dims == ("direction", "scene.alpha2", "scene.delta_hat")
     # docs/sweeps.md, the table of `--summarize approach.nc` (its sweep file is this grid)
-    table = {(4e-4, "approach"): ("1.4e-3", None), (4e-4, "retract"): ("3.4e-3", "4.13e-3"),
-             (5e-4, "approach"): ("1.8e-3", None), (5e-4, "retract"): ("4.2e-3", "5.12e-3")}
+    table = {(4e-4, "approach"): ("1.4e-3", None), (4e-4, "retract"): ("3.4e-3", "4.09e-3"),
+             (5e-4, "approach"): ("1.8e-3", None), (5e-4, "retract"): ("4.2e-3", "5.05e-3")}
     jumps = summarize(approach)["jumps"]
     assert len(jumps) == 4
     for j in jumps:
@@ -289,6 +289,15 @@ def _check_s_curve(ns, seen, out):
     assert [r for r in ds["end_reason"].values if r] == ["stop"] and z[-1] <= 14e-9
 
 
+def _check_time_domain(ns, seen, out):
+    """The run continues the point's orbit: its first sample is the final state, and the
+    spectrum's largest bin past 0 is the drive's (bin 4 over 4 periods)."""
+    r, state, n = ns["r"], ns["state"], ns["n"]
+    assert np.array_equal(r.a[0], state[:n])
+    assert set(ns["series"]) == {"t_s", "distance_m", "deflection_m", "normal_force_N", "friction_force_N"}
+    assert int(np.argmax(ns["spectrum"][1:])) + 1 == 4
+
+
 BLOCKS = {
     ("docs/continuation.md", "import tmafm"): Block(check=_check_continuation),
     ("docs/continuation.md", 'base = tmafm.Config("tapping_polystyrene", physical={"drive_frequency": '
@@ -321,6 +330,8 @@ BLOCKS = {
     ("docs/sweeps.md", 'ds = tmafm.approach("sweeps/bistable_n2", '
                        'delta_hat=np.linspace(8e-3, 0, 41),'): Block(
         setup="import numpy as np, tmafm", check=_check_approach_and_frequency),
+    ("docs/sweeps.md", "import numpy as np, tmafm  # the force, trajectory and spectrum at one Z "
+                       "of a curve"): Block(check=_check_time_domain),
     ("docs/sweeps.md", 'fig5 = tmafm.Config("fig5a", solver={"method": "flight_exact", '
                        '"rtol": 1e-8})'): Block(
         setup="import numpy as np, tmafm", check=_check_bifurcation),

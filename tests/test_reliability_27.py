@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 import tmafm
+from tmafm.observe import steady_harmonic
 from tmafm.sweeps import points, runs
 
 from conftest import INPUTS, REPO
@@ -357,3 +358,250 @@ def test_the_test_extra_installs_what_the_tests_build_with():
     testcore = (REPO / "tests" / "testcore.py").read_text()
     for tool in ("meson", "ninja"):
         assert f'_tool("{tool}")' in testcore and tool in names, (tool, extra)
+
+
+# --- the steady test of dop853 ----------------------------------------------------------------
+
+def _free_orbit(method, **solver):
+    """tapping_polystyrene 25 nm from the sample (A0 = 20 nm: the tip never touches it)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", tmafm.UnsteadyWarning)
+        return tmafm.observe("tapping_polystyrene", max_periods=2500, steady_tol=1e-8,
+                             solver={"method": method, **solver}, observables=())
+
+
+def test_dop853_finds_the_period_of_a_free_high_q_orbit_as_dopri5_does():
+    """dop853's steps were set by the third mode (Q3 ~ 7000) past h omega_3 ~ 4.4: its velocity
+    at the period boundary jittered by 1.2e-9 and no period repeated within 1e-8 in 6000
+    periods, where dopri5 and flight_exact find period 1 after 1731.  Now dop853 steps at most
+    h omega_N = 4 (tmafm_method_adaptive dop853_mode_reach) and finds it within 10 % of the
+    periods dopri5 needs."""
+    reference = _free_orbit("dopri5")
+    assert reference.period == 1
+    for solver in ({}, {"atol": 1e-16}):
+        found = _free_orbit("dop853", **solver)
+        assert found.period == 1, (solver, found.evidence)
+        assert abs(len(found.poincare) - len(reference.poincare)) <= 0.1 * (len(reference.poincare) - 1)
+    # The same orbit: each last point is still approaching it, by steps of at most 1e-8 of its
+    # size shrinking by rho = exp(-pi/Q) a period (Q = 400), so it lies within 1e-8/(1 - rho)
+    # of the orbit; the two within twice that.
+    size = np.abs(reference.poincare[-1]).max()
+    reach = 1e-8 / (1 - math.exp(-math.pi / 400)) * size
+    assert np.abs(found.poincare[-1] - reference.poincare[-1]).max() <= 2 * reach
+
+
+def test_dop853_on_fig3_at_the_defaults_finds_period_one():
+    """fig3 with dop853 at rtol 1e-7 fell into a two-period cycle of its step pattern (points
+    4.7e-6 of the orbit apart) and had no period in 300 periods; flight_exact finds period 1
+    after 24 (docs/observables.md)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", tmafm.UnsteadyWarning)
+        dop = tmafm.observe("fig3", solver={"method": "dop853"}, max_periods=300)
+        exact = tmafm.observe("fig3", solver={"method": "flight_exact"}, max_periods=100)
+    assert dop.period == exact.period == 1
+    assert len(dop.poincare) == len(exact.poincare) == 25
+
+
+# --- F4: a zero drive under flight_exact ------------------------------------------------------
+
+def _cpu_of(call):
+    start = time.process_time()
+    value = call()
+    return time.process_time() - start, value
+
+
+def test_a_zero_drive_under_flight_exact_costs_what_a_small_one_does():
+    """alpha2 = 0 (free_amplitude = 0) left every mode exactly at rest: the extrema scans of a
+    channel of size 0 cleared no interval and halved each to its 2 000 000 points, 2.2-3 s of
+    CPU a drive period.  Now they cost what alpha2 = 1e-12 does (a thousandth of a second), and
+    the located extremes of a mode at rest are exactly 0."""
+    def observe(alpha2):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", tmafm.UnsteadyWarning)
+            return tmafm.observe("fig2_n4", max_periods=3, solver={"method": "flight_exact"},
+                                 scene={"alpha2": alpha2, "delta_hat": 1e-3})
+    small_cpu, _ = _cpu_of(lambda: observe(1e-12))
+    zero_cpu, zero = _cpu_of(lambda: observe(0.0))
+    assert zero_cpu <= 20 * small_cpu + 0.2, (zero_cpu, small_cpu)
+    values = zero.steady_values()
+    assert (values["modal_max_free"] == 0).all() and (values["modal_min_free"] == 0).all()
+    assert values["min_gap"] == values["max_gap"] == 1e-3
+    cpu, _ = _cpu_of(lambda: tmafm.observe("tapping_polystyrene", max_periods=3,
+                                           physical={"free_amplitude": 0.0}))
+    assert cpu <= 20 * small_cpu + 0.2, cpu
+
+
+# --- F10: an observed run beyond the largest tau_end ------------------------------------------
+
+def test_an_observed_run_past_the_largest_tau_end_is_refused_at_once():
+    """frequency_sweep('sweeps/vdw_attractive', omega=[1e-300]) ran 100 periods of 6e300 and
+    did not return in 60 s.  Now an observed run whose max_periods drive periods end past the
+    largest &solver tau_end (1e7) is an InputError naming omega, before any step."""
+    proc = _python("""
+        import tmafm
+        try:
+            tmafm.frequency_sweep("sweeps/vdw_attractive", omega=[1e-300], workers=1)
+        except tmafm.InputError as exc:
+            print(type(exc).__name__, exc)
+    """, timeout=60)
+    assert proc.returncode == 0 and proc.stdout.startswith("InputError "), proc
+    assert "&scene omega = 1.0E-300" in proc.stdout and "1.0E+007" in proc.stdout
+    assert len(proc.stdout.splitlines()) == 1
+    with pytest.raises(tmafm.InputError, match="max_periods = 10 drive periods"):
+        tmafm.observe("fig3", max_periods=10, scene={"omega": 1e-6})
+
+
+# --- F15: the automatic-N search has a cost bound ---------------------------------------------
+
+def test_the_automatic_n_search_stops_at_its_work_budget(tmp_path):
+    """The search had no bound but mode_horizon: extreme scenes ran 21-45 s, and over 208 s
+    (stopped at N = 20).  Now its comparison runs share a budget of steps times modes
+    (tmafm_settings search_work_budget, 4e8: the Fig. 2 scene at mode_tol = 1e-12 spends 1.2e8
+    in 19.8 s); past it the search stops with one line naming n_modes = 0 and what to change.
+    The default budget is reached only after about a minute, so the test gives a small one
+    through the test-only core (the same routine the executable calls)."""
+    from testcore import core
+    path = tmp_path / "auto.nml"
+    path.write_text("&model n_modes = 0, mode_horizon = 20, mode_tol = 1e-12 /\n"
+                    "&solver tau_end = 1, method = 'dopri5' /\n")
+    n, ierr, errmsg = core.choose_with_budget(str(path), 2e5)
+    message = errmsg.decode().strip() if isinstance(errmsg, bytes) else str(errmsg).strip()
+    assert ierr == 5 and n == 0, (ierr, message)
+    assert message.startswith("&model n_modes = 0: the search for N stopped at N = "), message
+    for words in ("spent their budget of 2.0E+005 steps times modes", "give n_modes",
+                  "mode_tol (now 1.0E-012)", "mode_horizon = 2.0E+001"):
+        assert words in message, message
+    # A budget the search does not reach changes nothing: the Fig. 2 scene's N at mode_tol 1e-2.
+    path.write_text("&model n_modes = 0 /\n&solver tau_end = 1 /\n")
+    n, ierr, errmsg = core.choose_with_budget(str(path), 4e8)
+    assert ierr == 0 and n == tmafm.Config(path).n_modes == 3
+
+
+# --- F6/F7: refusals through the calibration and the drive name the keys written -------------
+
+@pytest.mark.parametrize("old, new, words", [
+    # tip_position = 1e-20 named `length` (alpha4's list held no calibration key)
+    ("tip_position = 125.0e-6", "tip_position = 1e-20",
+     ["&physical tip_position = 1e-20 gives alpha4", "spring_constant, resonance_frequency, tip_position",
+      "(line "]),
+    # m = E1 I t0^2/L^4 overflowed at f0 = 1e-300: named `length`
+    ("resonance_frequency = 300.0e3", "resonance_frequency = 1e-300",
+     ["&physical resonance_frequency = 1e-300: gives the calibrated beam", "(line 17)"]),
+    ("spring_constant = 40.0", "spring_constant = 1e-300",
+     ["&physical spring_constant = 1e-300: gives the calibrated beam", "(line 16)"]),
+    # the second tone: the key and the number as written, with the line (it named
+    # drive_angular_frequency_2 = 0.0E+000 and 6.283185307179586E+003, without a line)
+    ("tip_sample_distance = 25.0e-9 ", "tip_sample_distance = 25.0e-9, drive_frequency_2 = 0.0, "
+     "drive_amplitude_2 = 1e-9 ", ["&physical drive_frequency_2 = 0.0: a second tone", "(line 33)"]),
+    ("tip_sample_distance = 25.0e-9 ", "tip_sample_distance = 25.0e-9, drive_frequency_2 = 1e3, "
+     "free_amplitude_2 = 1e-5 ", ["&physical drive_frequency_2 = 1e3: not commensurate with drive_frequency "
+                                  "= 3.0E+005", "nearest 1/64: drive_frequency_2 = 4.6875E+003", "(line 33)"]),
+    # free_amplitude_2 = 0.1 m named tip_sample_distance (a tie of keys whose default 0 is 'off')
+    ("tip_sample_distance = 25.0e-9 ", "tip_sample_distance = 25.0e-9, drive_frequency_2 = 1.9e6, "
+     "free_amplitude_2 = 0.1 ", ["&physical free_amplitude_2 = 0.1 gives alpha2_2"]),
+], ids=["tip_position", "resonance_frequency", "spring_constant", "tone_2_zero", "tone_2_ratio",
+        "free_amplitude_2"])
+def test_a_refusal_through_the_calibration_or_the_drive_names_the_key_written(tmp_path, old, new, words):
+    path = _tapping(tmp_path, old, new)
+    proc = subprocess.run([tmafm.executable(), "-q", path.name, "-o", "t.dat"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc
+    _one_error_line(proc, *words)
+    assert not (tmp_path / "t.dat").exists()
+    with pytest.raises(tmafm.InputError) as info:
+        tmafm.Config(path)
+    assert words[0] in str(info.value) and "\n" not in str(info.value)
+
+
+# --- steady values without a steady period ----------------------------------------------------
+
+def test_steady_values_without_a_period_average_the_closest_repeats_lag():
+    """With no period found, steady_values() was the last period alone, whose
+    dissipated_viscoelastic can be negative on a double-tap orbit that alternates.  Now it is the
+    mean over the last q periods, q the lag of the closest repeat (here 2: fig2_n4 after 8
+    periods, still far from steady), in Python and in the core's steady values (sweeps) alike."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", tmafm.UnsteadyWarning)
+        obs = tmafm.observe("fig2_n4", max_periods=8, solver={"method": "flight_exact"})
+        ds = tmafm.sweep("fig2_n4", {"solver.method": ["flight_exact"]}, max_periods=8, workers=1)
+    assert obs.period == 0 and obs.evidence["closest_lag"] == 2
+    values = obs.steady_values()
+    rows = obs.per_period
+    for name in ("dissipated_energy", "contact_time", "min_gap", "peak_force"):
+        assert values[name] == pytest.approx(np.mean(rows[name][-2:]), rel=1e-15, abs=0), name
+        assert rows[name][-1] != rows[name][-2]           # one period alone is another number
+    amplitude, phase = steady_harmonic(rows["amplitude"][-2:], rows["phase"][-2:])
+    assert values["amplitude"] == pytest.approx(amplitude, rel=1e-14)
+    assert values["phase"] == pytest.approx(phase, abs=1e-12)
+    for name in ("amplitude", "phase", "dissipated_energy", "contact_time"):
+        assert float(ds[name].values.ravel()[0]) == pytest.approx(values[name], rel=1e-14, abs=1e-14), name
+
+
+def test_continuum_resonance_frequency_is_zero_exactly_when_the_tip_mass_is_inside_the_beam():
+    """It was echoed as 0.0 with the tip inside the beam, undocumented: docs/model.md and
+    output-format.md now say so; at the free end it is the continuum's frequency, below the
+    N-mode model's undamped one."""
+    at_end = tmafm.Config("tapping_polystyrene").derived
+    inside = tmafm.Config("tapping_polystyrene", physical={"tip_position": 100e-6}).derived
+    assert inside["continuum_resonance_frequency"] == 0.0
+    assert 0 < at_end["continuum_resonance_frequency"] < at_end["undamped_resonance_frequency"]
+    for doc in ("model.md", "output-format.md"):
+        assert "0 when the tip" in (REPO / "docs" / doc).read_text().replace("\n  ", " ") \
+            or "echoed as 0" in (REPO / "docs" / doc).read_text()
+
+
+def test_a_sweep_dataset_holds_the_indentation():
+    """Only the approach plot computed the indentation; the dataset had min_gap alone."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", tmafm.TmafmWarning)
+        ds = tmafm.approach("tapping_polystyrene", z=[25e-9, 0.0], retract=False, max_periods=3,
+                            workers=1, stop_at_steady=False)
+    gap, indentation = ds["min_gap"].values, ds["indentation"].values
+    assert np.array_equal(indentation, np.maximum(-gap, 0.0))
+    assert indentation[..., 0].item() == 0 and indentation[..., 1].item() > 0   # free, then tapping
+    assert ds["indentation"].attrs["units"] == ds["min_gap"].attrs["units"] == "nm"
+
+
+def test_a_smooth_crossover_is_not_marked_as_a_jump_but_hysteresis_is():
+    """Jump markers appeared where approach and retract coincide: a steep single-valued change
+    on a coarse grid looks like a jump in each direction alone."""
+    from types import SimpleNamespace
+
+    from tmafm.sweeps import curves
+
+    x = np.linspace(0, 1, 11)
+    smooth = np.tanh((x - 0.52) / 0.01)                   # one steep step, the same both ways
+    flat = np.zeros_like(x)
+
+    def flags(approach, retract):
+        data = {"amplitude": SimpleNamespace(values=np.array([approach, retract])),
+                "phase": SimpleNamespace(values=np.array([flat, flat]))}
+        return curves._jump_flags(data, (2, x.size), True, 0.2)
+
+    assert curves.mark_jumps(smooth).any()                 # each direction alone would mark it
+    assert not flags(smooth, smooth).any()
+    # Hysteresis: the approach jumps up at x = 0.6, the retract down at x = 0.3.
+    up = np.where(x >= 0.6 - 1e-12, 1.0, 0.0)
+    down = np.where(x >= 0.3 - 1e-12, 1.0, 0.0)
+    marked = flags(up, down)
+    assert marked[0].nonzero()[0].tolist() == [6] and marked[1].nonzero()[0].tolist() == [2]
+
+
+# --- a calibrated cantilever needs what a user knows ------------------------------------------
+
+def test_a_calibrated_cantilever_needs_no_tip_position_and_no_tip_mass_ratio(tmp_path):
+    """A cantilever given with its own length and no tip_position was refused (the default
+    x0 = 300e-6 m lies past L = 125e-6 m), and spring_constant without tip_mass_ratio was
+    refused.  Now the tip sits at the free end and the tip mass is 0 unless given: the same
+    scene as writing tip_position = length and tip_mass_ratio = 0."""
+    lines = [line for line in TAPPING.splitlines()
+             if not line.strip().startswith(("tip_position", "tip_mass_ratio"))]
+    short = tmp_path / "short.nml"
+    short.write_text("\n".join(lines) + "\n")
+    explicit = TAPPING.replace("tip_mass_ratio = 0.01", "tip_mass_ratio = 0.0")
+    full = tmp_path / "full.nml"
+    full.write_text(explicit)
+    a, b = tmafm.Config(short), tmafm.Config(full)
+    assert a.scene == b.scene and a.scene["xi0"] == 1.0 and a.scene["alpha1"] == 0.0
+    # The packaged input, which gives both, is unchanged by the defaults.
+    assert tmafm.Config("tapping_polystyrene").scene["alpha1"] == 0.01

@@ -433,3 +433,25 @@ subroutine sls_switches(path, n_modes, pair, max_switches, tau, w, entering, n_s
       entering(n_switches) = merge(1, 0, state%in_contact)
    end do
 end subroutine sls_switches
+
+!> Read a namelist and choose N with the search's work budget `budget` (steps times modes),
+!> instead of tmafm_settings search_work_budget; n_modes is the N chosen.  For the test of the
+!> budget's refusal, which the default budget reaches only after about a minute.
+subroutine choose_with_budget(path, budget, n_modes, ierr, errmsg)
+   use tmafm, only: config_t, read_config, choose_mode_count, ok
+   use tmafm_kinds, only: dp
+   implicit none
+   character(len=*), intent(in) :: path
+   real(dp), intent(in) :: budget
+   integer, intent(out) :: n_modes
+   integer, intent(out) :: ierr
+   character(len=512), intent(out) :: errmsg
+   type(config_t) :: config
+
+   n_modes = 0
+   call read_config(path, config, ierr, errmsg)
+   if (ierr /= ok) return
+   call choose_mode_count(config, ierr, errmsg, budget=budget)
+   if (ierr /= ok) return
+   n_modes = config%n_modes
+end subroutine choose_with_budget

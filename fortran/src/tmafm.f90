@@ -20,7 +20,7 @@ module tmafm
    use tmafm_batch, only: max_harmonics, max_p_max, max_observed_periods
    ! Observed runs and the steady-state rule (what tmafm_api's batches and tests call).
    use tmafm_batch, only: observe_options_t, observe_batch, observe_states, config_scales, steady_harmonics, &
-      steady_evidence
+      steady_evidence, steady_window
    use tmafm_observers, only: observer_t, n_observables, observable_factors, obs_amplitude, obs_phase, &
       obs_tone_amplitude, obs_tone_phase
    ! The observable table (what Python's observable tables and docs/observables.md come from).
@@ -66,7 +66,7 @@ module tmafm
              max_observed_periods
    public :: read_config_document, patch_document, commit_output
    public :: observe_options_t, observe_batch, observe_states, config_scales, steady_harmonics, &
-             steady_evidence, observer_t, n_observables, observable_factors, obs_amplitude, obs_phase, &
+             steady_evidence, steady_window, observer_t, n_observables, observable_factors, obs_amplitude, obs_phase, &
              scales_t, steady_test, repeat_steps, steady_harmonic, obs_tone_amplitude, obs_tone_phase
    public :: observable_row_t, observable_rows, n_observable_rows, observable_group_name, &
              observable_si_factor, observable_kind_names, observable_scale_names

@@ -202,8 +202,11 @@ class Observation:
     steady_harmonics: tuple | None = field(default=None, repr=False)
 
     def steady_values(self, physical: bool = False) -> dict:
-        """Each observable averaged over the last found period (p periods), or over the last
-        period when none was found; floats, and arrays (one per harmonic) for the harmonics.
+        """Each observable averaged over the last found period (p periods); when none was
+        found, over the last q periods, q the lag of the closest repeat (``evidence
+        ['closest_lag']``, the best candidate for the orbit's period; 1 when there is none):
+        the run's ``period`` is then 0 and ``unsteady_reason`` says why.  Floats, and arrays
+        (one per harmonic) for the harmonics.
         Amplitude and phase (and the harmonics) are the core's steady harmonic: the harmonic of
         V_T over those periods, its phase free of the +-180 wrap (docs/observables.md).
         ``physical=True`` averages the SI-derived values instead."""
@@ -211,7 +214,8 @@ class Observation:
         if source is None:
             raise InputError("this Observation has no physical units (the input did not give "
                              "&physical)")
-        last = max(self.period, 1)
+        last = self.period if self.period > 0 else max(int(self.evidence.get("closest_lag", 1) or 1), 1)
+        last = min(last, max(len(self.poincare) - 1, 1))
         out = {}
         for name, values in source.items():
             mean = np.mean(values[-last:], axis=0)

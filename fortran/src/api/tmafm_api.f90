@@ -16,7 +16,8 @@ module tmafm_api
       entry_text, read_config_document, patch_document, n_keys, describe_key, max_modes, max_samples, &
       max_trajectory_bytes, max_max_steps, max_mode_horizon, max_harmonics, max_p_max, max_observed_periods, &
       nml_document_t, parse_namelist, int_text, observe_options_t, observe_batch, observe_states, config_scales, &
-      steady_harmonics, steady_evidence, observer_t, n_observables, observable_factors, obs_amplitude, obs_phase, &
+      steady_harmonics, steady_evidence, steady_window, &
+      observer_t, n_observables, observable_factors, obs_amplitude, obs_phase, &
       scales_t, steady_test, repeat_steps, steady_harmonic, observable_rows, n_observable_rows, &
       observable_group_name, observable_si_factor, observable_kind_names, observable_scale_names, &
       physical_derived, derived_names, derived_units, derived_meanings, n_derived, config_errata, &
@@ -779,7 +780,7 @@ contains
             n_periods(k) = m
             period(k) = o%found_period
             attractor(k) = o%attractor
-            last = min(max(o%found_period, 1), m)
+            last = steady_window(o)
             if (last > 0) then
                steady(k, :) = sum(o%values(m - last + 1:m, :), 1)/last
                ! Amplitude and phase: the harmonic over the orbit's periods (tmafm_steady_state).

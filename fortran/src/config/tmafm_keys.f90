@@ -187,7 +187,7 @@ module tmafm_keys
       key_t('physical', 'tip_length', key_real, 0, 1, unit='m', meaning='tip length g0'), &
       key_t('physical', 'static_offset', key_real, -1, 1, unit='m', meaning='static tip-sample offset delta'), &
       key_t('physical', 'tip_position', key_real, 0, 1, .false., unit='m', rule='<= length', &
-            meaning='tip position x0 along the beam, from the clamp'), &
+            meaning='tip position x0 along the beam, from the clamp (default: length, the free end)'), &
       key_t('physical', 'tip_mass', key_real, 0, 1, unit='kg', meaning='tip mass M'), &
       key_t('physical', 'beam_damping', key_real, 0, 1.0e6_dp, unit='N s/m^2', &
             meaning='beam viscous damping C per unit length'), &
@@ -197,7 +197,7 @@ module tmafm_keys
       key_t('physical', 'drive_angular_frequency', key_real, 0, 1.0e12_dp, unit='rad/s', &
             meaning='base drive angular frequency omega'), &
       key_t('physical', 'spring_constant', key_real, 0, 1.0e6_dp, .false., unit='N/m', &
-            rule='with resonance_frequency, quality_factor and tip_mass_ratio, instead of thickness, '// &
+            rule='with resonance_frequency, quality_factor (tip_mass_ratio: 0), instead of thickness, '// &
             'density, tip_mass, beam_damping', &
             meaning="the cantilever by its calibration: the model's static tip stiffness k (docs/model.md "// &
             "section 12)"), &
@@ -206,7 +206,8 @@ module tmafm_keys
             meaning="the model's first resonance f0 = |lambda1|/(2 pi), with the tip mass"), &
       key_t('physical', 'quality_factor', key_real, 0.5_dp, 1.0e9_dp, .false., unit='1', &
             rule='with spring_constant', meaning="the model's Q = |lambda1|/(2 |Re lambda1|) of that resonance"), &
-      key_t('physical', 'tip_mass_ratio', key_real, 0, 1.0e3_dp, unit='1', rule='with spring_constant', &
+      key_t('physical', 'tip_mass_ratio', key_real, 0, 1.0e3_dp, unit='1', &
+            rule='with spring_constant; 0 if not given', &
             meaning='tip mass / beam mass M/(m L) of the calibrated cantilever (alpha1)'), &
       key_t('physical', 'drive_frequency', key_real, 0, 1.0e12_dp, unit='Hz', &
             rule='instead of drive_angular_frequency', meaning='drive frequency omega/(2 pi)'), &

@@ -18,7 +18,8 @@ module tmafm_namelist
    use tmafm_text, only: real_text, real_text_padded, int_text, lower, short_real_text
    use tmafm_modes, only: max_modes
    use tmafm_scene, only: scene_t, physical_t, scene_from_physical, scene_names, scene_values, &
-      physical_names, physical_values, scene_depends_on, scene_from_values, physical_from_values
+      physical_names, physical_values, scene_depends_on, scene_from_values, physical_from_values, &
+      beam_rigidity, beam_mass_per_length
    use tmafm_settings, only: run_settings_t, check_run_size, comparison_intervals, comparison_points, &
       mode_digits, comparison_rtol, vdw_method_refused, sls_method_refused
    use tmafm_errata, only: errata_t, errata_for_convention, parse_errata, errata_label
@@ -406,18 +407,24 @@ contains
       end do
       if (ierr /= ok) return
       if (given(21) .or. given(22) .or. given(23) .or. given(24)) then
-         do i = 1, size(calibration)
+         ! k, f0 and Q are what a calibration measures; tip_mass_ratio is 0 (no tip mass)
+         ! unless given (issue 27: spring_constant without tip_mass_ratio was refused).
+         do i = 1, size(calibration) - 1
             if (given(index_of(physical_names, calibration(i)))) cycle
             do j = 1, size(calibration)
                if (.not. given(index_of(physical_names, calibration(j)))) cycle
                call key_error(p, g%entries(entry_at(trim(calibration(j)))), 'needs '// &
                               trim(calibration(i))//' too: the calibration is spring_constant, '// &
-                              'resonance_frequency, quality_factor and tip_mass_ratio (0 for no tip mass)', &
+                              'resonance_frequency and quality_factor (and tip_mass_ratio, 0 unless given)', &
                               ierr, errmsg)
                return
             end do
          end do
+         if (.not. given(24)) v(24) = 0
       end if
+      ! The tip sits at the free end unless tip_position says otherwise: a cantilever given with
+      ! its own length and no tip_position was refused (the default x0 = 300e-6 m > L).
+      if (.not. given(15)) v(15) = v(1)
       ! The calibration and the free amplitude are exact for the N modes that run.
       if (config%auto_modes) then
          do i = 1, 2
@@ -866,6 +873,12 @@ contains
       character(len=:), allocatable :: as_written, range, rule
       ! The positions of medium_mass and medium_reynolds in scene_names.
       integer, parameter :: medium(2) = [14, 15]
+      ! The drive's keys and values as the input gave them (messages of init_drive).
+      character(len=25) :: names(2)
+      real(dp) :: shown(2)
+      character(len=:), allocatable :: head
+      ! beta_1^2 of the clamped-free beam (1.8751040687119611^2).
+      real(dp), parameter :: first_root_squared = 3.5160152685001504_dp
 
       ierr = ok
       errmsg = ''
@@ -879,6 +892,13 @@ contains
          derived = scene_values(config%scene)
          phys = physical_values(config%physical)
          defaults = physical_values(default_physical)
+         if (config%physical%by_calibration) then
+            ! A calibrated beam's k and f0 are measured against the default beam's (their key
+            ! defaults are 0, "not given"): k = 3 E1 I/L^3, f0 = beta_1^2/(2 pi t0).
+            defaults(21) = 3*beam_rigidity(default_physical)/default_physical%length**3
+            defaults(22) = first_root_squared/(2*acos(-1.0_dp))*sqrt(beam_rigidity(default_physical) &
+                           /(beam_mass_per_length(default_physical)*default_physical%length**4))
+         end if
          do k = 1, size(scene_names)
             row = key_row('scene', scene_names(k))
             ! The key's range, and the rules read_scene adds for a value written in &scene.
@@ -898,6 +918,11 @@ contains
             ! Name the input furthest from its default among those the group depends on and
             ! the route in use gives (not thickness or density for a calibrated beam).
             inputs = scene_depends_on(k)
+            ! A group of E1 I or m (width, thickness) of a calibrated beam depends on the
+            ! calibration: spring_constant, resonance_frequency, tip_position (tip_position =
+            ! 1e-20 named length).
+            if (config%physical%by_calibration .and. any(inputs == 2 .or. inputs == 3)) &
+               inputs = [inputs, pack([21, 22, 15], [all(inputs /= 21), all(inputs /= 22), all(inputs /= 15)])]
             inputs = pack(inputs, [(physical_key_given(config%physical, inputs(j)), j=1, size(inputs))])
             if (size(inputs) == 0) inputs = scene_depends_on(k)
             culprit = inputs(1)
@@ -928,6 +953,11 @@ contains
                      ' gives '//trim(scene_names(k))//' = '//real_text(derived(k))//' by Eq. (12): '// &
                      trim(scene_names(k))//' must be '//range//' (it depends on '// &
                      depends_text(inputs)//')'
+            if (e%override) then
+               errmsg = trim(errmsg)//' (override)'
+            else if (e%line > 0) then
+               errmsg = trim(errmsg)//' (line '//int_text(e%line)//')'
+            end if
             return
          end do
       end if
@@ -941,8 +971,29 @@ contains
       if (ierr /= ok) return
       ! The drive's tones: a second tone needs a frequency commensurate with the first.
       if (config%from_physical) then
-         call init_drive(config%scene, drive, ierr, errmsg, 'physical', &
-                         [config%physical%drive_angular_frequency, config%physical%drive_angular_frequency_2])
+         ! The keys and values as the input gave them: drive_frequency_2 = 1e3 was named
+         ! drive_angular_frequency_2 = 6.283185307179586E+003, without its line.
+         associate (phys => config%physical)
+            names(1) = merge('drive_frequency        ', 'drive_angular_frequency', phys%by_drive_frequency)
+            names(2) = merge('drive_frequency_2        ', 'drive_angular_frequency_2', phys%by_drive_frequency_2)
+            shown(1) = merge(phys%drive_frequency, phys%drive_angular_frequency, phys%by_drive_frequency)
+            shown(2) = merge(phys%drive_frequency_2, phys%drive_angular_frequency_2, phys%by_drive_frequency_2)
+         end associate
+         call init_drive(config%scene, drive, ierr, errmsg, 'physical', shown, names)
+         if (ierr /= ok .and. physical_group > 0) then
+            do j = 1, 2
+               head = '&physical '//trim(names(j))//' = '//real_text(shown(j))
+               if (index(errmsg, head) /= 1) cycle
+               e = entry_or_default(doc%groups(physical_group), trim(names(j)), shown(j))
+               errmsg = '&physical '//trim(names(j))//' = '//e%written//trim(errmsg(len(head) + 1:))
+               if (e%override) then
+                  errmsg = trim(errmsg)//' (override)'
+               else if (e%line > 0) then
+                  errmsg = trim(errmsg)//' (line '//int_text(e%line)//')'
+               end if
+               exit
+            end do
+         end if
       else
          call init_drive(config%scene, drive, ierr, errmsg)
       end if

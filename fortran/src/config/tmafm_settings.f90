@@ -17,6 +17,7 @@ module tmafm_settings
    public :: method_names, default_max_steps, max_max_steps
    public :: max_samples, max_trajectory_bytes, trajectory_bytes, check_run_size
    public :: comparison_intervals, comparison_points, mode_digits, comparison_rtol, comparison_atol
+   public :: search_work_budget
 
    !> The paper's scheme: RK4, dtau out of contact, dtau/contact_refine in contact, no location.
    character(len=*), parameter :: method_rk4_paper = 'rk4_paper'
@@ -55,6 +56,13 @@ module tmafm_settings
 
    !> Tolerances (dopri5) of the automatic-N search's runs, which compare N and N+1.
    real(dp), parameter :: comparison_rtol = 1.0e-10_dp, comparison_atol = 1.0e-16_dp
+   !> The automatic N search's budget: the work of all its comparison runs (steps tried and
+   !> event iterations, each counted N times in a run of N modes: a step's cost grows with N)
+   !> may not exceed this.  The Fig. 2 scene at mode_tol = 1e-12 and mode_horizon = 20 (29
+   !> comparisons, up to N = 30) spends 1.2e8 in 19.8 s of CPU; omega = 50 spends 2.5e8 in 32 s,
+   !> and extreme scenes ran for minutes before the bound (issue 27, F15).  So the search costs
+   !> at most about a minute (docs/reliability.md, "Automatic N").
+   real(dp), parameter :: search_work_budget = 4.0e8_dp
    !> The grid on which the automatic-N search compares N and N+1 (comparison_intervals): at
    !> least this many points per period of the fastest free mode of the model with more modes.
    integer, parameter :: comparison_points = 16

@@ -871,10 +871,14 @@ contains
       end function step
    end subroutine scan
 
-   !> The rounding allowance of values of f at two points: 8 eps times the larger size.
+   !> The rounding allowance of values of f at two points: 8 eps times the larger size, and at
+   !> least the smallest normal number.  A channel that is exactly 0 (a mode at rest under a
+   !> zero drive: free_amplitude = 0 or alpha2 = 0) has size 0; with no allowance no interval
+   !> cleared (level - f = 0 is not > 0), and every scan halved until its 2 000 000 points
+   !> (2.2 s of CPU a drive period on fig2_n4; issue 27, F4).
    elemental real(dp) function tolerance(p, q)
       type(scan_point_t), intent(in) :: p, q
-      tolerance = 8*epsilon(1.0_dp)*max(p%size, q%size)
+      tolerance = max(8*epsilon(1.0_dp)*max(p%size, q%size), tiny(1.0_dp))
    end function tolerance
 
    !> Whether sigma f < level all over [left, right] (width apart), with |f''''| <= bound there.

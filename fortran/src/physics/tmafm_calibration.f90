@@ -366,6 +366,9 @@ contains
       ! factor of E1 I smallest against the default beam's (calibrate_cantilever's contains).
       if (.not. (normal(phys%mass_per_length) .and. normal(phys%rigidity*phys%mass_per_length))) then
          call refuse()
+         ! E1 I is normal here: m = E1 I t0^2/L^4 = k p^T Lambda^-1 p t0^2/L (t0 ~ 1/f0) or
+         ! E1 I m failed, so resonance_frequency is a candidate too (f0 = 1e-300 named length).
+         key = mass_factor()
          return
       end if
       phys%beam_damping = alpha3*phys%mass_per_length/t0
@@ -398,6 +401,35 @@ contains
                  3*log(phys%length/typical%length), log(3*max(compliance, tiny(1.0_dp)*epsilon(1.0_dp)))]
          name = names(minloc(logs, 1))
       end function smallest_factor
+      !> The one of spring_constant, length, tip_position, resonance_frequency that moves m (or
+      !> E1 I m, when m is normal) furthest towards its failure, on a log scale against the
+      !> default beam's: m ~ k c f0^-2 L^-1 and E1 I m ~ k^2 c^2 f0^-2 L^2, c = p^T Lambda^-1 p
+      !> (1/3 at the free end).
+      function mass_factor() result(name)
+         character(len=19) :: name
+         type(physical_t) :: typical
+         real(dp) :: logs(4), typical_f0, power, failed
+         character(len=19), parameter :: names(4) = [character(len=19) :: 'spring_constant', 'length', &
+            'tip_position', 'resonance_frequency']
+         typical_f0 = abs(lambda)/(2*pi*sqrt(beam_mass_per_length(typical)*typical%length**4 &
+                                              /beam_rigidity(typical)))
+         power = 1
+         failed = phys%mass_per_length
+         if (normal(phys%mass_per_length)) then
+            power = 2
+            failed = phys%rigidity*phys%mass_per_length
+         end if
+         logs = [power*log(phys%spring_constant/(3*beam_rigidity(typical)/typical%length**3)), &
+                 (3*power - 4)*log(phys%length/typical%length), &
+                 power*log(3*max(compliance, tiny(1.0_dp)*epsilon(1.0_dp))), &
+                 -2*log(phys%resonance_frequency/typical_f0)]
+         ! Towards overflow the largest term is the culprit, towards underflow the smallest.
+         if (failed > 1 .or. .not. (failed >= 0)) then
+            name = names(maxloc(logs, 1))
+         else
+            name = names(minloc(logs, 1))
+         end if
+      end function mass_factor
    end subroutine calibrate_cantilever
 
    !> The time scale t0 (s) and beam damping alpha3 of a cantilever of rigidity phys%rigidity in

@@ -66,7 +66,7 @@ contains
 
    !> The drive of a scene, or a one-line error naming the group (scene or physical) and key:
    !> a second tone needs omega > 0 and omega_2 > 0, commensurate with omega.
-   subroutine init_drive(scene, drive, ierr, errmsg, group, shown)
+   subroutine init_drive(scene, drive, ierr, errmsg, group, shown, names)
       type(scene_t), intent(in) :: scene
       type(drive_t), intent(out) :: drive
       integer, intent(out) :: ierr
@@ -75,6 +75,9 @@ contains
       character(len=*), intent(in), optional :: group
       !> The two frequencies as the input gave them (default: omega and omega_2), for the messages.
       real(dp), intent(in), optional :: shown(2)
+      !> With group 'physical': the keys the input gave the frequencies by (drive_frequency or
+      !> drive_angular_frequency, and _2), for the messages.
+      character(len=*), intent(in), optional :: names(2)
       character(len=:), allocatable :: key1, key2
       real(dp) :: ratio, as_given(2)
       integer :: p, q, k
@@ -96,6 +99,10 @@ contains
             if (group == 'physical') then
                key1 = '&physical drive_angular_frequency'
                key2 = '&physical drive_angular_frequency_2'
+               if (present(names)) then
+                  key1 = '&physical '//trim(names(1))
+                  key2 = '&physical '//trim(names(2))
+               end if
             end if
          end if
          if (.not. (scene%omega_2 > 0)) then
@@ -119,7 +126,8 @@ contains
                      key1(index(key1, ' ') + 1:)//' = '//real_text(as_given(1))//' (ratio '// &
                      real_text(ratio)//'; tones need a ratio p/q, q <= '//int_text(max_denominator)// &
                      ', p <= '//int_text(max_harmonic)//', to 1e-9; nearest '//int_text(p)//'/'// &
-                     int_text(q)//': '//key2(index(key2, ' ') + 1:)//' = '//real_text(as_given(1)*p/q)//')'
+                     int_text(q)//': '//key2(index(key2, ' ') + 1:)//' = '// &
+                     real_text(as_given(2)*(real(p, dp)/(q*ratio)))//')'
             return
          end if
          drive%n_tones = 2

@@ -362,7 +362,9 @@ contains
       case (1)
          keys = [16, 4, 2, 3, 1, 24]
       case (2)
-         keys = [19, 12, 26, 27]
+         ! The drive's own keys first: they win a tie of keys whose default 0 means 'off'
+         ! (free_amplitude_2 = 0.1 m named tip_sample_distance).
+         keys = [19, 26, 12, 27]
       case (3)
          keys = [17, 1, 5, 2, 3, 4, 23]
       case (4)
@@ -398,7 +400,7 @@ contains
       case (19)
          keys = [33, 7, 5, 6, 8]
       case (20)
-         keys = [34, 12, 27, 39]
+         keys = [34, 39, 12, 27]
       case (21)
          keys = [35, 4, 2, 3, 1, 5, 21, 22, 38]
       case (22)

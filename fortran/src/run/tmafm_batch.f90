@@ -26,10 +26,12 @@ module tmafm_batch
    private
 
    public :: observe_options_t, observe_config, observe_batch, observe_states, config_scales, &
-      max_observed_periods, max_harmonics, max_p_max, steady_harmonics, steady_evidence
+      max_observed_periods, max_harmonics, max_p_max, steady_harmonics, steady_evidence, steady_window
 
    !> Most periods one observed run may integrate.
    integer, parameter :: max_observed_periods = 10000000
+   !> Latest time an observed run may reach: the largest &solver tau_end (tmafm_keys).
+   real(dp), parameter :: max_observed_tau = 1.0e7_dp
    !> Most harmonics and largest steady period looked for.
    integer, parameter :: max_harmonics = 64, max_p_max = 1000
 
@@ -179,6 +181,16 @@ contains
       settings = chosen%solver
       ! No samples kept: the run ends at the last period boundary, or when the observer stops it.
       settings%tau_end = options%max_periods*period
+      ! The same bound as &solver tau_end's: omega = 1e-300 made a run to tau = 6E+302 that
+      ! never returned (issue 27, F10).
+      if (.not. (settings%tau_end <= max_observed_tau)) then
+         ierr = err_input
+         errmsg = '&scene omega = '//real_text(config%scene%omega)//': observe max_periods = '// &
+                  int_text(options%max_periods)//' drive periods would run to tau = '// &
+                  real_text(settings%tau_end)//', beyond the largest &solver tau_end, '// &
+                  real_text(max_observed_tau)//' (raise omega or lower max_periods)'
+         return
+      end if
       settings%sample_dtau = settings%tau_end
       call check_run_size(settings, chosen%n_modes, ierr, errmsg)
    end subroutine prepare_observed
@@ -245,8 +257,19 @@ contains
       end select
    end subroutine steady_tolerance
 
+   !> How many of an observed run's last periods its steady values average: the period found,
+   !> or with none the lag of the closest repeat (the best candidate: a double-tap orbit that
+   !> did not settle within steady_tol alternates, and its last period alone gave a negative
+   !> dissipated_viscoelastic; issue 27), or 1; never more than the periods run (0 if none).
+   pure integer function steady_window(observer) result(last)
+      type(observer_t), intent(in) :: observer
+      last = observer%found_period
+      if (last < 1) last = observer%closest_lag
+      last = min(max(last, 1), observer%n_periods)
+   end function steady_window
+
    !> The steady harmonics of an observed run: for each harmonic k, the harmonic of V_T over
-   !> its last max(period, 1) periods (tmafm_steady_state steady_harmonic: the mean of the
+   !> its last steady_window periods (tmafm_steady_state steady_harmonic: the mean of the
    !> per-period Fourier coefficients, its phase free of the wrap at +-180); NaN when no
    !> period was run.
    subroutine steady_harmonics(observer, amplitude, phase)
@@ -257,7 +280,7 @@ contains
       amplitude = ieee_value(1.0_dp, ieee_quiet_nan)
       phase = amplitude
       m = observer%n_periods
-      last = min(max(observer%found_period, 1), m)
+      last = steady_window(observer)
       if (last < 1) return
       do k = 1, min(size(amplitude), observer%harmonics)
          call steady_harmonic(observer%harmonic_amplitude(m - last + 1:m, k), &

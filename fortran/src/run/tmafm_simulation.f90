@@ -2,7 +2,8 @@
 !> model, then runs it.
 module tmafm_simulation
    use tmafm_kinds, only: dp
-   use tmafm_errors, only: ok, err_input
+   use tmafm_errors, only: ok, err_input, err_runtime
+   use tmafm_kinds, only: i8
    use tmafm_modes, only: max_modes
    use tmafm_contact, only: law_hertz, law_dmt
    use tmafm_vdw, only: law_dmt_vdw
@@ -13,7 +14,7 @@ module tmafm_simulation
    use tmafm_trajectory, only: trajectory_t, stop_poll
    use tmafm_config, only: config_t
    use tmafm_settings, only: method_dopri5, check_run_size, comparison_intervals, mode_digits, &
-      comparison_rtol, comparison_atol
+      comparison_rtol, comparison_atol, search_work_budget
    use tmafm_namelist, only: config_errata, read_config
    use tmafm_text, only: int_text, real_text, short_real_text
    implicit none
@@ -71,7 +72,7 @@ contains
    !> Sets config%n_modes and the evidence (one difference per N compared).
    !> The comparison runs use dopri5 at tight tolerances, whatever the run's own method, so
    !> that integration error (or a fixed step past RK4's stability limit) cannot decide N.
-   recursive subroutine choose_mode_count(config, ierr, errmsg, progress_unit, poll)
+   recursive subroutine choose_mode_count(config, ierr, errmsg, progress_unit, poll, budget)
       type(config_t), intent(inout) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
@@ -79,12 +80,16 @@ contains
       integer, intent(in), optional :: progress_unit
       !> If present, every comparison run polls it (run_trajectory) and stops when asked.
       procedure(stop_poll), optional :: poll
+      !> The search's work budget (default search_work_budget; tests give a small one).
+      real(dp), intent(in), optional :: budget
       type(config_t) :: trial
       type(trajectory_t) :: upper
       real(dp), allocatable :: lower_vt(:), lower_rate(:)
       real(dp) :: difference, fastest
       type(drive_t) :: drive
       integer :: n, intervals
+      ! What is left of search_work_budget (work times the modes of each run).
+      real(dp) :: budget_left, budget_total
 
       ierr = ok
       errmsg = ''
@@ -100,6 +105,9 @@ contains
       trial%solver%rtol = comparison_rtol
       trial%solver%atol = comparison_atol
       config%n_mode_differences = 0
+      budget_left = search_work_budget
+      if (present(budget)) budget_left = budget
+      budget_total = budget_left
       ! Each run is sampled on the grid of the next comparison it takes part in: run N on
       ! N+1's grid (where it is the lower run); the grids nest (powers of two), so the upper
       ! run's finer grid holds every point of the lower's.
@@ -138,7 +146,21 @@ contains
          trial%n_modes = modes
          ! A power of two divides mode_horizon exactly: the grids of two runs share points.
          trial%solver%sample_dtau = config%mode_horizon/count
-         call simulate(trial, upper, ierr, errmsg, poll=poll)
+         ! The run may spend what is left of the search's budget, and no more than a run may.
+         trial%solver%max_steps = int(min(budget_left/modes, real(config%solver%max_steps, dp)), i8)
+         if (trial%solver%max_steps >= 1) call simulate(trial, upper, ierr, errmsg, poll=poll)
+         if (trial%solver%max_steps < 1 .or. (ierr /= ok .and. upper%work > trial%solver%max_steps &
+                                               .and. budget_left/modes <= config%solver%max_steps)) then
+            ierr = err_runtime
+            errmsg = '&model n_modes = 0: the search for N stopped at N = '//int_text(max(modes - 1, 1))// &
+                     ' against '//int_text(max(modes, 2))//': its comparison runs (dopri5, rtol '// &
+                     real_text(comparison_rtol)//', over mode_horizon = '//real_text(config%mode_horizon)// &
+                     ') spent their budget of '//real_text(budget_total)//' steps times modes; '// &
+                     'give n_modes, a larger mode_tol (now '// &
+                     real_text(config%mode_tol)//') or a shorter mode_horizon'
+            return
+         end if
+         budget_left = budget_left - real(upper%work, dp)*modes
       end subroutine sampled_run
    end subroutine choose_mode_count
 

@@ -71,6 +71,19 @@ module tmafm_method_adaptive
    !> Which embedded pair an adaptive state uses.
    integer, parameter :: pair_dopri5 = 1, pair_dop853 = 2
 
+   !> The method dop853 never steps further than h omega_N = dop853_mode_reach, omega_N =
+   !> beta_N^2 the highest mode's free frequency (the error norm's, tmafm_error_scale).  Past
+   !> about 4.4 its steps are set by that mode's error alone (it is 0.74 of DOP853's stability
+   !> limit 5.96 on the imaginary axis, where |R(i y)| = 0.945 per step), the step pattern
+   !> never repeats, and the mode's error builds up over its high Q: on tapping_polystyrene
+   !> (Q3 ~ 7000, rtol 1e-9, atol 1e-13) the third mode's velocity at the drive period's
+   !> boundary jittered by 1.2e-9 from period to period (a fifth of its size) and no period
+   !> repeated within 1e-8 in 6000 periods, where dopri5 and flight_exact find period 1 after
+   !> 1731 (issue 27; docs/observables.md, "Steady state").  With the cap, 4 (4.3 did as well,
+   !> 4.6 not: `python benchmarks/steady_dop853.py`), it finds it after 1731.  flight_exact's
+   !> contact phases (this pair too) are not capped.
+   real(dp), parameter :: dop853_mode_reach = 4.0_dp
+
    !> Where an adaptive integration stands: time, state, phase, next step, and registers.
    type :: adaptive_state_t
       !> Current time.
@@ -100,6 +113,9 @@ module tmafm_method_adaptive
       !> The length of the step that crosses a contact exit (learned from each exit; 0: not
       !> yet known, then a quarter of the controller's step).
       real(dp) :: h_exit_cross = 0
+      !> Largest step in tau (not in sigma): dop853_mode_reach/omega_N for the method dop853,
+      !> huge otherwise.
+      real(dp) :: h_max = huge(1.0_dp)
       !> The embedded pair and its registers.
       class(embedded_pair_t), allocatable :: pair
       !> The step-size controller.
@@ -134,6 +150,7 @@ contains
 
       call traj%store(model, y0)
       call state%init(kind, model, settings, 0.0_dp, y0)
+      if (kind == pair_dop853) state%h_max = dop853_mode_reach/maxval(model%beta(1:model%n_modes)**2)
       call state%advance(model, settings, traj, .false., ierr, errmsg, progress, observer)
    end subroutine run_adaptive
 
@@ -268,6 +285,7 @@ contains
                   self%h = self%h_phase_start(phase_index(self%in_contact))
                end if
             end if
+            if (.not. self%warped) self%h = min(self%h, self%h_max)
             h = self%h
             if (self%warped) then
                map = time_map_t(s0=self%sigma, h=h, origin=self%warp_origin, warped=.true.)

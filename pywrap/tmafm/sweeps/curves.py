@@ -242,17 +242,40 @@ def _free_amplitude(ds, base_groups: dict, label: str = "approach") -> None:
 
 def _jump_flags(data: dict, shape: tuple, reverse: bool, jump_threshold: float) -> np.ndarray:
     """Where amplitude or phase jumped, marked along the direction of travel: the first point
-    of the new branch."""
+    of the new branch.  With both directions, a step that both take between the same two
+    points, with the same values there (within a tenth of the step: no hysteresis), is a steep
+    but single-valued change on a coarse grid, a smooth crossover, and is not marked."""
     flags = np.zeros(shape, dtype=bool)
     for name in JUMP_NAMES:
         observed = data[name].values
         travel = [observed[0]] + ([observed[1][..., ::-1]] if reverse else [])
+        found = np.zeros(shape, dtype=bool)
+        unwrapped = []
         for d, y in enumerate(travel):
             if name == "phase":  # degrees: a wrap at +-180 is no jump
                 y = np.unwrap(y, period=360.0, axis=-1)
-            found = mark_jumps(y, jump_threshold)
-            flags[d] |= found if d == 0 else found[..., ::-1]
+            unwrapped.append(y)
+            marks = mark_jumps(y, jump_threshold)
+            found[d] = marks if d == 0 else marks[..., ::-1]
+        if reverse:
+            found &= ~_crossovers(unwrapped[0], unwrapped[1][..., ::-1], name == "phase")
+        flags |= found
     return flags
+
+
+def _crossovers(forward, back, degrees: bool) -> np.ndarray:
+    """[approach, retract] masks of the points where a mark would sit on a step that both
+    directions take between the same two points with the same values there (within a tenth of
+    the step): the approach's arrival point i, the retract's i-1 (it travels the other way)."""
+    if degrees:   # the same branch of the unwrap for both
+        back = back + 360.0 * np.round((forward[..., :1] - back[..., :1]) / 360.0)
+    step = np.abs(np.diff(forward, axis=-1))
+    apart = np.abs(forward - back)
+    cross = (apart[..., :-1] <= 0.1 * step) & (apart[..., 1:] <= 0.1 * step)
+    masks = np.zeros((2, *forward.shape), dtype=bool)
+    masks[0][..., 1:] = cross
+    masks[1][..., :-1] = cross
+    return masks
 
 
 def _one_axis(kind: str, dimensionless: tuple, physical: tuple) -> tuple:

@@ -90,6 +90,14 @@ def _steady_columns(columns: dict, physical: dict, period, steady, failed, perio
                                  attrs={"units": unit, "units_system": system,
                                         "long_name": f"steady {name}" + (
                                             " (harmonics 1, 2, ...)" if harmonic else "")})
+    if "min_gap" in data:
+        # The indentation, -min_gap where the tip went into the sample (0 elsewhere, NaN where
+        # min_gap is): the plot computed it, the dataset did not hold it (issue 27).
+        gap = data["min_gap"]
+        data["indentation"] = xr.Variable(
+            dims, np.maximum(-np.asarray(gap.values), 0.0),
+            attrs={"units": gap.attrs["units"], "units_system": gap.attrs["units_system"],
+                   "long_name": "steady indentation (-min_gap where < 0, else 0)"})
     if drive_period is not None and "dissipated_energy" in physical:
         joule = _SI_VALUE[PHYSICAL_UNITS["dissipated_energy"]]
         per_second = 1.0 / np.asarray(drive_period, dtype=float)

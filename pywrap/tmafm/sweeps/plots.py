@@ -164,7 +164,7 @@ def plot_approach(ds, path):
     branches, jumps marked by squares (the panels of the observables the sweep computed)."""
     _check(ds, "plot_approach")
     ds = ds.copy()
-    if "min_gap" in ds:
+    if "min_gap" in ds and "indentation" not in ds:   # a dataset written before it held one
         ds["indentation"] = (-ds["min_gap"]).clip(min=0)
         ds["indentation"].attrs = dict(ds["min_gap"].attrs, long_name="indentation")
     return _continuation_panels(ds, path, [name for name in (

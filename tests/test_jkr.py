@@ -186,3 +186,55 @@ def test_the_phase_contrast_study_holds_and_model_md_quotes_it():
         assert again["phase_deg"] == pytest.approx(data[law][k]["phase_deg"], abs=1e-4)
         assert again["adhesion_loss_per_tap_aJ"] == pytest.approx(data[law][k]["adhesion_loss_per_tap_aJ"],
                                                                    rel=1e-6, abs=1e-12)
+
+
+def test_a_run_restarted_on_a_stretched_neck_reproduces_the_contact_state():
+    """A run restarted from a sample where the neck holds above the surface (V_T > 0), with
+    &initial in_contact = 1 and the drive's phase at that time, has the original's contact flags at
+    every later sample and its V_T to the runs' accuracy; started by V_T's sign (in flight) it does
+    not."""
+    base = {"model": {"contact_law": "jkr"}, "scene": {"alpha2": 2e-3}}
+    solver = {"method": "dop853", "rtol": 1e-11, "atol": 1e-16}
+    whole = tmafm.run("fig2_n4", **base, solver={**solver, "tau_end": 40.0}, output={"sample_dtau": 0.002})
+    omega = tmafm.Config("fig2_n4", **base, solver=solver).scene["omega"]
+    stretched = np.flatnonzero((whole.contact == 1) & (whole.vt > 0) & (whole.tau > 15) & (whole.tau < 25))
+    assert stretched.size > 10
+    k = stretched[stretched.size // 2]
+    restart = whole.tau[k]
+
+    def rerun(contact):
+        return tmafm.run("fig2_n4", model=base["model"],
+                         scene={**base["scene"], "drive_phase": math.remainder(omega * restart, 2 * math.pi)},
+                         initial={"a0": list(whole.a[k]), "adot0": list(whole.adot[k]), "in_contact": contact},
+                         solver={**solver, "tau_end": 40.0 - restart}, output={"sample_dtau": 0.002})
+
+    held = rerun(1)
+    m = min(held.vt.size, whole.vt.size - k)
+    assert m > 5000
+    assert np.array_equal(held.contact[:m], whole.contact[k:k + m])
+    # rtol 1e-11: the restarted V_T is the original's to 1e-9 of its range.
+    assert np.max(np.abs(held.vt[:m] - whole.vt[k:k + m])) <= 1e-9 * np.ptp(whole.vt)
+    by_sign = rerun(-1)
+    assert not np.array_equal(by_sign.contact[:m], whole.contact[k:k + m])
+
+
+@pytest.mark.parametrize("initial, message", [
+    ({"a0": [0.0] * 4, "in_contact": 1}, r"in_contact = 1: the start state has V_T = .*past where contact ends"),
+    ({"a0": [-0.01, 0.0, 0.0, 0.0], "in_contact": 0}, r"in_contact = 0: the start state has V_T = .* < 0"),
+])
+def test_an_initial_phase_the_start_state_contradicts_is_refused_in_one_line(initial, message):
+    with pytest.raises(tmafm.InputError, match=message) as err:
+        tmafm.run("fig2_n4", model={"contact_law": "jkr"}, scene={"delta_hat": 1e-3}, initial=initial,
+                  solver={"method": "dop853", "tau_end": 1.0})
+    assert "\n" not in str(err.value)
+
+
+def test_the_fixed_step_methods_take_the_phase_from_the_sign_and_refuse_another():
+    # V_T = 0 rising at the start: in flight by the sign rule.
+    with pytest.raises(tmafm.InputError,
+                       match=r"in_contact = 1: &solver method = 'rk4_paper' takes the start's phase"):
+        tmafm.run("fig2_n4", scene={"delta_hat": 0.0}, initial={"a0": [0.0] * 4, "in_contact": 1},
+                  solver={"tau_end": 1.0})
+    # The phase they would take anyway is accepted.
+    tmafm.run("fig2_n4", scene={"delta_hat": 1e-3}, initial={"a0": [0.0] * 4, "in_contact": 0},
+              solver={"tau_end": 1.0})

@@ -120,6 +120,7 @@ OFF_SWITCHES = {("scene", "sls_relaxation_time"), ("scene", "sls_modulus_ratio")
                 ("physical", "hamaker"), ("physical", "intermolecular_distance")} | \
     {("scene", k) for k in ("electrostatic_strength", "electrostatic_radius", "cone_half_angle",
                             "double_layer_strength", "double_layer_range")} | \
+    {("initial", "in_contact")} | \
     {("physical", k) for k in ("tip_bias", "contact_potential", "cone_half_angle", "medium_permittivity",
                                "debye_length", "ionic_strength", "temperature", "tip_surface_potential",
                                "sample_surface_potential")}

@@ -279,7 +279,11 @@ module tmafm_keys
    type(key_t), parameter :: initial_rows(*) = [ &
       key_t('initial', 'a0', key_list, -1, 1, unit='d', &
             meaning='initial modal amplitudes, the rest zero (with n_modes = 0, N is at least the last nonzero)'), &
-      key_t('initial', 'adot0', key_list, -1, 1, unit='d/tau', meaning='initial modal velocities, as a0')]
+      key_t('initial', 'adot0', key_list, -1, 1, unit='d/tau', meaning='initial modal velocities, as a0'), &
+      key_t('initial', 'in_contact', key_integer, -1, 1, unit='1', omit_default=.true., &
+            rule='1 needs V_T <= 0 (under jkr: below the pull-off gap), 0 needs V_T >= 0', &
+            meaning="the phase at the start: -1 by V_T's sign, 0 in flight, 1 in contact (a JKR neck "// &
+            "stretched above the surface, to restart a run in it; docs/model.md section 18)")]
 
    type(key_t), parameter :: solver_rows(*) = [ &
       key_t('solver', 'method', key_string, first_word=method_words, last_word=format_words - 1, unit='-', &
@@ -545,6 +549,8 @@ contains
          text = list_text(config%a0(1:modal_count()))
       case ('adot0')
          text = list_text(config%adot0(1:modal_count()))
+      case ('in_contact')
+         text = int_text(config%solver%initial_contact)
       case ('method')
          text = quoted(config%solver%method)
       case ('dtau')

@@ -576,6 +576,7 @@ contains
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       integer :: k, row
+      integer(i8) :: phase
 
       ierr = ok
       do k = 1, g%n_entries
@@ -589,6 +590,10 @@ contains
             case ('adot0')
                call take_modal_values(p, e, row, config%n_modes, config%adot0, config%n_initial, ierr, &
                                       errmsg)
+            case ('in_contact')
+               phase = config%solver%initial_contact
+               call take_integer(p, e, row, phase, ierr, errmsg)
+               config%solver%initial_contact = int(phase)
             case default
                call unknown_key(p, e, row, ierr, errmsg)
             end select

@@ -90,6 +90,9 @@ module tmafm_settings
       real(dp) :: tau_end = 100.0_dp
       !> Output interval.
       real(dp) :: sample_dtau = 0.01_dp
+      !> &initial in_contact: the phase the run starts in, -1 by the sign of V_T (V_T <= 0: in
+      !> contact), 0 in flight, 1 in contact (a JKR neck held above the surface too).
+      integer :: initial_contact = -1
       !> A run stops with an error once some |a_j| exceeds this (units of the gap d).
       real(dp) :: blowup_limit = 1.0_dp
       !> Step budget of one run (accepted + rejected steps, event iterations); fixed-step runs

@@ -11,6 +11,8 @@ module tmafm_driver
    use tmafm_method_adaptive, only: run_adaptive, pair_dopri5, pair_dop853
    use tmafm_method_flight, only: run_flight_exact
    use tmafm_observers, only: observer_t
+   use tmafm_events, only: initial_phase
+   use tmafm_text, only: real_text, int_text
    implicit none
    private
 
@@ -47,6 +49,8 @@ contains
                   'sls_relaxation_time > 0) needs dopri5, dop853 or flight_exact'
          return
       end if
+      call check_initial_phase(model, settings, y0, ierr, errmsg)
+      if (ierr /= ok) return
       if (present(progress_unit)) progress%unit = progress_unit
       if (present(poll)) progress%poll => poll
       call init_trajectory(traj, settings, model%n_modes, with_dashpot=model%sls%on)
@@ -93,6 +97,38 @@ contains
       end select
       if (ierr == ok) call check_reported(settings, traj, ierr, errmsg, observer)
    end subroutine run_trajectory
+
+   !> &initial in_contact against the start state: in contact (1) needs V_T at most where the phase
+   !> ends (0, or a JKR neck's pull-off gap), in flight (0) needs V_T >= 0; the fixed-step
+   !> methods take the phase from V_T's sign, so a given phase must be that one there.
+   subroutine check_initial_phase(model, settings, y0, ierr, errmsg)
+      type(model_t), intent(in) :: model
+      type(run_settings_t), intent(in) :: settings
+      real(dp), intent(in) :: y0(:)
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      real(dp) :: vt, offset, offset_rate
+      character(len=:), allocatable :: given
+      ierr = ok
+      errmsg = ''
+      if (settings%initial_contact < 0) return
+      given = '&initial in_contact = '//int_text(settings%initial_contact)
+      vt = model%tip_gap(0.0_dp, y0)
+      call model%switch_offset(y0, .true., offset, offset_rate)
+      if (settings%initial_contact == 1 .and. vt > offset) then
+         ierr = err_input
+         errmsg = given//': the start state has V_T = '//real_text(vt)//', past where contact ends (V_T <= '// &
+                  real_text(offset)//')'
+      else if (settings%initial_contact == 0 .and. vt < 0) then
+         ierr = err_input
+         errmsg = given//': the start state has V_T = '//real_text(vt)//' < 0, the tip below the surface'
+      else if ((settings%method == method_rk4_paper .or. settings%method == method_rk4_event) .and. &
+               ((settings%initial_contact == 1) .neqv. initial_phase(model, 0.0_dp, y0))) then
+         ierr = err_input
+         errmsg = given//": &solver method = '"//trim(settings%method)//"' takes the start's phase from V_T's "// &
+                  'sign, here the other phase (V_T = '//real_text(vt)//')'
+      end if
+   end subroutine check_initial_phase
 
    !> Fail with err_blowup when an |a_j| the run reports exceeds &solver blowup_limit: at an
    !> output sample, or in an observed run at a Poincare point or a located modal extremum.

@@ -150,6 +150,8 @@ contains
 
       call traj%store(model, y0)
       call state%init(kind, model, settings, 0.0_dp, y0)
+      ! The first sample's phase is the run's (a JKR neck may start stretched: &initial in_contact).
+      if (model%hysteretic) traj%contact(1) = merge(1, 0, state%in_contact)
       if (kind == pair_dop853) state%h_max = dop853_mode_reach/maxval(model%beta(1:model%n_modes)**2)
       call state%advance(model, settings, traj, .false., ierr, errmsg, progress, observer)
    end subroutine run_adaptive
@@ -177,6 +179,8 @@ contains
       self%tau = tau0
       self%y = y0
       self%in_contact = initial_phase(model, tau0, y0)
+      ! &initial in_contact, checked against V_T by the driver (check_initial_phase).
+      if (settings%initial_contact >= 0) self%in_contact = settings%initial_contact == 1
       ! The first trial step; the controller corrects it within a few steps.
       self%h = settings%dtau
    end subroutine adaptive_init

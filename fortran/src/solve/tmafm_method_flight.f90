@@ -55,6 +55,8 @@ contains
       if (present(observer)) call observer%prepare_flight(model, flight)
       call traj%store(model, y0)
       call contact%init(contact_pair, model, settings, 0.0_dp, y0)
+      ! The first sample's phase is the run's (a JKR neck may start stretched: &initial in_contact).
+      if (model%hysteretic) traj%contact(1) = merge(1, 0, contact%in_contact)
       horizon = traj%tau(size(traj%tau))
 
       do while (.not. traj%complete())

@@ -352,6 +352,30 @@ def _header_namelist(lines: list[str]) -> dict:
     return {g: dict(v) for g, v in parser.reads("\n".join(body[start:end + 1])).items()}
 
 
+def _left_out_at_default(group: str, key: str, want) -> bool:
+    """Whether key is one the resolved text omits while it has its default (absent from the
+    resolved text of an empty input) and want is that default."""
+    from tmafm._namelist import KEYS
+
+    if (group, key) in _present_by_default():
+        return False
+    default = next((k.default for k in KEYS if k.group == group and k.name == key), None)
+    try:
+        return default is not None and float(want) == float(default.replace("D", "E"))
+    except (TypeError, ValueError):
+        return False
+
+
+def _present_by_default(cache={}) -> set:  # noqa: B006 (computed once per process)
+    """The (group, key) pairs the resolved text of an input of every default holds."""
+    if "keys" not in cache:
+        import tmafm
+
+        text = tmafm.Config({"model": {}}).text
+        cache["keys"] = {(g, k) for g, values in f90nml.reads(text).items() for k in values}
+    return cache["keys"]
+
+
 def _same(want, got) -> bool:
     if isinstance(want, str):
         return isinstance(got, str) and want.strip().lower() == got.strip().lower()
@@ -420,6 +444,10 @@ def check(exe: str, case: Case) -> tuple[str, str]:
             return "bad-output", f"last tau {rows[-1, 0]} for tau_end {tau_end}, sample_dtau {dt}"
         for (group, key), want in case.expect.items():
             got = resolved.get(group, {}).get(key)
+            if got is None and _left_out_at_default(group, key, want):
+                # A switch of optional physics given its default (0, or -0.0) is left out of the
+                # resolved text by design (tmafm_keys omit_default, docs/reliability.md).
+                continue
             if key == "errata" and isinstance(want, str) and isinstance(got, str):
                 # a list of errata is a set: 'E1,E1' asks for E1 and may be echoed so
                 want, got = (",".join(sorted({e.strip().lower() for e in x.split(",")})) for x in (want, got))
@@ -442,6 +470,10 @@ _OUT = "&output file = 'out.dat', sample_dtau = 0.05 /\n"
 #: Inputs that broke the contract once (found by this generator or the campaign, on the code of
 #: d9e0afe or the build in /opt/tmafm-venv): (text, must_fail, expected values on success).
 REGRESSIONS = [
+    # a switch of optional physics given -0.0 (its default) is left out of the resolved text by
+    # design: the oracle took that for a misread (campaign seeds 10218, 10964, ...)
+    ("&scene drive_phase = -0.0, electrostatic_strength = -0.0 /\n&solver tau_end = 0.5 /\n" + _OUT, None,
+     {("scene", "drive_phase"): -0.0, ("scene", "electrostatic_strength"): -0.0}),
     # accepted: an unknown group, a repeated group (d9e0afe)
     ("&model n_modes = 2 /\n&modle n_modes = 3 /\n&solver tau_end = 0.5 /\n" + _OUT, True, {}),
     ("&solver tau_end = 0.5 /\n&solver tau_end = 0.7 /\n" + _OUT, True, {}),

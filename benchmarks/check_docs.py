@@ -1035,25 +1035,23 @@ def check_am_afm(ck, group="am_afm"):
 def check_off_cost(ck, group="off_cost"):
     """docs/performance.md's cost of the optional physics when off against
     benchmarks/results/off_cost.json (`python benchmarks/off_cost.py --base 615b428`)."""
-    off = load(result_path("off_cost.json"))
-    doc, sec = "docs/performance.md", "Optional physics when it is off"
-    for name, label in (("fig2", "Fig. 2 by `flight_exact`, 100 periods"),
-                        ("tilted_hertz_3", "3-mode tilted scene, rtol 1e-10, 200 periods"),
-                        ("fig2_n4_rk4_paper", "`inputs/fig2_n4.nml` as packaged (`rk4_paper`)")):
-        run = off["runs"][name]
-        ck.text(group, doc, f"| {label} | {{}} | {{}} | +{{}} % |",
-                [f"{run['base']:,}", f"{run['head']:,}", f"{run['change_percent']:.3f}"], sec)
+    _off_cost_rows(ck, group, "off_cost.json")
 
 
 def check_forces_off_cost(ck, group="off_cost"):
     """docs/performance.md's cost of the forces at a distance and JKR when off against
     benchmarks/results/off_cost_forces.json (`python benchmarks/off_cost.py --base fd2cc5e`)."""
-    off = load(result_path("off_cost_forces.json"))
+    _off_cost_rows(ck, group, "off_cost_forces.json")
+
+
+def _off_cost_rows(ck, group, name):
+    """The three rows of an off_cost.py JSON in docs/performance.md's table (signed change)."""
+    off = load(result_path(name))
     doc, sec = "docs/performance.md", "Optional physics when it is off"
-    for name, label in (("fig2", "Fig. 2 by `flight_exact`, 100 periods"),
-                        ("tilted_hertz_3", "3-mode tilted scene, rtol 1e-10, 200 periods"),
-                        ("fig2_n4_rk4_paper", "`inputs/fig2_n4.nml` as packaged (`rk4_paper`)")):
-        run = off["runs"][name]
+    for run_name, label in (("fig2", "Fig. 2 by `flight_exact`, 100 periods"),
+                            ("tilted_hertz_3", "3-mode tilted scene, rtol 1e-10, 200 periods"),
+                            ("fig2_n4_rk4_paper", "`inputs/fig2_n4.nml` as packaged (`rk4_paper`)")):
+        run = off["runs"][run_name]
         sign = "+" if run["change_percent"] >= 0 else "−"
         ck.text(group, doc, f"| {label} | {{}} | {{}} | {sign}{{}} % |",
                 [f"{run['base']:,}", f"{run['head']:,}", f"{abs(run['change_percent']):.3f}"], sec)

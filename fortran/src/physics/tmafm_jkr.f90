@@ -17,8 +17,7 @@ module tmafm_jkr
    implicit none
    private
 
-   public :: law_jkr, jkr_pull_off_depth, jkr_pull_off_radius, jkr_radius, jkr_force_group, &
-      jkr_hysteresis
+   public :: law_jkr, jkr_pull_off_depth, jkr_pull_off_radius, jkr_radius, jkr_force_group
 
    !> The JKR law (the laws of tmafm_contact are 1 and 2, 'dmt_vdw' 3).
    integer, parameter :: law_jkr = 4
@@ -58,18 +57,5 @@ contains
       real(dp) :: normal
       normal = radius**3 - 2*radius*sqrt(radius)
    end function jkr_force_group
-
-   !> The energy one tap loses to the neck, -integral of f dD from D_c to 0 along the branch (the
-   !> area of the hysteresis loop, units 1.5 pi gamma R beta d): with the antiderivative
-   !> (2/5) A^5 - (4/3) A^(7/2) + (2/3) A^2 of f dD/dA from A_c to A(0) = (4/3)^(2/3).
-   pure function jkr_hysteresis() result(energy)
-      real(dp) :: energy
-      energy = -(antiderivative((4.0_dp/3.0_dp)**(2.0_dp/3.0_dp)) - antiderivative(jkr_pull_off_radius))
-   contains
-      pure real(dp) function antiderivative(a)
-         real(dp), intent(in) :: a
-         antiderivative = 0.4_dp*a**5 - (4.0_dp/3.0_dp)*a**3*sqrt(a) + (2.0_dp/3.0_dp)*a*a
-      end function antiderivative
-   end function jkr_hysteresis
 
 end module tmafm_jkr

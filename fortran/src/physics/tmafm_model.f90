@@ -683,7 +683,7 @@ contains
       logical, intent(in) :: in_contact
       real(dp), intent(out) :: offset
       real(dp), intent(out) :: rate
-      real(dp) :: slope, slope_rate, sin1, cos1, angle_rate
+      real(dp) :: slope, slope_rate, sin1, cos1
       integer :: n, j
       offset = 0
       rate = 0
@@ -699,9 +699,7 @@ contains
       ! A beam bent past the tilt (sin(theta1) <= 0) keeps the neck: it breaks only below it.
       sin1 = max(sin1, epsilon(1.0_dp))
       offset = -jkr_pull_off_depth*self%scene%beta/sin1
-      angle_rate = slope_rate/(1 + slope*slope)
-      if (.not. self%errata%e7_signed_slope) angle_rate = -sign(1.0_dp, slope)*angle_rate
-      rate = -offset*cos1/sin1*angle_rate
+      rate = -offset*cos1/sin1*contact_angle_rate(self, slope, slope_rate)
    end subroutine model_switch_offset
 
    !> d(delta_n)/dtau for the normal indentation delta_n = -V_T sin(theta1) (§6), given sin and
@@ -714,7 +712,7 @@ contains
       real(dp), intent(in) :: adot(:)
       real(dp), intent(in) :: sin1
       real(dp), intent(in) :: cos1
-      real(dp) :: rate, vt, vt_rate, slope, slope_rate, angle_rate, base, base_rate, base_accel
+      real(dp) :: rate, vt, vt_rate, slope, slope_rate, base, base_rate, base_accel
       call model_drive_signals(self, sin(self%drive%fundamental*tau), cos(self%drive%fundamental*tau), &
                                base, base_rate, base_accel)
       associate (s => self%scene)
@@ -723,10 +721,18 @@ contains
          slope = dot_product(self%slope, a)/s%l_over_d
          slope_rate = dot_product(self%slope, adot)/s%l_over_d
       end associate
-      angle_rate = slope_rate/(1 + slope*slope)
-      if (.not. self%errata%e7_signed_slope) angle_rate = -sign(1.0_dp, slope)*angle_rate
-      rate = -vt_rate*sin1 - vt*cos1*angle_rate
+      rate = -vt_rate*sin1 - vt*cos1*contact_angle_rate(self, slope, slope_rate)
    end function normal_indentation_rate
+
+   !> dtheta1/dtau from the scaled slope t and its rate: t'/(1 + t^2) under E7 (theta1 = pi/2 -
+   !> theta + atan t), -sign(t) t'/(1 + t^2) as printed (theta1 = pi/2 - theta - atan |t|).
+   pure real(dp) function contact_angle_rate(self, slope, slope_rate) result(rate)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in) :: slope
+      real(dp), intent(in) :: slope_rate
+      rate = slope_rate/(1 + slope*slope)
+      if (.not. self%errata%e7_signed_slope) rate = -sign(1.0_dp, slope)*rate
+   end function contact_angle_rate
 
    !> The contact-damping base term: -alpha2 alpha4 sin(Omega tau) (printed) or E1's velocity form.
    pure function base_damping(self, tau) result(value)

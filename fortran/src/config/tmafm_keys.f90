@@ -161,7 +161,13 @@ module tmafm_keys
             meaning='electrical double layer: 8 eps_r eps0 psi_t psi_s/(3 gamma lambda_D), its force at '// &
             'zero separation; 0 = off (docs/model.md section 17)'), &
       key_t('scene', 'double_layer_range', key_real, 0, 1.0e3_dp, .false., unit='1', omit_default=.true., &
-            meaning='electrical double layer: Debye length over gap, lambda_D/d')]
+            meaning='electrical double layer: Debye length over gap, lambda_D/d'), &
+      key_t('scene', 'capillary_strength', key_real, 0, 1.0e6_dp, unit='1', omit_default=.true., &
+            rule="not with contact_law = 'jkr'; method dop853, dopri5 or flight_exact", &
+            meaning='capillary meniscus: its pull in contact, 4 pi R gamma_w cos(theta_w)/(1.5 pi gamma R); '// &
+            '0 = off (docs/model.md section 19)'), &
+      key_t('scene', 'capillary_range', key_real, 0, 1.0e3_dp, .false., unit='1', omit_default=.true., &
+            meaning='capillary meniscus: the normal gap at which it breaks, over gap, D/d')]
 
    type(key_t), parameter :: physical_rows(*) = [ &
       key_t('physical', 'length', key_real, 0, 1, .false., unit='m', meaning='beam length L'), &
@@ -268,13 +274,25 @@ module tmafm_keys
             meaning='electrical double layer: ionic strength I of a 1:1 electrolyte (mol/m^3 = mM), '// &
             'lambda_D = sqrt(eps_r eps0 k_B T/(2 N_A e^2 I))'), &
       key_t('physical', 'temperature', key_real, 0, 1.0e4_dp, .false., unit='K', omit_default=.true., &
-            meaning='temperature T (of the electrolyte, for lambda_D)'), &
+            meaning='temperature T (of the electrolyte, for lambda_D; of the air, for the Kelvin radius)'), &
       key_t('physical', 'tip_surface_potential', key_real, -10, 10, unit='V', omit_default=.true., &
             rule='with sample_surface_potential and a Debye length', &
             meaning="electrical double layer: the tip's surface potential psi_t"), &
       key_t('physical', 'sample_surface_potential', key_real, -10, 10, unit='V', omit_default=.true., &
             rule='with tip_surface_potential and a Debye length', &
-            meaning="electrical double layer: the sample's surface potential psi_s")]
+            meaning="electrical double layer: the sample's surface potential psi_s"), &
+      key_t('physical', 'relative_humidity', key_real, 0, 1, upper_open=.true., unit='1', omit_default=.true., &
+            rule='not with meniscus_rupture_distance', &
+            meaning='capillary meniscus: relative humidity RH of the air; its rupture gap is the Kelvin '// &
+            '2 r_K cos(theta_w), r_K = gamma_w V_m/(R_g T ln(1/RH)); 0 = off (docs/model.md section 19)'), &
+      key_t('physical', 'meniscus_rupture_distance', key_real, 0, 1.0e-6_dp, unit='m', omit_default=.true., &
+            rule='not with relative_humidity', &
+            meaning='capillary meniscus: the normal gap D at which it breaks, given; 0 = off or from '// &
+            'relative_humidity'), &
+      key_t('physical', 'water_surface_tension', key_real, 0, 1, .false., unit='N/m', omit_default=.true., &
+            meaning='capillary meniscus: surface tension gamma_w of its water (0.072 at 25 C)'), &
+      key_t('physical', 'water_contact_angle', key_real, 0, half_pi, upper_open=.true., unit='rad', &
+            omit_default=.true., meaning='capillary meniscus: contact angle theta_w of water on tip and sample')]
 
    type(key_t), parameter :: initial_rows(*) = [ &
       key_t('initial', 'a0', key_list, -1, 1, unit='d', &

@@ -341,6 +341,25 @@ contains
       end if
    end subroutine check_double_layer
 
+   !> The meniscus's &physical keys v (in the order of physical_names): its rupture gap given once,
+   !> by the humidity or as a distance.
+   subroutine check_meniscus(p, g, v, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_group_t), intent(in) :: g
+      real(dp), intent(in) :: v(:)
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      real(dp) :: humidity, rupture
+      ierr = ok
+      errmsg = ''
+      humidity = v(index_of(physical_names, 'relative_humidity'))
+      rupture = v(index_of(physical_names, 'meniscus_rupture_distance'))
+      if (humidity > 0 .and. rupture > 0) &
+         call key_error(p, entry_or_default(g, 'meniscus_rupture_distance', rupture), &
+                        'give the rupture gap once: relative_humidity (Kelvin) or meniscus_rupture_distance, '// &
+                        'not both', ierr, errmsg)
+   end subroutine check_meniscus
+
    !> A pair of keys that are both > 0 or both 0 (a liquid's two keys): a one-line error on the
    !> key given > 0 without its partner.
    subroutine check_pair(p, g, name1, value1, name2, value2, ierr, errmsg)
@@ -471,6 +490,9 @@ contains
       end if
       ! The double layer (docs/model.md §17): both surface potentials, and one Debye length.
       call check_double_layer(p, g, v, ierr, errmsg)
+      if (ierr /= ok) return
+      ! The capillary meniscus (docs/model.md §19): one rupture gap.
+      call check_meniscus(p, g, v, ierr, errmsg)
       if (ierr /= ok) return
       if (given(25)) v(20) = 2*acos(-1.0_dp)*v(25)
       if (given(38)) v(35) = 2*acos(-1.0_dp)*v(38)
@@ -795,6 +817,36 @@ contains
       end if
    end subroutine check_jkr
 
+   !> A capillary meniscus (docs/model.md §19) breaks above the surface, a switch off V_T = 0 that
+   !> only the adaptive pairs locate, and is not modelled with a JKR neck.  The message names the
+   !> key that turns it on, as the user wrote it.
+   subroutine check_capillary(label, config, ierr, errmsg)
+      character(len=*), intent(in) :: label
+      type(config_t), intent(in) :: config
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      character(len=:), allocatable :: given
+      ierr = ok
+      errmsg = ''
+      if (.not. (config%scene%capillary_strength > 0)) return
+      if (.not. config%from_physical) then
+         given = '&scene capillary_strength = '//real_text(config%scene%capillary_strength)
+      else if (config%physical%relative_humidity > 0) then
+         given = '&physical relative_humidity = '//real_text(config%physical%relative_humidity)
+      else
+         given = '&physical meniscus_rupture_distance = '//real_text(config%physical%meniscus_rupture_distance)
+      end if
+      if (trim(config%solver%method) == 'rk4_paper' .or. trim(config%solver%method) == 'rk4_event') then
+         ierr = err_input
+         errmsg = label//': '//given//": a capillary meniscus breaks above the surface, a switch &solver "// &
+                  "method = '"//trim(config%solver%method)//"' does not locate; use dop853, dopri5 or flight_exact"
+      else if (trim(config%contact_law) == 'jkr') then
+         ierr = err_input
+         errmsg = label//': '//given//": a capillary meniscus is not modelled with &model contact_law = "// &
+                  "'jkr' (two necks); use 'hertz', 'dmt' or 'dmt_vdw'"
+      end if
+   end subroutine check_capillary
+
    !> A force at a distance (electrostatic, double layer: docs/model.md §17) acts in flight: a
    !> method that integrates the flight, as under 'dmt_vdw'.  The message names the key that
    !> turns the force on, as the user wrote it.
@@ -971,6 +1023,8 @@ contains
       call check_surface_forces(label, config, ierr, errmsg)
       if (ierr /= ok) return
       call check_jkr(label, config, ierr, errmsg)
+      if (ierr /= ok) return
+      call check_capillary(label, config, ierr, errmsg)
       if (ierr /= ok) return
       call check_sls_method(label, config, ierr, errmsg)
       if (ierr /= ok) return

@@ -38,6 +38,7 @@ module tmafm_model
    use tmafm_drive, only: drive_t, init_drive
    use tmafm_surface_forces, only: surface_forces_t, surface_force_group, flight_separation
    use tmafm_jkr, only: law_jkr, jkr_radius, jkr_force_group, jkr_pull_off_depth
+   use tmafm_capillary, only: capillary_t, meniscus_force_group
    implicit none
    private
 
@@ -53,9 +54,11 @@ module tmafm_model
    type :: model_t
       !> Number of Galerkin modes N.
       integer :: n_modes = 0
-      !> Length of the state y: 2N, or 2N + 2 with a viscoelastic sample: y(2N + 1) = w, the
-      !> dashpot coordinate of tmafm_viscoelastic, and y(2N + 2) = 0 (a pad: the integrators'
-      !> registers keep an even length, which their vector loops rely on).
+      !> Length of the state y: 2N, or 2N + 2 with a viscoelastic sample or a meniscus: y(2N + 1) =
+      !> w, the dashpot coordinate of tmafm_viscoelastic (else 0), and y(2N + 2) = the meniscus's
+      !> flag, 1 while a capillary neck holds the tip in flight (else 0); both have a zero
+      !> derivative but w's under a viscoelastic sample (the integrators' registers keep an even
+      !> length, which their vector loops rely on).
       integer :: n_state = 0
       !> The viscoelastic sample (off: the elastic contact of docs/model.md §6).
       type(sls_t) :: sls
@@ -78,6 +81,10 @@ module tmafm_model
       type(surface_forces_t) :: surface
       !> Their normal-force group at contact (constant in contact: they see the separation a0).
       real(dp) :: surface_at_contact = 0
+      !> The capillary meniscus (tmafm_capillary; off: none), and the index of its flag in y
+      !> (2N + 2; 0 when off).
+      type(capillary_t) :: meniscus
+      integer :: meniscus_slot = 0
       !> The elastic one-tone right-hand side goes to general_kernel: N > rows_per_block.
       logical :: general = .false.
       !> Mode roots beta_j.
@@ -160,8 +167,8 @@ module tmafm_model
       !> The drive's tones and their common frequency (tmafm_drive); the phase the fast forms
       !> take is that of drive%fundamental.
       type(drive_t) :: drive
-      !> .true. when contact ends elsewhere than at V_T = 0: the JKR neck breaks at its pull-off
-      !> (switch_offset).
+      !> .true. when a phase ends elsewhere than at V_T = 0: the JKR neck breaks at its pull-off,
+      !> a meniscus at its rupture gap (switch_offset).
       logical :: hysteretic = .false.
       !> The right-hand side goes to composed_kernel (a viscoelastic sample, a general drive or a
       !> force in flight, in any combination): the one test the entry points make before rhs_kernel.
@@ -192,8 +199,14 @@ module tmafm_model
       !> The normal force kappa5 f of the tip-sample law at a state y (a, a'[, w]) and time tau: in
       !> contact, and under 'dmt_vdw' in flight too (the phase by the sign of V_T, or as given).
       procedure :: normal_force => model_normal_force
-      !> Where the phase of a state ends, as V_T = offset, and d(offset)/dtau: 0 but for a JKR neck.
+      !> Where the phase of a state ends, as V_T = offset, and d(offset)/dtau: 0 but for a JKR neck
+      !> and a meniscus in flight.
       procedure :: switch_offset => model_switch_offset
+      !> .true. while a meniscus holds the tip of a state y in flight (its flag in y).
+      procedure :: wet => model_wet
+      !> At a switch in flight with the meniscus held: .true. where it breaks (V_T near its
+      !> rupture gap), .false. where the tip comes back into contact (V_T near 0).
+      procedure :: meniscus_breaks => model_meniscus_breaks
       !> The explicit M, C, K, F of Eq. (15) at one state (a only: a viscoelastic sample's force
       !> is its elastic part, the dashpot w is not taken), for checks and analysis.
       procedure :: matrices => model_matrices
@@ -231,8 +244,11 @@ contains
       n = n_modes
       model%n_modes = n
       model%sls = sls_t(scene%sls_relaxation_time, scene%sls_modulus_ratio)
+      model%meniscus = capillary_t(on=scene%capillary_strength > 0, strength=scene%capillary_strength, &
+                                   rupture_gap=scene%capillary_range)
       model%n_state = 2*n
-      if (model%sls%on) model%n_state = 2*n + 2
+      if (model%sls%on .or. model%meniscus%on) model%n_state = 2*n + 2
+      if (model%meniscus%on) model%meniscus_slot = 2*n + 2
       model%law = law
       model%scene = scene
       model%errata = errata
@@ -286,7 +302,7 @@ contains
       model%general = n > rows_per_block
       ! Every part beyond the elastic one-tone contact in air-or-liquid goes to the one composed
       ! kernel; the fast kernels stay as the elastic scenes had them.
-      model%hysteretic = law == law_jkr
+      model%hysteretic = law == law_jkr .or. model%meniscus%on
       model%special_rhs = model%sls%on .or. model%drive%general .or. model%long_range .or. model%hysteretic
       model%has_axial_stiffness = model%kappa5 /= 0 .or. model%kappa6 /= 0
       model%has_moment = model%has_axial_stiffness .and. scene%g0_over_d /= 0 &
@@ -577,24 +593,30 @@ contains
               + self%scene%delta_hat
       end if
       scaled_slope = dot_product(self%slope, a)/self%scene%l_over_d
-      if (self%long_range .or. self%law == law_jkr) then
+      if (self%long_range .or. self%hysteretic) then
          ! The phase by the sign of V_T (a run's located switches put it there; a JKR neck
-         ! stretched above the surface needs the phase given: forces_in_phase).
-         state = phase_brackets(self, vt <= 0, vt, scaled_slope)
+         ! stretched above the surface, or a meniscus in flight, needs the phase given:
+         ! forces_in_phase).
+         state = phase_brackets(self, vt <= 0, vt, scaled_slope, .false.)
          return
       end if
       state = contact_brackets(vt, scaled_slope, self%scene%theta, self%scene%beta, self%law, &
                                self%kappa5, self%kappa6, self%errata%e7_signed_slope)
    end function model_contact
 
-   pure function model_forces_in_phase(self, tau, a, in_contact) result(state)
+   pure function model_forces_in_phase(self, tau, a, in_contact, wet) result(state)
       class(model_t), intent(in) :: self
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: a(:)
       logical, intent(in) :: in_contact
+      !> A meniscus holds the tip in flight (default .false.).
+      logical, intent(in), optional :: wet
       type(contact_brackets_t) :: state
       real(dp) :: vt, scaled_slope, base, base_rate, base_accel
-      if (.not. (self%long_range .or. self%law == law_jkr)) then
+      logical :: held
+      held = .false.
+      if (present(wet)) held = wet .and. self%meniscus%on
+      if (.not. (self%long_range .or. self%hysteretic)) then
          state = self%contact(tau, a)
          return
       end if
@@ -602,18 +624,20 @@ contains
                                base, base_rate, base_accel)
       vt = dot_product(self%tip, a) + base + self%scene%delta_hat
       scaled_slope = dot_product(self%slope, a)/self%scene%l_over_d
-      state = phase_brackets(self, in_contact, vt, scaled_slope)
+      state = phase_brackets(self, in_contact, vt, scaled_slope, held)
    end function model_forces_in_phase
 
    !> The brackets of the law in a phase, with a force in flight ('dmt_vdw' or a force at a
    !> distance): the law's in contact (under 'dmt_vdw' with c_H), the van der Waals tail in flight
    !> under 'dmt_vdw' (else nothing), and the forces at a distance added in both phases (at the
-   !> contact separation in contact).
-   pure function phase_brackets(self, in_contact, vt, scaled_slope) result(state)
+   !> contact separation in contact); a meniscus's pull in contact, and in flight while it holds
+   !> (wet).
+   pure function phase_brackets(self, in_contact, vt, scaled_slope, wet) result(state)
       type(model_t), intent(in) :: self
       logical, intent(in) :: in_contact
       real(dp), intent(in) :: vt
       real(dp), intent(in) :: scaled_slope
+      logical, intent(in) :: wet
       type(contact_brackets_t) :: state
       real(dp) :: sin1, cos1, normal
       if (self%law == law_jkr .and. in_contact) then
@@ -635,13 +659,16 @@ contains
       else
          state%theta1 = contact_angle(self%scene%theta, scaled_slope, self%errata%e7_signed_slope)
       end if
-      if (.not. self%surface%on) return
+      if (.not. (self%surface%on .or. self%meniscus%on)) return
       call contact_angle_sin_cos(self%sin_theta, self%cos_theta, scaled_slope, self%errata%e7_signed_slope, &
                                  sin1, cos1)
+      normal = 0
       if (in_contact) then
-         normal = self%surface_at_contact
+         if (self%surface%on) normal = self%surface_at_contact
+         if (self%meniscus%on) normal = normal - self%meniscus%strength
       else
-         normal = surface_force_group(self%surface, flight_separation(self%surface, vt, sin1))
+         if (self%surface%on) normal = surface_force_group(self%surface, flight_separation(self%surface, vt, sin1))
+         if (wet) normal = normal + meniscus_force_group(self%meniscus, vt*sin1)
       end if
       state%normal = state%normal + normal
       state%transverse = state%transverse + self%kappa5*normal*sin1
@@ -661,11 +688,14 @@ contains
       integer :: n
       n = self%n_modes
       if (present(in_contact)) then
-         state = self%forces_in_phase(tau, y(1:n), in_contact)
-         if (.not. (in_contact .or. self%long_range)) then
+         state = self%forces_in_phase(tau, y(1:n), in_contact, self%wet(y))
+         if (.not. (in_contact .or. self%long_range .or. self%wet(y))) then
             force = 0
             return
          end if
+      else if (self%wet(y)) then
+         ! A meniscus holds the tip (its flag in y): the phase by the sign of V_T, its pull in both.
+         state = self%forces_in_phase(tau, y(1:n), self%tip_gap(tau, y) <= 0, .true.)
       else
          state = self%contact(tau, y(1:n))
       end if
@@ -674,20 +704,50 @@ contains
          force = force + self%kappa5*sls_viscoelastic_part(self%sls, state%radius**3, y(2*n + 1))
    end function model_normal_force
 
-   !> The tip gap at which a phase ends, V_T = offset, and the offset's rate at a state y = (a, a'):
-   !> 0 and 0, but for a JKR neck (in contact under 'jkr'), which breaks at the normal indentation
-   !> D_c beta, V_T = -D_c beta/sin(theta1), so offset' = -offset cos(theta1)/sin(theta1) dtheta1/dtau.
-   pure subroutine model_switch_offset(self, y, in_contact, offset, rate)
+   !> The tip gap at which a phase ends, V_T = offset, and the offset's rate at a state y = (a, a')
+   !> whose V_T and dV_T/dtau are vt and vt_rate: 0 and 0, but for a JKR neck (in contact under
+   !> 'jkr'), which breaks at the normal indentation D_c beta, V_T = -D_c beta/sin(theta1), so
+   !> offset' = -offset cos(theta1)/sin(theta1) dtheta1/dtau; and for a meniscus that holds the tip
+   !> in flight, which ends both where it breaks, V_T = o = D/sin(theta1), and where the tip
+   !> touches again, V_T = 0: one switch V_T (1 - V_T/o) = 0, offset = V_T^2/o.
+   pure subroutine model_switch_offset(self, y, in_contact, vt, vt_rate, offset, rate)
       class(model_t), intent(in) :: self
       real(dp), intent(in) :: y(:)
       logical, intent(in) :: in_contact
+      real(dp), intent(in) :: vt
+      real(dp), intent(in) :: vt_rate
       real(dp), intent(out) :: offset
       real(dp), intent(out) :: rate
-      real(dp) :: slope, slope_rate, sin1, cos1
-      integer :: n, j
+      real(dp) :: slope, slope_rate, sin1, cos1, rupture, rupture_rate
       offset = 0
       rate = 0
-      if (.not. (in_contact .and. self%hysteretic)) return
+      if (.not. self%hysteretic) return
+      if (in_contact .and. self%law == law_jkr) then
+         call angle_of_state(self, y, sin1, cos1, slope, slope_rate)
+         ! A beam bent past the tilt (sin(theta1) <= 0) keeps the neck: it breaks only below it.
+         sin1 = max(sin1, epsilon(1.0_dp))
+         offset = -jkr_pull_off_depth*self%scene%beta/sin1
+         rate = -offset*cos1/sin1*contact_angle_rate(self, slope, slope_rate)
+      else if (.not. in_contact .and. self%wet(y)) then
+         call angle_of_state(self, y, sin1, cos1, slope, slope_rate)
+         sin1 = max(sin1, epsilon(1.0_dp))
+         rupture = self%meniscus%rupture_gap/sin1
+         rupture_rate = -rupture*cos1/sin1*contact_angle_rate(self, slope, slope_rate)
+         offset = vt**2/rupture
+         rate = (2*vt*vt_rate - offset*rupture_rate)/rupture
+      end if
+   end subroutine model_switch_offset
+
+   !> sin and cos of the contact angle theta1 at a state y = (a, a'), with the slope p'.a/(L/d)
+   !> and its rate.
+   pure subroutine angle_of_state(self, y, sin1, cos1, slope, slope_rate)
+      type(model_t), intent(in) :: self
+      real(dp), intent(in) :: y(:)
+      real(dp), intent(out) :: sin1
+      real(dp), intent(out) :: cos1
+      real(dp), intent(out) :: slope
+      real(dp), intent(out) :: slope_rate
+      integer :: n, j
       n = self%n_modes
       slope = 0
       slope_rate = 0
@@ -696,11 +756,25 @@ contains
          slope_rate = slope_rate + self%scaled_slope(j)*y(n + j)
       end do
       call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope, self%errata%e7_signed_slope, sin1, cos1)
-      ! A beam bent past the tilt (sin(theta1) <= 0) keeps the neck: it breaks only below it.
-      sin1 = max(sin1, epsilon(1.0_dp))
-      offset = -jkr_pull_off_depth*self%scene%beta/sin1
-      rate = -offset*cos1/sin1*contact_angle_rate(self, slope, slope_rate)
-   end subroutine model_switch_offset
+   end subroutine angle_of_state
+
+   pure logical function model_wet(self, y) result(wet)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: y(:)
+      wet = .false.
+      if (self%meniscus_slot == 0) return
+      if (size(y) < self%meniscus_slot) return
+      wet = y(self%meniscus_slot) > 0.5_dp
+   end function model_wet
+
+   pure logical function model_meniscus_breaks(self, tau, y) result(breaks)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: y(:)
+      real(dp) :: sin1, cos1, slope, slope_rate
+      call angle_of_state(self, y, sin1, cos1, slope, slope_rate)
+      breaks = 2*self%tip_gap(tau, y)*max(sin1, epsilon(1.0_dp)) > self%meniscus%rupture_gap
+   end function model_meniscus_breaks
 
    !> d(delta_n)/dtau for the normal indentation delta_n = -V_T sin(theta1) (§6), given sin and
    !> cos of theta1: -V_T' sin(theta1) - V_T cos(theta1) theta1', theta1' from the slope's rate
@@ -993,8 +1067,9 @@ contains
    !> with Y, Y', Y'' the base motion of the drive (one tone or several, with phases), C and mu
    !> the medium's damping and added mass per mode, the brackets P1, P2 from tip_sample_forces
    !> (elastic or viscoelastic normal force, DMT or van der Waals adhesion, Mindlin friction; in
-   !> flight the van der Waals tail), and tip_push = (L/d) P1 - alpha4 (p.a' - base term) in
-   !> contact.  y = (a, a'[, w, 0]) and dydt alike; V_T and its rate are always returned.
+   !> flight the van der Waals tail, the forces at a distance, a meniscus that holds), and
+   !> tip_push = (L/d) P1 - alpha4 (p.a' - base term) in contact.  y = (a, a'[, w, meniscus
+   !> flag]) and dydt alike; V_T and its rate are always returned.
    pure subroutine composed_kernel(self, y, in_contact, sin_phase, cos_phase, dydt, vt, vtdot)
       type(model_t), intent(in) :: self
       real(dp), intent(in), contiguous :: y(:)
@@ -1007,11 +1082,13 @@ contains
       real(dp) :: tip_a, slope_a, tip_adot, sin1, cos1, transverse, axial, hertz, w
       real(dp) :: tip_push, base, base_rate, base_accel, acc(n_max_padded), stiff(n_max_padded)
       integer :: n, i, j
-      logical :: forced
+      logical :: forced, wet
 
       n = self%n_modes
       w = 0
       if (self%sls%on) w = y(2*n + 1)
+      wet = .false.
+      if (self%meniscus_slot > 0) wet = y(self%meniscus_slot) > 0.5_dp .and. .not. in_contact
       call model_drive_signals(self, sin_phase, cos_phase, base, base_rate, base_accel)
       tip_a = 0
       slope_a = 0
@@ -1023,14 +1100,14 @@ contains
       end do
       vt = tip_a + base + self%scene%delta_hat
       vtdot = tip_adot + base_rate
-      forced = in_contact .or. self%long_range
+      forced = in_contact .or. self%long_range .or. wet
       axial = 0
       tip_push = 0
       hertz = 0
       if (forced) then
          call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a, &
                                     self%errata%e7_signed_slope, sin1, cos1)
-         call tip_sample_forces(self, in_contact, vt, sin1, cos1, w, transverse, axial, hertz)
+         call tip_sample_forces(self, in_contact, wet, vt, sin1, cos1, w, transverse, axial, hertz)
          tip_push = self%scene%l_over_d*transverse
          if (in_contact) tip_push = tip_push - self%scene%alpha4*tip_adot + self%damper_base_position*base &
                                     + self%damper_base_rate*base_rate
@@ -1061,21 +1138,24 @@ contains
          dydt(i) = y(n + i)
          dydt(n + i) = acc(i)
       end do
-      if (self%sls%on) then
-         dydt(2*n + 1) = sls_rate(self%sls, hertz, w)
+      if (self%n_state > 2*n) then
+         dydt(2*n + 1) = 0
          dydt(2*n + 2) = 0
+         if (self%sls%on) dydt(2*n + 1) = sls_rate(self%sls, hertz, w)
       end if
    end subroutine composed_kernel
 
    !> The tip-sample law as composed from its parts, at gap vt and contact angle (sin1, cos1), in
    !> a phase: in contact the normal force group f is the elastic Hertz X = A^3 or, with a
    !> viscoelastic sample of dashpot coordinate w, the SLS's f(X, w); minus the adhesion (DMT's
-   !> 4/3, or the van der Waals c_H under 'dmt_vdw'); with Mindlin friction h.  In flight it is
-   !> the van der Waals tail under 'dmt_vdw' (no friction), else nothing.  Returns the brackets
-   !> P1 (transverse) and P2 (axial) and the Hertz variable X (0 in flight).
-   pure subroutine tip_sample_forces(self, in_contact, vt, sin1, cos1, w, transverse, axial, hertz)
+   !> 4/3, or the van der Waals c_H under 'dmt_vdw'; a meniscus's pull); with Mindlin friction h.
+   !> In flight it is the van der Waals tail under 'dmt_vdw', the forces at a distance and, while
+   !> it holds (wet), the meniscus (no friction), else nothing.  Returns the brackets P1
+   !> (transverse) and P2 (axial) and the Hertz variable X (0 in flight).
+   pure subroutine tip_sample_forces(self, in_contact, wet, vt, sin1, cos1, w, transverse, axial, hertz)
       type(model_t), intent(in) :: self
       logical, intent(in) :: in_contact
+      logical, intent(in) :: wet
       real(dp), intent(in) :: vt
       real(dp), intent(in) :: sin1
       real(dp), intent(in) :: cos1
@@ -1094,12 +1174,13 @@ contains
       if (.not. in_contact) then
          transverse = 0
          axial = 0
-         if (.not. self%long_range) return
+         if (.not. (self%long_range .or. wet)) return
          normal = 0
          if (self%law == law_dmt_vdw) &
             normal = vdw_normal_group(.false., vt, sin1, 0.0_dp, self%scene%vdw_adhesion, self%scene%vdw_range)
          if (self%surface%on) &
             normal = normal + surface_force_group(self%surface, flight_separation(self%surface, vt, sin1))
+         if (wet) normal = normal + meniscus_force_group(self%meniscus, vt*sin1)
          transverse = self%kappa5*normal*sin1
          axial = -self%kappa5*normal*cos1
          return
@@ -1136,7 +1217,7 @@ contains
 
    !> The adhesion subtracted from the normal force group in contact: DMT's 4/3, the van der
    !> Waals c_H under 'dmt_vdw' (its force at the surface), none under Hertz; less the forces at
-   !> a distance at the contact separation.
+   !> a distance at the contact separation; plus a meniscus's pull c_C.
    pure real(dp) function contact_adhesion(self) result(adhesion)
       type(model_t), intent(in) :: self
       select case (self%law)
@@ -1149,6 +1230,7 @@ contains
       end select
       ! The forces at a distance at the contact separation: an attraction adds to the adhesion.
       if (self%surface%on) adhesion = adhesion - self%surface_at_contact
+      if (self%meniscus%on) adhesion = adhesion + self%meniscus%strength
    end function contact_adhesion
 
    !> dydt = (a', a'') from the folded terms: the drive and the columns of B, which do not
@@ -1275,7 +1357,7 @@ contains
    !> E = a'.M a'/2 + a.Lambda a/2.  dE/dtau is the sum of the powers.  With a viscoelastic
    !> sample and its dashpot coordinate w (absent: 0), the normal force's part f - X that the
    !> sample's delay takes off the elastic X = A^3 is the separate viscoelastic power.
-   pure subroutine model_energy_flow(self, tau, a, adot, in_contact, power, energy, w)
+   pure subroutine model_energy_flow(self, tau, a, adot, in_contact, power, energy, w, wet)
       class(model_t), intent(in) :: self
       real(dp), intent(in) :: tau
       real(dp), intent(in) :: a(:)
@@ -1285,9 +1367,12 @@ contains
       real(dp), intent(out) :: energy
       !> The dashpot coordinate of a viscoelastic sample (tmafm_viscoelastic).
       real(dp), intent(in), optional :: w
+      !> A meniscus holds the tip in flight (default .false.).
+      logical, intent(in), optional :: wet
       type(contact_brackets_t) :: state
-      real(dp) :: sin1, cos1, tip_rate, p1, p2, axial_work, moment_rate, delayed
+      real(dp) :: sin1, cos1, tip_rate, p1, p2, axial_work, moment_rate, delayed, neck, base, base_rate, base_accel
       integer :: k, last
+      logical :: held
 
       associate (s => self%scene)
          ! Explicit sums: no array temporaries (observers call this inside the step loop).
@@ -1318,11 +1403,13 @@ contains
                - s%alpha2*s%alpha3*s%omega*self%integral*cos(s%omega*tau))
             power(power_beam_damping) = -s%alpha3*dot_product(adot, adot)
          end if
-         if (.not. (in_contact .or. self%long_range)) return
+         held = .false.
+         if (present(wet)) held = wet .and. self%meniscus%on .and. .not. in_contact
+         if (.not. (in_contact .or. self%long_range .or. held)) return
          tip_rate = dot_product(self%tip, adot)
          ! Under 'dmt_vdw' the attraction in flight works through the normal part too.
          if (in_contact) power(power_contact_damping) = tip_rate*(-s%alpha4*tip_rate + base_damping(self, tau))
-         state = self%forces_in_phase(tau, a, in_contact)
+         state = self%forces_in_phase(tau, a, in_contact, held)
          call contact_angle_sin_cos(self%sin_theta, self%cos_theta, &
                                     dot_product(self%slope, a)/s%l_over_d, &
                                     self%errata%e7_signed_slope, sin1, cos1)
@@ -1370,6 +1457,20 @@ contains
             ! hysteresis loop's area, the energy the neck takes (docs/model.md §18).  The normal
             ! power keeps the rest, so the powers still sum to dE/dtau.
             power(power_contact_adhesion) = -s%l_over_d*self%kappa5*jkr_force_group(state%radius) &
+                                            *normal_indentation_rate(self, tau, a, adot, sin1, cos1)
+            power(power_contact_normal) = power(power_contact_normal) - power(power_contact_adhesion)
+         end if
+         if (self%meniscus%on .and. (in_contact .or. held)) then
+            ! The meniscus's work on the normal indentation, the same channel: its force group is
+            ! -c_C in contact and -c_C (1 - g/D) at the normal gap g = -D_n in flight, so over a tap
+            ! the channel takes c_C D/2 (docs/model.md §19).
+            neck = -self%meniscus%strength
+            if (held) then
+               call model_drive_signals(self, sin(self%drive%fundamental*tau), cos(self%drive%fundamental*tau), &
+                                        base, base_rate, base_accel)
+               neck = meniscus_force_group(self%meniscus, (dot_product(self%tip, a) + base + s%delta_hat)*sin1)
+            end if
+            power(power_contact_adhesion) = -s%l_over_d*self%kappa5*neck &
                                             *normal_indentation_rate(self, tau, a, adot, sin1, cos1)
             power(power_contact_normal) = power(power_contact_normal) - power(power_contact_adhesion)
          end if

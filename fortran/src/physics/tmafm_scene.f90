@@ -7,13 +7,14 @@
 !> alpha2 = 5e-4 and Omega = 2.
 module tmafm_scene
    use tmafm_kinds, only: dp
+   use tmafm_capillary, only: water_molar_volume
    implicit none
    private
 
    public :: scene_t, physical_t, scene_from_physical
    public :: scene_names, scene_values, physical_names, physical_values, scene_depends_on
    public :: scene_from_values, physical_from_values
-   public :: beam_rigidity, beam_mass_per_length, debye_length_of
+   public :: beam_rigidity, beam_mass_per_length, debye_length_of, meniscus_rupture_distance_of
 
    real(dp), parameter :: pi = acos(-1.0_dp)
    !> The vacuum permittivity eps0 (F/m, CODATA 2022), Boltzmann's constant k_B (J/K), the
@@ -83,6 +84,11 @@ module tmafm_scene
       real(dp) :: double_layer_strength = 0.0_dp
       !> lambda_D/d: the Debye length over the gap.
       real(dp) :: double_layer_range = 2.0e-4_dp
+      !> c_C = (8/3) gamma_w cos(theta_w)/gamma: the capillary meniscus's pull in contact in units
+      !> of the contact's force scale (tmafm_capillary, docs/model.md §19); 0: off.
+      real(dp) :: capillary_strength = 0.0_dp
+      !> D/d: the normal gap at which the meniscus breaks, over the gap.
+      real(dp) :: capillary_range = 4.0e-4_dp
    end type scene_t
 
    !> Physical inputs in SI units; converted to a scene_t by Eq. (12).
@@ -202,18 +208,26 @@ module tmafm_scene
       !> The tip's and the sample's surface potentials psi_t, psi_s (V), for the double layer.
       real(dp) :: tip_surface_potential = 0.0_dp
       real(dp) :: sample_surface_potential = 0.0_dp
+      !> The relative humidity RH in [0, 1) of the air (the capillary meniscus; 0: off).
+      real(dp) :: relative_humidity = 0.0_dp
+      !> The normal gap D (m) at which the meniscus breaks; 0: the Kelvin one of the humidity.
+      real(dp) :: meniscus_rupture_distance = 0.0_dp
+      !> The surface tension gamma_w of the meniscus's water (N/m).
+      real(dp) :: water_surface_tension = 0.072_dp
+      !> The contact angle theta_w (rad) of water on tip and sample.
+      real(dp) :: water_contact_angle = 0.0_dp
    end type physical_t
 
    !> The &scene keys, in the order of scene_values (their ranges: config/tmafm_keys.f90).
-   character(len=*), parameter :: scene_names(28) = [character(len=22) :: 'alpha1', 'alpha2', &
+   character(len=*), parameter :: scene_names(30) = [character(len=22) :: 'alpha1', 'alpha2', &
       'alpha3', 'alpha4', 'alpha5', 'alpha6', 'beta', 'omega', 'theta', 'l_over_d', 'g0_over_d', &
       'delta_hat', 'xi0', &
       'medium_mass', 'medium_reynolds', 'vdw_adhesion', 'vdw_range', 'sls_relaxation_time', &
       'sls_modulus_ratio', 'alpha2_2', 'omega_2', 'drive_phase', 'drive_phase_2', &
       'electrostatic_strength', 'electrostatic_radius', 'cone_half_angle', 'double_layer_strength', &
-      'double_layer_range']
+      'double_layer_range', 'capillary_strength', 'capillary_range']
    !> The &physical keys, in the order of physical_values.
-   character(len=*), parameter :: physical_names(48) = [character(len=25) :: 'length', 'width', &
+   character(len=*), parameter :: physical_names(52) = [character(len=25) :: 'length', 'width', &
       'thickness', 'density', 'youngs_modulus_tip', 'poisson_ratio_tip', 'youngs_modulus_sample', &
       'poisson_ratio_sample', 'tip_radius', 'adhesion_energy', 'tilt', 'gap', 'tip_length', &
       'static_offset', 'tip_position', 'tip_mass', 'beam_damping', 'contact_damping', &
@@ -224,7 +238,8 @@ module tmafm_scene
       'sample_relaxation_time', 'sample_modulus_relaxed', 'drive_amplitude_2', &
       'drive_angular_frequency_2', 'drive_phase', 'drive_phase_2', 'drive_frequency_2', 'free_amplitude_2', &
       'tip_bias', 'contact_potential', 'cone_half_angle', 'medium_permittivity', 'debye_length', &
-      'ionic_strength', 'temperature', 'tip_surface_potential', 'sample_surface_potential']
+      'ionic_strength', 'temperature', 'tip_surface_potential', 'sample_surface_potential', &
+      'relative_humidity', 'meniscus_rupture_distance', 'water_surface_tension', 'water_contact_angle']
 
 contains
 
@@ -238,7 +253,8 @@ contains
                 scene%medium_mass, scene%medium_reynolds, scene%vdw_adhesion, scene%vdw_range, &
                 scene%sls_relaxation_time, scene%sls_modulus_ratio, scene%alpha2_2, scene%omega_2, &
                 scene%drive_phase, scene%drive_phase_2, scene%electrostatic_strength, scene%electrostatic_radius, &
-                scene%cone_half_angle, scene%double_layer_strength, scene%double_layer_range]
+                scene%cone_half_angle, scene%double_layer_strength, scene%double_layer_range, &
+                scene%capillary_strength, scene%capillary_range]
    end function scene_values
 
    !> The physical inputs as an array, in the order of physical_names.
@@ -257,7 +273,8 @@ contains
                 phys%drive_angular_frequency_2, phys%drive_phase, phys%drive_phase_2, phys%drive_frequency_2, &
                 phys%free_amplitude_2, phys%tip_bias, phys%contact_potential, phys%cone_half_angle, &
                 phys%medium_permittivity, phys%debye_length, phys%ionic_strength, phys%temperature, &
-                phys%tip_surface_potential, phys%sample_surface_potential]
+                phys%tip_surface_potential, phys%sample_surface_potential, phys%relative_humidity, &
+                phys%meniscus_rupture_distance, phys%water_surface_tension, phys%water_contact_angle]
    end function physical_values
 
    !> The scene whose groups are `values`, in the order of scene_names (scene_values' inverse).
@@ -292,6 +309,8 @@ contains
       scene%cone_half_angle = values(26)
       scene%double_layer_strength = values(27)
       scene%double_layer_range = values(28)
+      scene%capillary_strength = values(29)
+      scene%capillary_range = values(30)
    end function scene_from_values
 
    !> The physical inputs whose values are `v`, in the order of physical_names (physical_values'
@@ -347,6 +366,10 @@ contains
       phys%temperature = v(46)
       phys%tip_surface_potential = v(47)
       phys%sample_surface_potential = v(48)
+      phys%relative_humidity = v(49)
+      phys%meniscus_rupture_distance = v(50)
+      phys%water_surface_tension = v(51)
+      phys%water_contact_angle = v(52)
    end function physical_from_values
 
    !> Which &physical keys (indices into physical_names) scene group k depends on by Eq. (12).
@@ -357,7 +380,8 @@ contains
       ! 11 tilt, 12 gap, 13 g0, 14 delta, 15 x0, 16 M, 17 C, 18 C1, 19 f, 20 omega,
       ! 21 k, 22 f0, 23 Q, 24 M/(m L), 25 omega/(2 pi), 26 A0, 27 Z, 28 rho_f, 29 eta, 30 H, 31 a0,
       ! 32 T2, 33 E2_inf, 34 f_2, 35 omega_2, 36 phi_1, 37 phi_2, 38 omega_2/(2 pi), 39 A0_2,
-      ! 40 V_t, 41 V_cpd, 42 theta0, 43 eps_r, 44 lambda_D, 45 I, 46 T, 47 psi_t, 48 psi_s.
+      ! 40 V_t, 41 V_cpd, 42 theta0, 43 eps_r, 44 lambda_D, 45 I, 46 T, 47 psi_t, 48 psi_s,
+      ! 49 RH, 50 D, 51 gamma_w, 52 theta_w.
       select case (k)
       case (1)
          keys = [16, 4, 2, 3, 1, 24]
@@ -415,8 +439,12 @@ contains
          keys = [42]
       case (27)
          keys = [47, 48, 44, 45, 46, 43, 10]
-      case default
+      case (28)
          keys = [44, 45, 46, 43, 12, 27]
+      case (29)
+         keys = [49, 50, 51, 52, 10]
+      case default
+         keys = [50, 49, 51, 52, 46, 12, 27]
       end select
    end function scene_depends_on
 
@@ -517,7 +545,24 @@ contains
                                        /(3*phys%adhesion_energy*debye)
          scene%double_layer_range = debye/d
       end if
+      ! The capillary meniscus (docs/model.md §19): F0 = 4 pi R gamma_w cos(theta_w) over the
+      ! force scale, and the rupture gap over d, given or 2 r_K cos(theta_w) (Kelvin).
+      if (phys%relative_humidity > 0 .or. phys%meniscus_rupture_distance > 0) then
+         scene%capillary_strength = 8*phys%water_surface_tension*cos(phys%water_contact_angle) &
+                                    /(3*phys%adhesion_energy)
+         scene%capillary_range = meniscus_rupture_distance_of(phys)/d
+      end if
    end function scene_from_physical
+
+   !> The normal gap D (m) at which the meniscus of a physical scene breaks: the given one, else
+   !> 2 r_K cos(theta_w) with the Kelvin radius r_K = gamma_w V_m/(N_A k_B T ln(1/RH)) of water.
+   pure real(dp) function meniscus_rupture_distance_of(phys) result(distance)
+      type(physical_t), intent(in) :: phys
+      distance = phys%meniscus_rupture_distance
+      if (distance > 0 .or. .not. (phys%relative_humidity > 0)) return
+      distance = 2*cos(phys%water_contact_angle)*phys%water_surface_tension*water_molar_volume &
+                 /(avogadro*boltzmann*phys%temperature*log(1/phys%relative_humidity))
+   end function meniscus_rupture_distance_of
 
    !> The Debye length lambda_D (m) of a physical scene: debye_length where given, else that of a
    !> 1:1 electrolyte of ionic strength I at temperature T, sqrt(eps_r eps0 k_B T/(2 N_A e^2 I));

@@ -53,7 +53,8 @@ contains
       if (ierr /= ok) return
       if (present(progress_unit)) progress%unit = progress_unit
       if (present(poll)) progress%poll => poll
-      call init_trajectory(traj, settings, model%n_modes, with_dashpot=model%sls%on)
+      call init_trajectory(traj, settings, model%n_modes, with_dashpot=model%sls%on, &
+                           with_meniscus=model%meniscus%on)
       if (model%long_range .and. vdw_method_refused(settings%method)) then
          ! The input check refuses this first (tmafm_namelist check_vdw, check_surface_forces); a
          ! model built otherwise too.
@@ -71,11 +72,18 @@ contains
       end if
       if (model%hysteretic .and. (trim(settings%method) == method_rk4_paper &
                                   .or. trim(settings%method) == method_rk4_event)) then
-         ! The input check refuses this first (tmafm_namelist check_jkr); a model built otherwise too.
+         ! The input check refuses this first (tmafm_namelist check_jkr, check_capillary); a model
+         ! built otherwise too.
          ierr = err_input
-         errmsg = "&solver method = '"//trim(settings%method)//"': does not support &model contact_law = 'jkr' "// &
-                  "(its neck breaks above the surface, a switch its loops do not locate; use dop853, dopri5 "// &
-                  "or flight_exact)"
+         if (model%meniscus%on) then
+            errmsg = "&solver method = '"//trim(settings%method)//"': does not support a capillary meniscus "// &
+                     "(it breaks above the surface, a switch its loops do not locate; use dop853, dopri5 "// &
+                     "or flight_exact)"
+         else
+            errmsg = "&solver method = '"//trim(settings%method)//"': does not support &model contact_law = "// &
+                     "'jkr' (its neck breaks above the surface, a switch its loops do not locate; use dop853, "// &
+                     "dopri5 or flight_exact)"
+         end if
          return
       end if
       select case (trim(settings%method))
@@ -114,7 +122,7 @@ contains
       if (settings%initial_contact < 0) return
       given = '&initial in_contact = '//int_text(settings%initial_contact)
       vt = model%tip_gap(0.0_dp, y0)
-      call model%switch_offset(y0, .true., offset, offset_rate)
+      call model%switch_offset(y0, .true., vt, 0.0_dp, offset, offset_rate)
       if (settings%initial_contact == 1 .and. vt > offset) then
          ierr = err_input
          errmsg = given//': the start state has V_T = '//real_text(vt)//', past where contact ends (V_T <= '// &

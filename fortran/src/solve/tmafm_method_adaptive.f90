@@ -186,7 +186,8 @@ contains
    end subroutine adaptive_init
 
    !> V_T and its rate less the gap where the phase ends and its rate (model_t%switch_offset: a
-   !> JKR neck breaks above the surface), so that the phase's switch is where they cross zero.
+   !> JKR neck breaks above the surface, a meniscus at its rupture gap), so that the phase's
+   !> switch is where they cross zero.
    pure subroutine past_offset(model, y, in_contact, vt, rate)
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: y(:)
@@ -194,7 +195,7 @@ contains
       real(dp), intent(inout) :: vt
       real(dp), intent(inout) :: rate
       real(dp) :: offset, offset_rate
-      call model%switch_offset(y, in_contact, offset, offset_rate)
+      call model%switch_offset(y, in_contact, vt, rate, offset, offset_rate)
       vt = vt - offset
       rate = rate - offset_rate
    end subroutine past_offset
@@ -208,7 +209,7 @@ contains
       real(dp) :: offset, offset_rate
       gap = model%tip_gap(tau, y)
       if (.not. model%hysteretic) return
-      call model%switch_offset(y, in_contact, offset, offset_rate)
+      call model%switch_offset(y, in_contact, gap, 0.0_dp, offset, offset_rate)
       gap = gap - offset
    end function switch_gap
 
@@ -353,8 +354,9 @@ contains
             theta_low = 0
             g_low = side*vt0 + margin0
             ! Out of contact the first crossing is wanted: a dip the cubic missed, or one
-            ! before a crossing at the step end or at the cubic's minimum.
-            if (.not. self%in_contact) &
+            ! before a crossing at the step end or at the cubic's minimum.  (A meniscus's flight
+            ! ends at either end of its band, V_T (1 - V_T/o) = 0: the cubic test alone.)
+            if (.not. (self%in_contact .or. model%wet(y))) &
                call free_dip_search(self, model, traj, map, h, vt0 + margin0, rate0, vt1 + margin0, rate1, &
                                     margin0, dense_ready, status, theta_low, g_low, s_test)
             if (status == no_event) then
@@ -446,7 +448,7 @@ contains
                   (exit_target/max(norm, 1.0e-12_dp))**(1.0_dp/3)))
                if (self%in_contact) call learn(self%h_plateau, self%h_contact_max)
                self%h_contact_max = 0
-               self%in_contact = .not. self%in_contact
+               call next_phase(model, tau, y, self%in_contact)
                self%entry_pending = self%in_contact
                self%warped = .false.
                call traj%add_switch(tau, h_time, ierr, errmsg)
@@ -715,6 +717,27 @@ contains
       integer :: k
       k = merge(2, 1, in_contact)
    end function phase_index
+
+   !> The phase after a switch located in phase in_contact at (tau, y): the other one, but with a
+   !> meniscus (model_t%meniscus), which forms at contact and holds the tip in flight until it
+   !> breaks: a contact's exit leaves it holding (its flag in y set), and a held flight ends in
+   !> contact, or where the meniscus breaks in a free flight (its flag cleared).
+   pure subroutine next_phase(model, tau, y, in_contact)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: tau
+      real(dp), intent(inout) :: y(:)
+      logical, intent(inout) :: in_contact
+      if (model%meniscus_slot == 0) then
+         in_contact = .not. in_contact
+      else if (in_contact) then
+         in_contact = .false.
+         y(model%meniscus_slot) = 1
+      else if (model%wet(y) .and. model%meniscus_breaks(tau, y)) then
+         y(model%meniscus_slot) = 0
+      else
+         in_contact = .true.
+      end if
+   end subroutine next_phase
 
    !> The dense output of the step just accepted from self%tau (over the pair's time map), once
    !> per step.

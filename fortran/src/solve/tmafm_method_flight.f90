@@ -60,7 +60,8 @@ contains
       horizon = traj%tau(size(traj%tau))
 
       do while (.not. traj%complete())
-         if (contact%in_contact) then
+         ! A contact, or a flight a meniscus holds (a force acts): the adaptive pair.
+         if (contact%in_contact .or. model%wet(contact%y)) then
             call contact%advance(model, settings, traj, .true., ierr, errmsg, progress, observer)
             if (ierr /= ok .or. stop_requested(observer)) return
             cycle

@@ -118,6 +118,12 @@ contains
          end if
          return
       end if
+      if (model%meniscus%on) then
+         ierr = err_input
+         errmsg = "stroboscopic map: a capillary meniscus (&scene capillary_strength > 0): its rupture (a switch "// &
+                  "off V_T = 0) has no saltation matrix here; continue scenes without it"
+         return
+      end if
       if (model%hysteretic) then
          ierr = err_input
          errmsg = "stroboscopic map: &model contact_law = 'jkr': its neck's pull-off (a switch off V_T = 0) "// &

@@ -574,8 +574,10 @@ contains
       real(dp) :: theta_a, theta_b
       type(contact_brackets_t) :: state
       integer :: i, k, n, i_best, m
+      logical :: wet, forced
 
       n = self%n_modes
+      wet = .false.
       half = (b - a)/2
       mid = (a + b)/2
       ! A fixed step's cubic needs fewer points than the pairs' higher-degree dense output.
@@ -617,9 +619,11 @@ contains
             gap(i) = model%tip_gap(t(i), self%y)
          end if
          if (self%do_extrema) self%modal_nodes(i, :) = self%y(1:n)
-         if ((in_contact .or. model%long_range) .and. (self%do_force .or. self%do_energy)) then
+         ! A meniscus holds the tip in this flight (its flag, constant over a step).
+         wet = model%wet(self%y) .and. .not. in_contact
+         if ((in_contact .or. model%long_range .or. wet) .and. (self%do_force .or. self%do_energy)) then
             ! The normal force: in contact, and under 'dmt_vdw' the attraction in flight too (the
-            ! viscoelastic part with a viscoelastic sample).
+            ! viscoelastic part with a viscoelastic sample; a meniscus's pull while it holds).
             force(i) = model%normal_force(t(i), self%y, in_contact)
          end if
          if (i == 0 .or. i == m + 1) cycle
@@ -648,16 +652,18 @@ contains
             if (self%n_state > 2*n) then
                ! A viscoelastic sample: its dashpot w sets the viscoelastic power.
                call model%energy_flow(t(i), self%y(1:n), self%y(n + 1:2*n), in_contact, power, energy, &
-                                      self%y(2*n + 1))
+                                      self%y(2*n + 1), wet)
             else
-               call model%energy_flow(t(i), self%y(1:n), self%y(n + 1:2*n), in_contact, power, energy)
+               call model%energy_flow(t(i), self%y(1:n), self%y(n + 1:2*n), in_contact, power, energy, wet=wet)
             end if
             self%acc_powers = self%acc_powers + weight*power
             self%acc_virial = self%acc_virial + weight*force(i)*tip_u
          end if
       end do
-      ! The force's extrema: in contact, and under 'dmt_vdw' in flight too (the attraction).
-      if (self%do_force .and. (in_contact .or. model%long_range)) then
+      ! The force's extrema: in contact, and under 'dmt_vdw' in flight too (the attraction; a
+      ! meniscus's pull while it holds).
+      forced = in_contact .or. model%long_range .or. wet
+      if (self%do_force .and. forced) then
          call locate_peak_force()
          call locate_min_force()
       end if

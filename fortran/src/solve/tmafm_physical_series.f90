@@ -45,6 +45,7 @@ contains
       type(scales_t) :: scales
       type(contact_brackets_t) :: state
       integer :: k, law
+      logical :: wet
 
       series = 0
       ierr = ok
@@ -65,12 +66,15 @@ contains
          series(k, 1) = scales%time*traj%tau(k)
          series(k, 2) = scales%length*traj%vt(k)
          series(k, 3) = scales%length*dot_product(model%tip, traj%a(k, :))
-         if (traj%contact(k) /= 1 .and. .not. model%long_range) cycle
-         state = model%forces_in_phase(traj%tau(k), traj%a(k, :), traj%contact(k) == 1)
+         wet = .false.
+         if (allocated(traj%meniscus)) wet = traj%meniscus(k) == 1
+         if (traj%contact(k) /= 1 .and. .not. (model%long_range .or. wet)) cycle
+         state = model%forces_in_phase(traj%tau(k), traj%a(k, :), traj%contact(k) == 1, wet)
          if (allocated(traj%dashpot)) then
             ! A viscoelastic sample: the force of its state (a, a', w), the delayed part included.
             series(k, 4) = scales%force*model%normal_force(traj%tau(k), &
-                                                           [traj%a(k, :), traj%adot(k, :), traj%dashpot(k)], &
+                                                           [traj%a(k, :), traj%adot(k, :), traj%dashpot(k), &
+                                                            merge(1.0_dp, 0.0_dp, wet)], &
                                                            traj%contact(k) == 1)
          else
             series(k, 4) = scales%force*model%kappa5*state%normal

@@ -42,6 +42,9 @@ module tmafm_trajectory
       !> With a viscoelastic sample: its dashpot coordinate w at the samples (tmafm_viscoelastic);
       !> not allocated without one.
       real(dp), allocatable :: dashpot(:)
+      !> With a capillary meniscus: 1 where it holds the tip in flight at the sample, else 0 (its
+      !> flag in the state, tmafm_model); not allocated without one.
+      integer, allocatable :: meniscus(:)
       !> Times of the phase changes (located switches, or step starts for rk4_paper).
       real(dp), allocatable :: switch_tau(:)
       !> Number of entries of switch_tau in use.
@@ -135,12 +138,14 @@ module tmafm_trajectory
 contains
 
    !> Allocate a trajectory for a run of `settings` with n_modes modes.
-   subroutine init_trajectory(traj, settings, n_modes, with_dashpot)
+   subroutine init_trajectory(traj, settings, n_modes, with_dashpot, with_meniscus)
       type(trajectory_t), intent(out) :: traj
       type(run_settings_t), intent(in) :: settings
       integer, intent(in) :: n_modes
       !> Keep the viscoelastic sample's dashpot coordinate at the samples too.
       logical, intent(in), optional :: with_dashpot
+      !> Keep the meniscus's flag at the samples too.
+      logical, intent(in), optional :: with_meniscus
       integer :: n, k
       n = sample_count(settings)
       allocate (traj%tau(n), traj%vt(n), traj%vtdot(n), traj%contact(n), traj%a(n, n_modes), &
@@ -158,6 +163,9 @@ contains
       traj%sample_dtau = settings%sample_dtau
       if (present(with_dashpot)) then
          if (with_dashpot) allocate (traj%dashpot(n), source=0.0_dp)
+      end if
+      if (present(with_meniscus)) then
+         if (with_meniscus) allocate (traj%meniscus(n), source=0)
       end if
    end subroutine init_trajectory
 
@@ -217,6 +225,7 @@ contains
       if (k == 1) call model%phase(self%sample_dtau, self%step_sin, self%step_cos)
       call put_row(model%n_modes, size(self%tau), k, y, self%a, self%adot)
       if (allocated(self%dashpot) .and. size(y) > 2*model%n_modes) self%dashpot(k) = y(2*model%n_modes + 1)
+      if (allocated(self%meniscus)) self%meniscus(k) = merge(1, 0, model%wet(y))
       call model%gap_at_phase(y, sin_phase, cos_phase, vt, vtdot)
       self%vt(k) = vt
       self%vtdot(k) = vtdot

@@ -119,11 +119,13 @@ OFF_SWITCHES = {("scene", "sls_relaxation_time"), ("scene", "sls_modulus_ratio")
                 ("scene", "vdw_adhesion"), ("scene", "vdw_range"),
                 ("physical", "hamaker"), ("physical", "intermolecular_distance")} | \
     {("scene", k) for k in ("electrostatic_strength", "electrostatic_radius", "cone_half_angle",
-                            "double_layer_strength", "double_layer_range")} | \
+                            "double_layer_strength", "double_layer_range", "capillary_strength",
+                            "capillary_range")} | \
     {("initial", "in_contact")} | \
     {("physical", k) for k in ("tip_bias", "contact_potential", "cone_half_angle", "medium_permittivity",
                                "debye_length", "ionic_strength", "temperature", "tip_surface_potential",
-                               "sample_surface_potential")}
+                               "sample_surface_potential", "relative_humidity", "meniscus_rupture_distance",
+                               "water_surface_tension", "water_contact_angle")}
 #: The drive's tone keys: left out of the resolved text while all four of their group are 0 (a
 #: one-tone drive at phase 0 writes what it wrote before tones existed; docs/model.md section 15).
 QUIET = {("scene", k) for k in ("alpha2_2", "omega_2", "drive_phase", "drive_phase_2")} | \

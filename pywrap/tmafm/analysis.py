@@ -315,7 +315,15 @@ def _model_of(result) -> Model:
 def energy_flow(result) -> dict:
     """Per sample: the powers (POWER_NAMES), the modal energy, and the contact state."""
     _result(result, "energy_flow")
-    power, energy, state = _model_of(result).trajectory_energy_flow(
+    model = _model_of(result)
+    if model.scene["capillary_strength"] > 0:
+        # The samples keep the phase (contact or not), not whether a meniscus holds the tip in
+        # flight, which its force there needs: the core's observation has its work.
+        raise InputError("energy_flow: a capillary meniscus (&scene capillary_strength = "
+                         f"{model.scene['capillary_strength']:.6g}) acts in flight while it holds, which "
+                         "the samples do not record; its work per period is tmafm.observe's "
+                         "dissipated_adhesion")
+    power, energy, state = model.trajectory_energy_flow(
         result.tau, result.a, result.adot, result.contact)
     out = {name: power[:, k] for k, name in enumerate(POWER_NAMES)}
     out["energy"] = energy

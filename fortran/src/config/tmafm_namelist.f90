@@ -844,6 +844,10 @@ contains
          ierr = err_input
          errmsg = label//': '//given//": a capillary meniscus is not modelled with &model contact_law = "// &
                   "'jkr' (two necks); use 'hertz', 'dmt' or 'dmt_vdw'"
+      else if (config%scene%medium_mass > 0) then
+         ierr = err_input
+         errmsg = label//': '//given//': a capillary meniscus forms in air, not in a liquid (&scene '// &
+                  'medium_mass = '//real_text(config%scene%medium_mass)//')'
       end if
    end subroutine check_capillary
 

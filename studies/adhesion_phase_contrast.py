@@ -103,7 +103,7 @@ def main() -> int:
             print(f"{law} w = {w:5.3f} J/m^2: phase {r['phase_deg']:8.3f} deg, A {r['amplitude_nm']:.3f} nm, "
                   f"adhesion loss/tap {r['adhesion_loss_per_tap_aJ']:.4f} aJ, taps/period {r['taps_per_period']:.0f}")
     for rh, r in zip(HUMIDITIES, result["humid"], strict=True):
-        print(f"dmt RH = {rh:.1f}: phase {r['phase_deg']:8.3f} deg, A {r['amplitude_nm']:.3f} nm, "
+        print(f"dmt RH = {rh:.2f}: phase {r['phase_deg']:8.3f} deg, A {r['amplitude_nm']:.3f} nm, "
               f"meniscus loss/tap {r['adhesion_loss_per_tap_aJ']:.4f} aJ, taps/period {r['taps_per_period']:.0f}")
     print(f"{result['cpu_s']:.1f} s of CPU")
     return 0

@@ -198,3 +198,21 @@ def test_the_humidity_study_holds_and_model_md_quotes_it():
     assert again["phase_deg"] == pytest.approx(data["humid"][k]["phase_deg"], abs=1e-4)
     assert again["adhesion_loss_per_tap_aJ"] == pytest.approx(data["humid"][k]["adhesion_loss_per_tap_aJ"],
                                                               rel=1e-6)
+
+
+def test_the_humid_air_example_states_its_numbers():
+    """inputs/humid_air.nml (and docs/model.md §19) state F0 = 9.05 nN, D = 1.51 nm and
+    F0 D/2 = 6.85 aJ: the closed forms here, and its run's loss per tap."""
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[1]
+    text = (repo / "inputs" / "humid_air.nml").read_text()
+    rupture = core_rupture(0.5)
+    assert f"F0 = 4 pi R gamma_w cos(theta_w) = {pull() * 1e9:.2f} nN" in text
+    assert f"D = 2 r_K cos(theta_w) = {rupture * 1e9:.2f} nm" in text
+    assert f"each tap loses F0 D/2 = {pull() * rupture / 2 * 1e18:.2f} aJ" in text
+    assert f"at RH = 0.5, 25 °C, D = {rupture * 1e9:.2f} nm" in (repo / "docs" / "model.md").read_text()
+    obs = tmafm.observe("humid_air", max_periods=3000)
+    assert obs.steady
+    v = obs.steady_values(physical=True)
+    assert f"{v['dissipated_adhesion'] / v['contacts_per_period']:.2f}" == f"{pull() * rupture / 2 * 1e18:.2f}"

@@ -758,6 +758,7 @@ contains
       call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope, self%errata%e7_signed_slope, sin1, cos1)
    end subroutine angle_of_state
 
+   !> .true. while a meniscus holds the tip of y in flight: its flag y(2N + 2) is set.
    pure logical function model_wet(self, y) result(wet)
       class(model_t), intent(in) :: self
       real(dp), intent(in) :: y(:)
@@ -767,6 +768,7 @@ contains
       wet = y(self%meniscus_slot) > 0.5_dp
    end function model_wet
 
+   !> At a switch of a held flight: .true. where V_T is nearer the rupture gap D/sin(theta1) than 0.
    pure logical function model_meniscus_breaks(self, tau, y) result(breaks)
       class(model_t), intent(in) :: self
       real(dp), intent(in) :: tau

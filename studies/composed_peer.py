@@ -1,8 +1,8 @@
 """The composed peer: every optional part of the model (a drive of one or two tones with phases,
 a liquid, a viscoelastic sample, van der Waals attraction, the electrostatic and double-layer
-forces at a distance) written again in numpy from
+forces at a distance, a JKR neck, a capillary meniscus) written again in numpy from
 docs/model.md, and integrated with ``scipy.integrate.solve_ivp`` (DOP853) phase by phase, with
-every switch V_T = 0 a terminal event.
+every switch (V_T = 0, a neck's pull-off, a meniscus's rupture) a terminal event.
 
 It is a second implementation on purpose, the oracle of tests/test_compose.py: it takes the
 Galerkin constants and the liquid's per-mode mass and damping from the core (``tmafm.Model``,
@@ -57,6 +57,9 @@ class ComposedPeer:
         self.electrostatic = s["electrostatic_strength"] > 0
         self.double_layer = s["double_layer_strength"] != 0
         self.far = self.law == "dmt_vdw" or self.electrostatic or self.double_layer
+        # The capillary meniscus (docs/model.md §19): -c_C in contact, -c_C (1 - g/D) in a flight
+        # it holds, g = V_T sin(theta1) the normal gap; it breaks at g = D.
+        self.meniscus = s["capillary_strength"] > 0
         self.size = 2 * n + (1 if self.sls else 0)
 
     def base(self, t):
@@ -93,15 +96,18 @@ class ComposedPeer:
             f += s["double_layer_strength"] * math.exp(-separation / s["double_layer_range"])
         return f
 
-    def normal_group(self, vt, theta1, w, in_contact):
-        """The normal force group f (units of §6) and the Hertz variable X."""
+    def normal_group(self, vt, theta1, w, in_contact, wet=False):
+        """The normal force group f (units of §6) and the Hertz variable X; wet: a meniscus holds
+        the tip in flight."""
         s = self.scene
         eps = s["vdw_range"]
         if not in_contact:
             f = 0.0
+            if wet:
+                f -= s["capillary_strength"] * (1 - vt * math.sin(theta1) / s["capillary_range"])
             if self.law == "dmt_vdw":
                 ratio = max(1 + vt * max(math.sin(theta1), 0.0) / eps, 0.5)
-                f = -s["vdw_adhesion"] / ratio**2
+                f -= s["vdw_adhesion"] / ratio**2
             if self.electrostatic or self.double_layer:
                 f += self.distant(max(eps + vt * max(math.sin(theta1), 0.0), eps / 2))
             return f, 0.0
@@ -121,9 +127,11 @@ class ComposedPeer:
             f -= s["vdw_adhesion"]
         if self.electrostatic or self.double_layer:
             f += self.distant(eps)
+        if self.meniscus:
+            f -= s["capillary_strength"]
         return f, x
 
-    def rhs(self, t, y, in_contact):
+    def rhs(self, t, y, in_contact, wet=False):
         n, s = self.n, self.scene
         a, adot = y[:n], y[n:2 * n]
         w = y[2 * n] if self.sls else 0.0
@@ -131,10 +139,10 @@ class ComposedPeer:
         acc = (-self.minv @ (self.c * adot) - self.minv_lambda @ a
                - accel * self.inertial - rate * self.damped)
         x = 0.0
-        if in_contact or self.far:
+        if in_contact or self.far or wet:
             vt = self.p @ a + base + s["delta_hat"]
             th = self.theta1(a)
-            f, x = self.normal_group(vt, th, w, in_contact)
+            f, x = self.normal_group(vt, th, w, in_contact, wet)
             depth = max(-vt, 0.0)
             friction = math.sqrt(depth * math.sin(th) / s["beta"]) * depth * math.cos(th) if in_contact else 0.0
             if in_contact and self.law == "jkr":
@@ -184,16 +192,24 @@ class ComposedPeer:
         # V_T = 0 does not see the same switch again.
         margin = 1e-15
         k = 0
+        wet = False
         while t < samples[-1]:
             side = -1.0 if in_contact else 1.0
 
-            def event(tt, yy, _in_contact, side=side, in_contact=in_contact):
+            def event(tt, yy, _in_contact, _wet, side=side, in_contact=in_contact):
                 offset = self.pull_off_gap(yy) if in_contact else 0.0
                 return side * (self.gap(tt, yy) - offset) + margin
-            event.terminal = True
-            event.direction = -1
+
+            def rupture(tt, yy, _in_contact, _wet):
+                """A held flight ends where the normal gap reaches D."""
+                return (self.scene["capillary_range"] - self.gap(tt, yy) * math.sin(self.theta1(yy[: self.n]))
+                        + margin)
+            events = [event, rupture] if wet else [event]
+            for e in events:
+                e.terminal = True
+                e.direction = -1
             sol = solve_ivp(self.rhs, (t, samples[-1]), y, method="DOP853", rtol=rtol, atol=atol,
-                            events=event, dense_output=True, args=(in_contact,))
+                            events=events, dense_output=True, args=(in_contact, wet))
             if not sol.success:
                 raise RuntimeError(f"solve_ivp failed at tau = {sol.t[-1]}: {sol.message}")
             t_end = sol.t[-1]
@@ -202,5 +218,10 @@ class ComposedPeer:
                 k += 1
             t, y = t_end, sol.y[:, -1]
             if sol.status == 1:
-                in_contact = not in_contact
+                if wet and sol.t_events[1].size:
+                    wet = False  # the meniscus breaks: a free flight
+                elif in_contact:
+                    in_contact, wet = False, self.meniscus  # it holds the tip as it leaves
+                else:
+                    in_contact = True
         return samples, vt

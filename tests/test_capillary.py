@@ -7,7 +7,9 @@ Oracles, each independent of the code under test:
 - the force law evaluated here in SI, at the contact angle of each sample from Model.contact,
   against the core's SI force column;
 - the energy per tap: the stated law integrated from contact to rupture by quadrature;
-- the three integrators against each other (dop853, dopri5, flight_exact), each to its tolerance.
+- the three integrators against each other (dop853, dopri5, flight_exact), each to its tolerance;
+- the composed peer (studies/composed_peer.py, tests/test_compose.py): the meniscus written again
+  in numpy, its rupture a solve_ivp event of its own, alone and with tones, an SLS sample and vdW.
 """
 
 import math

@@ -26,6 +26,7 @@ VDW = {"vdw_adhesion": 0.5, "vdw_range": 2e-4}
 # The forces at a distance (docs/model.md §17): a biased tip, and a double layer in a liquid.
 ELECTROSTATIC = {"electrostatic_strength": 0.05, "electrostatic_radius": 0.004, "cone_half_angle": 0.35}
 DOUBLE_LAYER = {"double_layer_strength": 0.3, "double_layer_range": 3e-4}
+CAPILLARY = {"capillary_strength": 2.0, "capillary_range": 2e-4}
 
 CASES = {
     "tones+liquid": ({**TONES, **LIQUID}, "hertz"),
@@ -45,6 +46,9 @@ CASES = {
     "jkr": ({"alpha2": 2e-3}, "jkr"),
     "jkr+tones+liquid": ({**TONES, **LIQUID, "alpha2": 2e-3}, "jkr"),
     "jkr+electrostatic": ({**ELECTROSTATIC, "alpha2": 2e-3}, "jkr"),
+    # The capillary meniscus (docs/model.md §19): it holds the tip in flight and breaks at D.
+    "capillary": ({**CAPILLARY, "alpha2": 2e-3}, "dmt"),
+    "capillary+tones+sls+vdw": ({**CAPILLARY, **TONES, **SLS, **VDW, "alpha2": 2e-3}, "dmt_vdw"),
 }
 
 

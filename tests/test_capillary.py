@@ -161,13 +161,10 @@ def test_what_the_meniscus_refuses_is_one_line_naming_the_keys(overrides, words)
         assert word in message
 
 
-def test_a_meniscus_in_a_liquid_and_continuation_are_refused():
+def test_a_meniscus_in_a_liquid_and_the_energy_flow_of_its_samples_are_refused():
     with pytest.raises(tmafm.TmafmError, match="liquid"):
         tmafm.Config(BASE, physical={"relative_humidity": 0.5, "medium_density": 1000.0,
                                      "medium_viscosity": 1e-3})
-    with pytest.raises(tmafm.TmafmError, match="meniscus"):
-        tmafm.continuation(tmafm.Config(BASE, physical={"relative_humidity": 0.5}),
-                           "physical.tip_sample_distance", 12e-9, 11e-9, max_points=2)
     run = tmafm.run(BASE, physical={"relative_humidity": 0.5}, solver={"tau_end": 2.0})
     with pytest.raises(tmafm.InputError, match="dissipated_adhesion"):
         analysis.energy_flow(run)
@@ -218,3 +215,50 @@ def test_the_humid_air_example_states_its_numbers():
     assert obs.steady
     v = obs.steady_values(physical=True)
     assert f"{v['dissipated_adhesion'] / v['contacts_per_period']:.2f}" == f"{pull() * rupture / 2 * 1e18:.2f}"
+
+
+def test_the_monodromy_matrix_of_a_held_orbit_is_the_maps_derivative():
+    """On humid_air's periodic orbit (contact, a flight the meniscus holds, its rupture, a free
+    flight): the monodromy matrix equals central differences of the stroboscopic map, whose error
+    falls as h^2 (1e-4 -> 1e-5: at least 50x) to below 1e-7 of |M|; the flag (the map state's last
+    component) has a zero row and column; Newton converges in a few iterations."""
+    from tmafm.continuation.shooting import map_size, periodic_map, periodic_orbit
+
+    model = tmafm.Model("humid_air")
+    m = map_size(model)
+    assert m == 2 * 3 + 1
+    obs = tmafm.observe("humid_air", max_periods=3000)
+    guess = np.zeros(m)
+    guess[:6] = np.asarray(obs.final_state)[:6]
+    orbit = periodic_orbit(model, guess, rtol=1e-11)
+    assert orbit.iterations <= 5 and orbit.stable
+    x0 = orbit.states[0]
+    monodromy = periodic_map(model, x0, 1, 1e-12).monodromy
+    assert np.all(monodromy[-1] == 0) and np.all(monodromy[:, -1] == 0)
+    scale = np.max(np.abs(x0[:6]))
+    errors = []
+    for h in (1e-4, 1e-5):
+        fd = np.empty((6, 6))
+        for k in range(6):
+            e = np.zeros(m)
+            e[k] = h * scale
+            fd[:, k] = (periodic_map(model, x0 + e, 1, 1e-12).y[:6]
+                        - periodic_map(model, x0 - e, 1, 1e-12).y[:6]) / (2 * h * scale)
+        errors.append(np.max(np.abs(monodromy[:6, :6] - fd)) / np.max(np.abs(monodromy)))
+    assert errors[0] / errors[1] > 50 and errors[1] < 1e-7, errors
+
+
+def test_continuation_follows_the_held_orbit_as_observe_finds_it():
+    """tmafm.continuation along Z (12 -> 8 nm) on humid_air: at three points the continued orbit's
+    largest and smallest gap equal a long run's located ones at steady state (tmafm.observe) to
+    1e-6 of the stroke."""
+    ds = tmafm.continuation("humid_air", "physical.tip_sample_distance", 12e-9, 8e-9)
+    z = ds["physical.tip_sample_distance"].values
+    assert z[0] == 12e-9 and z[-1] <= 8e-9 * (1 + 1e-12)
+    assert bool(ds["stable"].all())
+    for k in (0, len(z) // 2, len(z) - 1):
+        v = tmafm.observe("humid_air", max_periods=4000, steady_tol=1e-9,
+                          physical={"tip_sample_distance": float(z[k])}).steady_values(physical=True)
+        stroke = v["max_gap"] - v["min_gap"]
+        assert float(ds["max_gap_si"][k]) == pytest.approx(v["max_gap"], abs=1e-6 * stroke)
+        assert float(ds["min_gap_si"][k]) == pytest.approx(v["min_gap"], abs=1e-6 * stroke)

@@ -236,3 +236,15 @@ def test_si_observables_of_a_physical_input():
     np.testing.assert_allclose(ds["min_gap_si"].values, ds["min_gap"].values * gap * 1e9,
                                rtol=1e-14)
     assert np.all(np.diff(ds["physical.drive_amplitude"].values) > 0)
+
+
+def test_the_si_lengths_take_each_points_own_gap():
+    """Continued along the distance Z, each point's SI lengths use its own gap d = g0 + Z/cos(theta)
+    (the base input's Z is 25 nm here): the largest and smallest gap at Z = 12 nm equal a long
+    run's located ones there (tmafm.observe) to 1e-6 of the stroke (the base's d was 1e-3 off)."""
+    ds = tmafm.continuation("tapping_polystyrene", "physical.tip_sample_distance", 12e-9, 11e-9)
+    v = tmafm.observe("tapping_polystyrene", max_periods=4000, steady_tol=1e-9,
+                      physical={"tip_sample_distance": 12e-9}).steady_values(physical=True)
+    stroke = v["max_gap"] - v["min_gap"]
+    assert float(ds["max_gap_si"][0]) == pytest.approx(v["max_gap"], abs=1e-6 * stroke)
+    assert float(ds["min_gap_si"][0]) == pytest.approx(v["min_gap"], abs=1e-6 * stroke)

@@ -34,7 +34,7 @@ module tmafm
    use tmafm_driver, only: run_trajectory
    ! Periodic orbits: the stroboscopic map and its monodromy matrix (tmafm_api, continuation).
    use tmafm_monodromy, only: stroboscopic_map, n_orbit_stats, map_state_size
-   use tmafm_model_jacobian, only: model_jacobian
+   use tmafm_model_jacobian, only: model_jacobian, map_to_model_state
    ! A base input patched by overrides (tmafm_api), and the rename held apart (the executable).
    use tmafm_namelist, only: read_config_document
    use tmafm_nml_syntax, only: patch_document
@@ -61,7 +61,7 @@ module tmafm
    public :: nml_document_t, parse_namelist, entry_text
    public :: is_known_method, method_names, max_samples, max_trajectory_bytes, check_run_size
    public :: load_model
-   public :: stroboscopic_map, n_orbit_stats, map_state_size, model_jacobian
+   public :: stroboscopic_map, n_orbit_stats, map_state_size, model_jacobian, map_to_model_state
    public :: n_keys, describe_key, max_mode_horizon, max_max_steps, max_harmonics, max_p_max, &
              max_observed_periods
    public :: read_config_document, patch_document, commit_output

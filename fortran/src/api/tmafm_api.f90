@@ -22,7 +22,8 @@ module tmafm_api
       observable_group_name, observable_si_factor, observable_kind_names, observable_scale_names, &
       physical_derived, derived_names, derived_units, derived_meanings, n_derived, config_errata, &
       physical_series, n_series, series_names, series_units, &
-      stroboscopic_map, n_orbit_stats, map_state_size, model_jacobian, obs_tone_amplitude, obs_tone_phase
+      stroboscopic_map, n_orbit_stats, map_state_size, model_jacobian, map_to_model_state, obs_tone_amplitude, &
+      obs_tone_phase
    ! The types Python sees are named from the modules that define them, not the facade: f90wrap
    ! reads only the wrapped modules' sources and resolves a type through its defining module.
    use tmafm_config, only: config_t
@@ -964,9 +965,8 @@ contains
       call check_shape('y', shape(y), [m], ierr, errmsg)
       call check_shape('jac', shape(jac), [m, m], ierr, errmsg)
       if (ierr /= ok) return
-      ! model_t's pad after w (a viscoelastic sample) is 0.
-      full = 0
-      full(1:m) = y
+      ! model_t's pad after w (a viscoelastic sample) is 0; a meniscus's flag is y's last.
+      call map_to_model_state(model, y, full)
       call model_jacobian(model, tau, full, in_contact, jac)
    end subroutine jacobian_of
 

@@ -207,6 +207,9 @@ module tmafm_model
       !> At a switch in flight with the meniscus held: .true. where it breaks (V_T near its
       !> rupture gap), .false. where the tip comes back into contact (V_T near 0).
       procedure :: meniscus_breaks => model_meniscus_breaks
+      !> The phase after a switch located in a phase (in_contact) at (tau, y), the meniscus's flag
+      !> in y set or cleared.
+      procedure :: next_phase => model_next_phase
       !> The explicit M, C, K, F of Eq. (15) at one state (a only: a viscoelastic sample's force
       !> is its elastic part, the dashpot w is not taken), for checks and analysis.
       procedure :: matrices => model_matrices
@@ -757,6 +760,27 @@ contains
       end do
       call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope, self%errata%e7_signed_slope, sin1, cos1)
    end subroutine angle_of_state
+
+   !> The phase after a switch located in phase in_contact at (tau, y): the other one, but with a
+   !> meniscus (model_t%meniscus), which forms at contact and holds the tip in flight until it
+   !> breaks: a contact's exit leaves it holding (its flag in y set), and a held flight ends in
+   !> contact, or where the meniscus breaks in a free flight (its flag cleared).
+   pure subroutine model_next_phase(model, tau, y, in_contact)
+      class(model_t), intent(in) :: model
+      real(dp), intent(in) :: tau
+      real(dp), intent(inout) :: y(:)
+      logical, intent(inout) :: in_contact
+      if (model%meniscus_slot == 0) then
+         in_contact = .not. in_contact
+      else if (in_contact) then
+         in_contact = .false.
+         y(model%meniscus_slot) = 1
+      else if (model%wet(y) .and. model%meniscus_breaks(tau, y)) then
+         y(model%meniscus_slot) = 0
+      else
+         in_contact = .true.
+      end if
+   end subroutine model_next_phase
 
    !> .true. while a meniscus holds the tip of y in flight: its flag y(2N + 2) is set.
    pure logical function model_wet(self, y) result(wet)

@@ -28,7 +28,11 @@
 !>    block, the dashpot coordinate w with w' = (max(X, (1 - r) w) - w)/T: the row of w is
 !>    (X_a/T, 0, -1/T) while X > (1 - r) w and (0, 0, -r/T) otherwise (in flight X = 0), and the
 !>    column of w in a'' is df/dw = -(1 - r) while X > (1 - r) w (the force's kink there is
-!>    continuous: no saltation).
+!>    continuous: no saltation);
+!>  - a capillary meniscus (tmafm_capillary, docs/model.md §19) adds its pull c_C to the adhesion
+!>    in contact, and in a flight it holds f = -c_C (1 - V_T sin(theta1)/D), so df/dV_T +=
+!>    c_C sin(theta1)/D, df/dtheta1 += c_C V_T cos(theta1)/D.  Whether it holds is a flag of the
+!>    state (model_t%wet), the map state's last component: its row and column of J are zero.
 !> theta1 = pi/2 - theta - atan(|t|) or, under E7, + atan(t).
 module tmafm_model_jacobian
    use tmafm_kinds, only: dp
@@ -36,20 +40,54 @@ module tmafm_model_jacobian
    use tmafm_contact, only: law_dmt, dmt_adhesion, contact_angle_sin_cos
    use tmafm_vdw, only: law_dmt_vdw
    use tmafm_surface_forces, only: surface_force_group, surface_force_slope, flight_separation
+   use tmafm_capillary, only: meniscus_force_group
    implicit none
    private
 
-   public :: model_jacobian, contact_partials, map_state_size
+   public :: model_jacobian, contact_partials, map_state_size, map_to_model_state, model_to_map_state
 
 contains
 
-   !> The length of the state of the stroboscopic map: 2N, or 2N + 1 with a viscoelastic sample
-   !> (a, a', w; model_t's pad y(2N + 2) = 0 is left out, it never changes).
+   !> The length of the state of the stroboscopic map: 2N, plus 1 with a viscoelastic sample (w),
+   !> plus 1 with a capillary meniscus (its flag, last): (a, a'[, w][, flag]); model_t's pad
+   !> y(2N + 2) = 0 without a meniscus is left out, it never changes.
    pure integer function map_state_size(model) result(m)
       type(model_t), intent(in) :: model
       m = 2*model%n_modes
       if (model%sls%on) m = m + 1
+      if (model%meniscus%on) m = m + 1
    end function map_state_size
+
+   !> The model's state y (model_t%n_state) of a map state x (map_state_size).
+   pure subroutine map_to_model_state(model, x, y)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: x(:)
+      real(dp), intent(out) :: y(:)
+      integer :: m
+      m = map_state_size(model)
+      y = 0
+      if (model%meniscus%on) then
+         y(1:m - 1) = x(1:m - 1)
+         y(model%meniscus_slot) = x(m)
+      else
+         y(1:m) = x(1:m)
+      end if
+   end subroutine map_to_model_state
+
+   !> The map state x (map_state_size) of a model's state y.
+   pure subroutine model_to_map_state(model, y, x)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: y(:)
+      real(dp), intent(out) :: x(:)
+      integer :: m
+      m = map_state_size(model)
+      if (model%meniscus%on) then
+         x(1:m - 1) = y(1:m - 1)
+         x(m) = y(model%meniscus_slot)
+      else
+         x(1:m) = y(1:m)
+      end if
+   end subroutine model_to_map_state
 
    !> The Jacobian jac (map_state_size square) of the time derivative with respect to the state y
    !> (a, a'[, w]; y may hold model_t's pad too) at time tau, in a phase.
@@ -62,6 +100,7 @@ contains
       real(dp) :: vt, vtdot, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt, dp1_dw, dp2_dw
       real(dp) :: sin_phase, cos_phase, lever, row1, row2, hertz, dx_dvt, dx_dt, w_rate_x, w_rate_w
       integer :: n, i, j, iw
+      logical :: wet
 
       n = model%n_modes
       jac = 0
@@ -77,7 +116,8 @@ contains
          ! In flight X = 0: w' = -r w/T.
          jac(iw, iw) = -model%sls%modulus_ratio*model%sls%rate
       end if
-      if (.not. (in_contact .or. model%long_range)) return
+      wet = model%wet(y) .and. .not. in_contact
+      if (.not. (in_contact .or. model%long_range .or. wet)) return
       call model%phase(tau, sin_phase, cos_phase)
       call model%gap_at_phase(y, sin_phase, cos_phase, vt, vtdot)
       slope = 0
@@ -89,7 +129,7 @@ contains
       if (.not. in_contact) then
          ! A force in flight (with a viscoelastic sample too: the attraction sees the undeformed
          ! surface, docs/model.md §16, and w relaxes on its own, as set above).
-         call flight_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
+         call flight_partials(model, vt, slope, wet, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
       else if (model%sls%on) then
          call sls_partials(model, vt, slope, y(iw), p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt, dp1_dw, &
                            dp2_dw, hertz, dx_dvt, dx_dt)
@@ -147,11 +187,13 @@ contains
    end subroutine contact_partials
 
    !> The brackets in flight (the van der Waals attraction under 'dmt_vdw', the forces at a
-   !> distance) and their partial derivatives with respect to V_T and t.
-   pure subroutine flight_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
+   !> distance, a meniscus that holds the tip: wet) and their partial derivatives with respect to
+   !> V_T and t.
+   pure subroutine flight_partials(model, vt, slope, wet, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: vt
       real(dp), intent(in) :: slope
+      logical, intent(in) :: wet
       real(dp), intent(out) :: p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt
       real(dp) :: sin1, cos1, ratio, normal, dn_dvt, dn_dth, c_h, eps, pull, separation
       call contact_angle_sin_cos(model%sin_theta, model%cos_theta, slope, &
@@ -180,6 +222,12 @@ contains
             dn_dvt = dn_dvt + pull*sin1
             dn_dth = dn_dth + pull*vt*cos1
          end if
+      end if
+      if (wet) then
+         ! -c_C (1 - V_T sin(theta1)/D): linear in the normal gap.
+         normal = normal + meniscus_force_group(model%meniscus, vt*sin1)
+         dn_dvt = dn_dvt + model%meniscus%strength*sin1/model%meniscus%rupture_gap
+         dn_dth = dn_dth + model%meniscus%strength*vt*cos1/model%meniscus%rupture_gap
       end if
       call brackets(model, sin1, cos1, normal, 0.0_dp, dn_dvt, 0.0_dp, dn_dth, 0.0_dp, angle_rate(model, slope), &
                     p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
@@ -247,7 +295,7 @@ contains
 
    !> The law's adhesion in contact, subtracted from the normal-force group: 0 (Hertz), 4/3 (DMT)
    !> or c_H ('dmt_vdw': the attraction's value at contact), less the forces at a distance at the
-   !> contact separation (tmafm_model's contact_adhesion).
+   !> contact separation, plus a meniscus's pull (tmafm_model's contact_adhesion).
    pure real(dp) function law_adhesion(model) result(adhesion)
       type(model_t), intent(in) :: model
       adhesion = 0
@@ -257,6 +305,7 @@ contains
          adhesion = dmt_adhesion
       end if
       if (model%surface%on) adhesion = adhesion - model%surface_at_contact
+      if (model%meniscus%on) adhesion = adhesion + model%meniscus%strength
    end function law_adhesion
 
    !> dtheta1/dt: 1/(1 + t^2) under E7 (theta1 = pi/2 - theta + atan t), -sign(t)/(1 + t^2) as

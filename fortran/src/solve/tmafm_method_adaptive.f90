@@ -448,7 +448,7 @@ contains
                   (exit_target/max(norm, 1.0e-12_dp))**(1.0_dp/3)))
                if (self%in_contact) call learn(self%h_plateau, self%h_contact_max)
                self%h_contact_max = 0
-               call next_phase(model, tau, y, self%in_contact)
+               call model%next_phase(tau, y, self%in_contact)
                self%entry_pending = self%in_contact
                self%warped = .false.
                call traj%add_switch(tau, h_time, ierr, errmsg)
@@ -717,27 +717,6 @@ contains
       integer :: k
       k = merge(2, 1, in_contact)
    end function phase_index
-
-   !> The phase after a switch located in phase in_contact at (tau, y): the other one, but with a
-   !> meniscus (model_t%meniscus), which forms at contact and holds the tip in flight until it
-   !> breaks: a contact's exit leaves it holding (its flag in y set), and a held flight ends in
-   !> contact, or where the meniscus breaks in a free flight (its flag cleared).
-   pure subroutine next_phase(model, tau, y, in_contact)
-      type(model_t), intent(in) :: model
-      real(dp), intent(in) :: tau
-      real(dp), intent(inout) :: y(:)
-      logical, intent(inout) :: in_contact
-      if (model%meniscus_slot == 0) then
-         in_contact = .not. in_contact
-      else if (in_contact) then
-         in_contact = .false.
-         y(model%meniscus_slot) = 1
-      else if (model%wet(y) .and. model%meniscus_breaks(tau, y)) then
-         y(model%meniscus_slot) = 0
-      else
-         in_contact = .true.
-      end if
-   end subroutine next_phase
 
    !> The dense output of the step just accepted from self%tau (over the pair's time map), once
    !> per step.

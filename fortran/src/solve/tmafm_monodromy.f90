@@ -21,7 +21,11 @@
 !>  - at every switch by the saltation matrix S = I + (f+ - f-) n^T / (dV_T/dtau), n = (p, 0[, 0]),
 !>    f- and f+ the vector fields before and after the switch at the switch state (identity
 !>    when the force is continuous there: Hertz, or 'dmt_vdw', whose attraction meets the DMT
-!>    force at V_T = 0, without contact damping).
+!>    force at V_T = 0, without contact damping);
+!>  - with a capillary meniscus (docs/model.md §19), a flight it holds is integrated like a contact
+!>    (its force acts), and ends at V_T (1 - V_T/o) = 0 (phase_gap): where the tip touches again
+!>    (the saltation above) or where the meniscus breaks (its force is zero there: no saltation).
+!>    Its flag is the map state's last component, discrete: no row and no column of Phi.
 !> Along the way it records what grazing and the observables need (stats, stat_* indices).
 !> Everything is allocated once per call; the steps allocate nothing.
 module tmafm_monodromy
@@ -30,7 +34,8 @@ module tmafm_monodromy
    use tmafm_model, only: model_t
    use tmafm_contact, only: law_hertz, law_dmt
    use tmafm_vdw, only: law_dmt_vdw
-   use tmafm_model_jacobian, only: model_jacobian, map_state_size
+   use tmafm_jkr, only: law_jkr
+   use tmafm_model_jacobian, only: model_jacobian, map_state_size, map_to_model_state, model_to_map_state
    use tmafm_flight, only: free_flight_t
    use tmafm_events, only: initial_phase
    use tmafm_roots, only: bracketed_root_t
@@ -98,6 +103,7 @@ contains
       type(free_flight_t) :: flight
       type(work_t) :: w
       real(dp) :: tau, t_end, s_contact, h, period, scale_period, y(model%n_state), phi(size(y0), size(y0))
+      real(dp) :: vt, offset, offset_rate
       logical :: in_contact, found
       integer :: m, n, j, evaluations
 
@@ -110,21 +116,15 @@ contains
       n = model%n_modes
       if (size(y0) /= m .or. size(y_end) /= m .or. any(shape(monodromy) /= [m, m])) then
          ierr = err_input
-         if (model%sls%on) then
-            write (errmsg, '(a,i0,a)') 'stroboscopic map: the state (a, adot, w) must have 2N + 1 = ', m, &
+         if (model%sls%on .or. model%meniscus%on) then
+            write (errmsg, '(a,i0,a)') 'stroboscopic map: the state (a, adot[, w][, meniscus flag]) must have ', m, &
                ' components'
          else
             write (errmsg, '(a,i0)') 'stroboscopic map: the state must have 2N = ', m
          end if
          return
       end if
-      if (model%meniscus%on) then
-         ierr = err_input
-         errmsg = "stroboscopic map: a capillary meniscus (&scene capillary_strength > 0): its rupture (a switch "// &
-                  "off V_T = 0) has no saltation matrix here; continue scenes without it"
-         return
-      end if
-      if (model%hysteretic) then
+      if (model%law == law_jkr) then
          ierr = err_input
          errmsg = "stroboscopic map: &model contact_law = 'jkr': its neck's pull-off (a switch off V_T = 0) "// &
                   "has no saltation matrix here; continue 'hertz', 'dmt' or 'dmt_vdw' scenes"
@@ -158,9 +158,9 @@ contains
          return
       end if
       if (model%sls%on) then
-         if (.not. (y0(m) >= 0)) then
+         if (.not. (y0(2*n + 1) >= 0)) then
             ierr = err_input
-            write (errmsg, '(a,es12.5,a)') 'stroboscopic map: the dashpot coordinate w = ', y0(m), &
+            write (errmsg, '(a,es12.5,a)') 'stroboscopic map: the dashpot coordinate w = ', y0(2*n + 1), &
                ' must be >= 0'
             return
          end if
@@ -186,12 +186,20 @@ contains
       scale_period = 2*acos(-1.0_dp)/max(model%drive%top_frequency, model%drive%fundamental)
       t_end = n_periods*period
       tau = 0
-      y = 0
-      y(1:m) = y0
+      call map_to_model_state(model, y0, y)
       phi = 0
       do j = 1, m
          phi(j, j) = 1
       end do
+      if (model%meniscus%on) then
+         ! The meniscus's flag (the map state's last component) is discrete: no row, no column.
+         phi(m, m) = 0
+         y(model%meniscus_slot) = merge(1.0_dp, 0.0_dp, y0(m) > 0.5_dp)
+         ! A meniscus stretched past its rupture gap has broken.
+         vt = model%tip_gap(0.0_dp, y)
+         call model%switch_offset(y, .false., vt, 0.0_dp, offset, offset_rate)
+         if (vt > 0 .and. vt - offset <= 0) y(model%meniscus_slot) = 0
+      end if
       stats(stat_gap_min) = huge(1.0_dp)
       stats(stat_gap_max) = -huge(1.0_dp)
       stats(stat_flight_gap_min) = huge(1.0_dp)
@@ -199,7 +207,9 @@ contains
       in_contact = initial_phase(model, 0.0_dp, y)
       h = 0
       do while (tau < t_end)
-         if (in_contact .or. model%long_range) then
+         if (in_contact .or. model%long_range .or. model%wet(y)) then
+            ! In contact, a forced flight, or a flight a meniscus holds (whose rupture leaves the
+            ! phase with a continuous force: no saltation).
             found = in_contact
             call forced_phase(model, w, tau, t_end, scale_period, y, phi, h, in_contact, stats, ierr, errmsg)
             if (ierr /= ok) return
@@ -237,7 +247,7 @@ contains
             return
          end if
       end do
-      y_end = y(1:m)
+      call model_to_map_state(model, y, y_end)
       monodromy = phi
       stats(stat_evaluations) = w%evaluations
    end subroutine stroboscopic_map
@@ -402,7 +412,9 @@ contains
          rate0 = model%tip_gap_rate(tau0, w%z(1:ns))
          vt1 = model%tip_gap(tau0 + step, w%z_new(1:ns))
          rate1 = model%tip_gap_rate(tau0 + step, w%z_new(1:ns))
-         crossed = side*vt1 < 0
+         ! The phase's switch function: V_T, but in a flight a meniscus holds V_T (1 - V_T/o), which
+         ! also ends where it breaks (model_t%switch_offset).
+         crossed = side*phase_gap(model, tau0 + step, w%z_new(1:ns), in_contact) < 0
          reach = step
          vt_reach = vt1
          if (.not. crossed .and. .not. in_contact .and. rate0 < 0 .and. rate1 >= 0) then
@@ -428,12 +440,18 @@ contains
             vt_left = vt0
             if (side*rate0 > 0 .and. side*rate1 < 0 .and. reach == step) &
                call phase_extremum(model, w, tau0, step, rate0, rate1, in_contact, left, vt_left)
+            if (model%meniscus%on) then
+               ! The bracket's values are the switch function's (V_T (1 - V_T/o) in a flight the
+               ! meniscus holds: V_T alone has no sign change where it breaks).
+               vt_left = bracket_value(model, w, tau0, left, in_contact)
+               vt_reach = bracket_value(model, w, tau0, reach, in_contact)
+            end if
             call root%start(left, side*max(side*vt_left, tiny(1.0_dp)), reach, vt_reach, &
                             4*epsilon(1.0_dp)*max(tau0, 1.0_dp))
             do while (.not. root%converged())
                call root%next_point(x)
                call dp5_step(model, w, tau0, w%z, x, w%z_try, gx, in_contact)
-               call root%update(model%tip_gap(tau0 + x, w%z_try(1:ns)))
+               call root%update(phase_gap(model, tau0 + x, w%z_try(1:ns), in_contact))
             end do
             call root%end_with_sign(-side, x)
             call dp5_step(model, w, tau0, w%z, x, w%z_new, gx, in_contact)
@@ -445,7 +463,7 @@ contains
             w%z = w%z_new
             tau = tau0 + x
             if (in_contact) stats(stat_contact_time) = stats(stat_contact_time) + x
-            in_contact = .not. in_contact
+            call model%next_phase(tau, w%z(1:ns), in_contact)
             exit
          end if
          call record_extremum(model, w, tau0, step, rate0, rate1, in_contact, stats)
@@ -464,6 +482,38 @@ contains
       y = w%z(1:ns)
       phi = reshape(w%z(ns + 1:), [m, m])
    end subroutine forced_phase
+
+   !> The switch function of a phase at (tau, y): V_T less the phase's offset (model_t%switch_offset:
+   !> V_T (1 - V_T/o) in a flight a meniscus holds), positive in flight and negative in contact.
+   pure real(dp) function phase_gap(model, tau, y, in_contact) result(gap)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: y(:)
+      logical, intent(in) :: in_contact
+      real(dp) :: offset, offset_rate
+      gap = model%tip_gap(tau, y)
+      if (.not. model%meniscus%on) return
+      call model%switch_offset(y, in_contact, gap, 0.0_dp, offset, offset_rate)
+      gap = gap - offset
+   end function phase_gap
+
+   !> The switch function phase_gap a step of length x from w%z at tau0 reaches (x = 0: w%z's).
+   function bracket_value(model, w, tau0, x, in_contact) result(gap)
+      type(model_t), intent(in) :: model
+      type(work_t), intent(inout) :: w
+      real(dp), intent(in) :: tau0
+      real(dp), intent(in) :: x
+      logical, intent(in) :: in_contact
+      real(dp) :: gap, err
+      integer :: ns
+      ns = w%n_state
+      if (x > 0) then
+         call dp5_step(model, w, tau0, w%z, x, w%z_try, err, in_contact)
+         gap = phase_gap(model, tau0 + x, w%z_try(1:ns), in_contact)
+      else
+         gap = phase_gap(model, tau0, w%z(1:ns), in_contact)
+      end if
+   end function bracket_value
 
    !> The stats of an extremum of V_T inside a step of length step from w%z at tau0 in a phase:
    !> a minimum (dV_T/dtau from negative to non-negative) lowers gap_min (in a flight also

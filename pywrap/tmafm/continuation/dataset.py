@@ -333,7 +333,7 @@ def continuation(base, key, start, stop, *, y0=None, period=None, direction=1, d
     results = _drop_duplicates(results, start, stop, ds_max)
     records = [r for branch in results for r in branch]
     _warn_early_ends(records, key)
-    return _dataset(xr, records, key, n_modes, m, base_config, options, start, stop)
+    return _dataset(xr, records, key, n_modes, m, base_config, options, start, stop, groups)
 
 
 def _drop_duplicates(results: list, start: float, stop: float, ds_max: float) -> list:
@@ -410,7 +410,7 @@ def _si_factors(config) -> dict:
     return {name: (float(factors[row]), OBSERVABLE_TABLE[row]["si_unit"]) for name in _LENGTHS}
 
 
-def _dataset(xr, records, key, n_modes, m, base_config, options, start, stop):
+def _dataset(xr, records, key, n_modes, m, base_config, options, start, stop, groups):
     n = len(records)
     segments = max(r["period"] for r in records)
     states = np.full((n, segments, m), np.nan)
@@ -447,8 +447,12 @@ def _dataset(xr, records, key, n_modes, m, base_config, options, start, stop):
                       {"long_name": meaning})
     for name in ("end_reason", "end_detail"):
         data[name] = ("point", np.array([r[name] for r in records], dtype=object).astype(str))
-    for name, (factor, unit) in _si_factors(base_config).items():
-        data[f"{name}_si"] = ("point", data[name][1] * factor,
+    # The gap d is each point's own: continued along the distance Z (or a length that sets d),
+    # the base's d would be off by the change in d (1e-3 over 12 -> 25 nm on tapping_polystyrene).
+    per_point = [_si_factors(_config(groups, {key: r["value"]})) for r in records]
+    for name, (_, unit) in _si_factors(base_config).items():
+        factors = np.array([f[name][0] for f in per_point])
+        data[f"{name}_si"] = ("point", data[name][1] * factors,
                               {"long_name": f"{name} in SI-derived units", "units": unit})
     ds = xr.Dataset(data, coords={key: ("point", np.array([r["value"] for r in records])),
                                   "point": np.arange(n)})

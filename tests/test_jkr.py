@@ -151,10 +151,55 @@ def test_what_the_jkr_law_does_not_support_is_refused_in_one_line(overrides, mes
     assert "\n" not in str(err.value)
 
 
-def test_continuation_of_a_jkr_scene_is_refused_with_a_reason():
-    with pytest.raises(tmafm.TmafmError, match="jkr"):
-        tmafm.continuation(tmafm.Config(BASE, **JKR), "physical.tip_sample_distance", 12e-9, 11e-9,
-                           max_points=2)
+def test_the_monodromy_matrix_through_the_pull_off_is_the_maps_derivative():
+    """On the JKR orbit at Z = 12 nm (a neck that holds across the period boundary, flag 1, and
+    breaks at the pull-off, where f ~ sqrt(D - D_c)): the monodromy matrix equals central
+    differences of the stroboscopic map, whose error falls as h^2 (1e-4 -> 1e-5: at least 50x) to
+    below 1e-8 of |M|; the flag has a zero row and column; Newton converges in a few steps."""
+    from tmafm.continuation.shooting import map_size, periodic_map, periodic_orbit
+
+    config = tmafm.Config(BASE, physical={"tip_sample_distance": 12e-9}, **JKR)
+    model = tmafm.Model(config)
+    m = map_size(model)
+    assert m == 2 * 3 + 1
+    guess = np.zeros(m)
+    guess[:6] = np.asarray(tmafm.observe(config, max_periods=3000).final_state)[:6]
+    orbit = periodic_orbit(model, guess, rtol=1e-11)
+    assert orbit.iterations <= 5 and orbit.stable and orbit.states[0][-1] == 1
+    x0 = orbit.states[0]
+    monodromy = periodic_map(model, x0, 1, 1e-12).monodromy
+    assert np.all(monodromy[-1] == 0) and np.all(monodromy[:, -1] == 0)
+    scale = np.max(np.abs(x0[:6]))
+    errors = []
+    for h in (1e-4, 1e-5):
+        fd = np.empty((6, 6))
+        for k in range(6):
+            e = np.zeros(m)
+            e[k] = h * scale
+            fd[:, k] = (periodic_map(model, x0 + e, 1, 1e-12).y[:6]
+                        - periodic_map(model, x0 - e, 1, 1e-12).y[:6]) / (2 * h * scale)
+        errors.append(np.max(np.abs(monodromy[:6, :6] - fd)) / np.max(np.abs(monodromy)))
+    assert errors[0] / errors[1] > 50 and errors[1] < 1e-8, errors
+
+
+def test_continuation_follows_the_jkr_orbit_as_observe_finds_it():
+    """tmafm.continuation along Z (12 -> 8 nm) with the JKR neck: at three points the continued
+    orbit's largest and smallest gap equal a long run's located ones (tmafm.observe) to 1e-6 of
+    the stroke; a JKR scene with a force at a distance is refused in one line."""
+    base = tmafm.Config(BASE, **JKR)
+    ds = tmafm.continuation(base, "physical.tip_sample_distance", 12e-9, 8e-9)
+    z = ds["physical.tip_sample_distance"].values
+    assert bool(ds["stable"].all()) and z[-1] <= 8e-9 * (1 + 1e-12)
+    for k in (0, len(z) // 2, len(z) - 1):
+        v = tmafm.observe(base, max_periods=4000, steady_tol=1e-9,
+                          physical={"tip_sample_distance": float(z[k])}).steady_values(physical=True)
+        stroke = v["max_gap"] - v["min_gap"]
+        assert float(ds["max_gap_si"][k]) == pytest.approx(v["max_gap"], abs=1e-6 * stroke)
+        assert float(ds["min_gap_si"][k]) == pytest.approx(v["min_gap"], abs=1e-6 * stroke)
+    with pytest.raises(tmafm.TmafmError, match="jkr.*force at a distance") as err:
+        tmafm.continuation(tmafm.Config(BASE, physical={"tip_bias": 1.0}, **JKR),
+                           "physical.tip_sample_distance", 12e-9, 11e-9, max_points=2)
+    assert "\n" not in str(err.value)
 
 
 def test_the_phase_contrast_study_holds_and_model_md_quotes_it():

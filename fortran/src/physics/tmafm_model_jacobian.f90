@@ -32,7 +32,11 @@
 !>  - a capillary meniscus (tmafm_capillary, docs/model.md §19) adds its pull c_C to the adhesion
 !>    in contact, and in a flight it holds f = -c_C (1 - V_T sin(theta1)/D), so df/dV_T +=
 !>    c_C sin(theta1)/D, df/dtheta1 += c_C V_T cos(theta1)/D.  Whether it holds is a flag of the
-!>    state (model_t%wet), the map state's last component: its row and column of J are zero.
+!>    state (model_t%wet), the map state's last component: its row and column of J are zero;
+!>  - a JKR neck (tmafm_jkr, docs/model.md §18) while it holds: f = A^3 - 2 A^1.5 and h = A (-V_T)
+!>    cos(theta1) with A(D) on the stable branch of D = A^2 - (4/3) sqrt(A), D = -V_T sin(theta1)/beta,
+!>    so dA/dD = 1/(2A - (2/3)/sqrt(A)) and df/dA = 3A^2 - 3 sqrt(A).  The map state ends with a flag
+!>    too, 1 where the neck holds at the period boundary (the phase V_T's sign cannot tell).
 !> theta1 = pi/2 - theta - atan(|t|) or, under E7, + atan(t).
 module tmafm_model_jacobian
    use tmafm_kinds, only: dp
@@ -41,6 +45,7 @@ module tmafm_model_jacobian
    use tmafm_vdw, only: law_dmt_vdw
    use tmafm_surface_forces, only: surface_force_group, surface_force_slope, flight_separation
    use tmafm_capillary, only: meniscus_force_group
+   use tmafm_jkr, only: law_jkr, jkr_radius, jkr_force_group
    implicit none
    private
 
@@ -49,13 +54,14 @@ module tmafm_model_jacobian
 contains
 
    !> The length of the state of the stroboscopic map: 2N, plus 1 with a viscoelastic sample (w),
-   !> plus 1 with a capillary meniscus (its flag, last): (a, a'[, w][, flag]); model_t's pad
-   !> y(2N + 2) = 0 without a meniscus is left out, it never changes.
+   !> plus 1 with a capillary meniscus or a JKR neck (the phase's flag, last: the meniscus holds
+   !> the tip in flight, or the neck holds): (a, a'[, w][, flag]); model_t's pad y(2N + 2) = 0
+   !> without a meniscus is left out, it never changes.
    pure integer function map_state_size(model) result(m)
       type(model_t), intent(in) :: model
       m = 2*model%n_modes
       if (model%sls%on) m = m + 1
-      if (model%meniscus%on) m = m + 1
+      if (model%meniscus%on .or. model%law == law_jkr) m = m + 1
    end function map_state_size
 
    !> The model's state y (model_t%n_state) of a map state x (map_state_size).
@@ -69,6 +75,9 @@ contains
       if (model%meniscus%on) then
          y(1:m - 1) = x(1:m - 1)
          y(model%meniscus_slot) = x(m)
+      else if (model%law == law_jkr) then
+         ! The neck's flag is the run's phase, not a component of the model's state.
+         y(1:m - 1) = x(1:m - 1)
       else
          y(1:m) = x(1:m)
       end if
@@ -84,6 +93,10 @@ contains
       if (model%meniscus%on) then
          x(1:m - 1) = y(1:m - 1)
          x(m) = y(model%meniscus_slot)
+      else if (model%law == law_jkr) then
+         ! The caller sets the neck's flag x(m) from the phase.
+         x(1:m - 1) = y(1:m - 1)
+         x(m) = 0
       else
          x(1:m) = y(1:m)
       end if
@@ -145,6 +158,8 @@ contains
             jac(iw, j) = w_rate_x*(dx_dvt*model%tip(j) + dx_dt*model%scaled_slope(j))
          end do
          jac(iw, iw) = w_rate_w
+      else if (model%law == law_jkr) then
+         call jkr_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
       else
          call contact_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
       end if
@@ -185,6 +200,40 @@ contains
       call brackets(model, sin1, cos1, normal, friction, dn_dvt, dh_dvt, dn_dth, dh_dth, dth_dt, &
                     p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
    end subroutine contact_partials
+
+   !> The brackets of a JKR neck at gap vt and scaled slope t and their partial derivatives with
+   !> respect to V_T and t (the forces at a distance are not taken: the map refuses them with JKR).
+   pure subroutine jkr_partials(model, vt, slope, p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: vt
+      real(dp), intent(in) :: slope
+      real(dp), intent(out) :: p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt
+      real(dp) :: sin1, cos1, radius, root, da_dd, df_da, da_dvt, da_dth, normal, friction
+      real(dp) :: dn_dvt, dn_dth, dh_dvt, dh_dth
+      call contact_angle_sin_cos(model%sin_theta, model%cos_theta, slope, &
+                                 model%errata%e7_signed_slope, sin1, cos1)
+      radius = jkr_radius(-vt*sin1/model%scene%beta)
+      root = sqrt(radius)
+      ! dD/dA = 2A - (2/3)/sqrt(A) > 0 on the stable branch (A > 3^(-2/3)); it vanishes at the
+      ! pull-off, where f ~ sqrt(D - D_c) (an integrable singularity of J along the orbit), and
+      ! past it (a trial stage beyond the switch) tmafm_jkr holds A at A_c: there f is constant.
+      if (2*radius - 2/(3*root) > sqrt(epsilon(1.0_dp))) then
+         da_dd = 1/(2*radius - 2/(3*root))
+      else
+         da_dd = 0
+      end if
+      df_da = 3*radius*radius - 3*root
+      da_dvt = -da_dd*sin1/model%scene%beta
+      da_dth = -da_dd*vt*cos1/model%scene%beta
+      normal = jkr_force_group(radius)
+      friction = radius*(-vt)*cos1
+      dn_dvt = df_da*da_dvt
+      dn_dth = df_da*da_dth
+      dh_dvt = da_dvt*(-vt)*cos1 - radius*cos1
+      dh_dth = da_dth*(-vt)*cos1 + radius*vt*sin1
+      call brackets(model, sin1, cos1, normal, friction, dn_dvt, dh_dvt, dn_dth, dh_dth, angle_rate(model, slope), &
+                    p1, p2, dp1_dvt, dp1_dt, dp2_dvt, dp2_dt)
+   end subroutine jkr_partials
 
    !> The brackets in flight (the van der Waals attraction under 'dmt_vdw', the forces at a
    !> distance, a meniscus that holds the tip: wet) and their partial derivatives with respect to

@@ -35,6 +35,7 @@ module tmafm_monodromy
    use tmafm_contact, only: law_hertz, law_dmt
    use tmafm_vdw, only: law_dmt_vdw
    use tmafm_jkr, only: law_jkr
+   use tmafm_contact, only: contact_angle_sin_cos
    use tmafm_model_jacobian, only: model_jacobian, map_state_size, map_to_model_state, model_to_map_state
    use tmafm_flight, only: free_flight_t
    use tmafm_events, only: initial_phase
@@ -116,24 +117,25 @@ contains
       n = model%n_modes
       if (size(y0) /= m .or. size(y_end) /= m .or. any(shape(monodromy) /= [m, m])) then
          ierr = err_input
-         if (model%sls%on .or. model%meniscus%on) then
-            write (errmsg, '(a,i0,a)') 'stroboscopic map: the state (a, adot[, w][, meniscus flag]) must have ', m, &
+         if (model%sls%on .or. model%hysteretic) then
+            write (errmsg, '(a,i0,a)') 'stroboscopic map: the state (a, adot[, w][, phase flag]) must have ', m, &
                ' components'
          else
             write (errmsg, '(a,i0)') 'stroboscopic map: the state must have 2N = ', m
          end if
          return
       end if
-      if (model%law == law_jkr) then
+      if (model%law == law_jkr .and. model%surface%on) then
          ierr = err_input
-         errmsg = "stroboscopic map: &model contact_law = 'jkr': its neck's pull-off (a switch off V_T = 0) "// &
-                  "has no saltation matrix here; continue 'hertz', 'dmt' or 'dmt_vdw' scenes"
+         errmsg = "stroboscopic map: &model contact_law = 'jkr' with a force at a distance (a tip bias or a "// &
+                  "double layer): the neck's Jacobian does not take it; continue the JKR scene without it"
          return
       end if
-      if (model%law /= law_hertz .and. model%law /= law_dmt .and. model%law /= law_dmt_vdw) then
+      if (model%law /= law_hertz .and. model%law /= law_dmt .and. model%law /= law_dmt_vdw &
+          .and. model%law /= law_jkr) then
          ierr = err_input
          write (errmsg, '(a,i0,a)') 'stroboscopic map: &model contact_law = ', model%law, &
-            ' has no Jacobian (hertz, dmt or dmt_vdw)'
+            ' has no Jacobian (hertz, dmt, dmt_vdw or jkr)'
          return
       end if
       if (n_periods < 1) then
@@ -191,9 +193,9 @@ contains
       do j = 1, m
          phi(j, j) = 1
       end do
+      ! The phase's flag (the map state's last component) is discrete: no row, no column.
+      if (model%hysteretic) phi(m, m) = 0
       if (model%meniscus%on) then
-         ! The meniscus's flag (the map state's last component) is discrete: no row, no column.
-         phi(m, m) = 0
          y(model%meniscus_slot) = merge(1.0_dp, 0.0_dp, y0(m) > 0.5_dp)
          ! A meniscus stretched past its rupture gap has broken.
          vt = model%tip_gap(0.0_dp, y)
@@ -205,6 +207,12 @@ contains
       stats(stat_flight_gap_min) = huge(1.0_dp)
       stats(stat_switch_rate_min) = huge(1.0_dp)
       in_contact = initial_phase(model, 0.0_dp, y)
+      if (model%law == law_jkr .and. y0(m) > 0.5_dp) then
+         ! A neck that holds at the boundary, stretched above the surface up to its pull-off gap.
+         vt = model%tip_gap(0.0_dp, y)
+         call model%switch_offset(y, .true., vt, 0.0_dp, offset, offset_rate)
+         in_contact = vt <= offset
+      end if
       h = 0
       do while (tau < t_end)
          if (in_contact .or. model%long_range .or. model%wet(y)) then
@@ -248,6 +256,7 @@ contains
          end if
       end do
       call model_to_map_state(model, y, y_end)
+      if (model%law == law_jkr) y_end(m) = merge(1.0_dp, 0.0_dp, in_contact)
       monodromy = phi
       stats(stat_evaluations) = w%evaluations
    end subroutine stroboscopic_map
@@ -279,28 +288,56 @@ contains
       real(dp), intent(inout) :: phi(:, :)
       logical, intent(in) :: entering
       real(dp), intent(inout) :: stats(n_orbit_stats)
-      real(dp) :: f_free(size(y)), f_contact(size(y)), jump(size(y)), row(size(phi, 2)), rate
-      integer :: n, j, m
+      real(dp) :: f_free(size(y)), f_contact(size(y)), jump(size(phi, 1)), row(size(phi, 2)), rate
+      real(dp) :: normal(model%n_modes)
+      integer :: n, j
       n = model%n_modes
-      m = size(phi, 1)
       call model%derivative(tau, y, .false., f_free)
       call model%derivative(tau, y, .true., f_contact)
       rate = model%tip_gap_rate(tau, y)
-      stats(stat_switch_rate_min) = min(stats(stat_switch_rate_min), abs(rate))
-      if (entering) then
-         jump = f_contact - f_free
-      else
-         jump = f_free - f_contact
+      normal = model%tip
+      if (.not. entering .and. model%law == law_jkr) then
+         ! A JKR neck breaks at h = V_T - offset(theta1) = 0: its normal and rate.
+         call switch_gradient(model, y, rate, normal)
       end if
-      if (all(jump(1:m) == 0)) return
-      ! n^T Phi: the rows of the displacements weighted by p.
+      stats(stat_switch_rate_min) = min(stats(stat_switch_rate_min), abs(rate))
+      ! The jump in the map's coordinates (a phase's flag has none; model_t's pad is left out).
+      if (entering) then
+         call model_to_map_state(model, f_contact - f_free, jump)
+      else
+         call model_to_map_state(model, f_free - f_contact, jump)
+      end if
+      if (all(jump == 0)) return
+      ! n^T Phi: the rows of the displacements weighted by the switch's normal.
       do j = 1, size(phi, 2)
-         row(j) = dot_product(model%tip, phi(1:n, j))
+         row(j) = dot_product(normal, phi(1:n, j))
       end do
       do j = 1, size(phi, 2)
-         phi(:, j) = phi(:, j) + jump(1:m)*(row(j)/rate)
+         phi(:, j) = phi(:, j) + jump*(row(j)/rate)
       end do
    end subroutine saltation
+
+   !> The switch function h = V_T - offset of a JKR neck at a state y (model_t%switch_offset, offset
+   !> = -D_c beta/sin(theta1)): its gradient in a, p + offset cos(theta1)/sin(theta1) dtheta1/da, and
+   !> its rate along the neck's field, dV_T/dtau - offset' (rate: in dV_T/dtau, out dh/dtau).
+   subroutine switch_gradient(model, y, rate, normal)
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: y(:)
+      real(dp), intent(inout) :: rate
+      real(dp), intent(out) :: normal(:)
+      real(dp) :: offset, offset_rate, slope, sin1, cos1, dtheta
+      integer :: n
+      n = model%n_modes
+      call model%switch_offset(y, .true., 0.0_dp, rate, offset, offset_rate)
+      slope = dot_product(model%scaled_slope, y(1:n))
+      call contact_angle_sin_cos(model%sin_theta, model%cos_theta, slope, model%errata%e7_signed_slope, sin1, cos1)
+      sin1 = max(sin1, epsilon(1.0_dp))
+      ! dtheta1/dslope (Eq. 3, or E7's signed form).
+      dtheta = 1/(1 + slope*slope)
+      if (.not. model%errata%e7_signed_slope) dtheta = -sign(1.0_dp, slope)*dtheta
+      normal = model%tip + offset*cos1/sin1*dtheta*model%scaled_slope
+      rate = rate - offset_rate
+   end subroutine switch_gradient
 
    !> The extrema of V_T along a flight of length s_end: a scan of dV_T/dtau (spacing at most
    !> T/scan_per_period and 1/|fastest rate|), each sign change refined by Brent.
@@ -440,7 +477,7 @@ contains
             vt_left = vt0
             if (side*rate0 > 0 .and. side*rate1 < 0 .and. reach == step) &
                call phase_extremum(model, w, tau0, step, rate0, rate1, in_contact, left, vt_left)
-            if (model%meniscus%on) then
+            if (model%hysteretic) then
                ! The bracket's values are the switch function's (V_T (1 - V_T/o) in a flight the
                ! meniscus holds: V_T alone has no sign change where it breaks).
                vt_left = bracket_value(model, w, tau0, left, in_contact)
@@ -484,7 +521,8 @@ contains
    end subroutine forced_phase
 
    !> The switch function of a phase at (tau, y): V_T less the phase's offset (model_t%switch_offset:
-   !> V_T (1 - V_T/o) in a flight a meniscus holds), positive in flight and negative in contact.
+   !> V_T (1 - V_T/o) in a flight a meniscus holds, V_T less the pull-off gap while a JKR neck
+   !> holds), positive in flight and negative in contact.
    pure real(dp) function phase_gap(model, tau, y, in_contact) result(gap)
       type(model_t), intent(in) :: model
       real(dp), intent(in) :: tau
@@ -492,7 +530,7 @@ contains
       logical, intent(in) :: in_contact
       real(dp) :: offset, offset_rate
       gap = model%tip_gap(tau, y)
-      if (.not. model%meniscus%on) return
+      if (.not. model%hysteretic) return
       call model%switch_offset(y, in_contact, gap, 0.0_dp, offset, offset_rate)
       gap = gap - offset
    end function phase_gap

@@ -39,7 +39,7 @@ import numpy as np
 
 from ._model import POWER_NAMES, Model
 from ._checks import real_array
-from ._namelist import shown
+from ._namelist import _NOT_NUMBERS, shown
 from ._run import Config, Result
 from .errors import InputError, InputTypeError
 
@@ -67,7 +67,7 @@ def _real(what: str, name: str, value, optional: bool = False, positive: bool = 
     """A finite real number (None too when optional); InputError otherwise."""
     if value is None and optional:
         return None
-    ok = not isinstance(value, (bool, np.bool_)) and isinstance(value, (int, float, np.integer,
+    ok = not isinstance(value, _NOT_NUMBERS) and isinstance(value, (int, float, np.integer,
                                                                           np.floating))
     try:
         ok = ok and math.isfinite(float(value)) and (not positive or float(value) > 0)
@@ -105,7 +105,7 @@ def _count(what: str, name: str, value, optional: bool = False, low: int = 1) ->
     """An integer from `low` to 10**7 (None too when optional); InputError otherwise."""
     if value is None and optional:
         return None
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) \
+    if isinstance(value, _NOT_NUMBERS) or not isinstance(value, (int, np.integer)) \
             or not low <= value <= 10_000_000:
         raise InputError(f"{what}: {name} = {shown(value)}: must be an integer from {low} to "
                          f"10000000" + (" or None" if optional else ""))

@@ -776,6 +776,12 @@ def check_other_docs(ck, group="docs"):
              f"{b['cpu_ratio_text_over_npy']:.1f}"], "Cost")
     ck.text(group, "docs/output-format.md", "{} s (text) and {} s (`.npz`) for the first run",
             [f"{a['text']['wall_s']:.2f}", f"{a['npy']['wall_s']:.3f}"], "Cost")
+    api = load(result_path("api_campaign.json"))
+    ck.text(group, "docs/reliability.md", "commit {}): of {} calls over {} entry\npoints, {} broke the "
+            "contract: {} returned and {} were refused with a typed error, in\n{} s CPU",
+            [api["commit"][:7], grouped(api["calls"]), len(api["by_entry"]), api["broke_contract"],
+             grouped(api["outcomes"].get("ok", 0)), grouped(api["outcomes"].get("ok-error", 0)),
+             api["cpu_s"]], None)
     sd = {(r["method"], json.dumps(r["solver"], sort_keys=True), json.dumps(r["model"], sort_keys=True)): r
           for r in load(result_path("steady_dop853.json")) if "input" not in r}
     n4 = json.dumps({"n_modes": 4})

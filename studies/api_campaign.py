@@ -533,7 +533,14 @@ def main(argv=None) -> None:
         "by_entry": {k: dict(v.most_common()) for k, v in sorted(by_entry.items())},
         "failures": failures,
     }
-    args.out.write_text(json.dumps(report, indent=1) + "\n")
+    # Written as the package writes (a temporary, fsync, rename): a full disk or a limit leaves
+    # no partial JSON passed off as a result (tests/test_writer_faults.py).
+    from tmafm._safefile import write_text
+    try:
+        write_text(args.out, json.dumps(report, indent=1) + "\n", "campaign report")
+    except tmafm.TmafmError as exc:
+        sys.stderr.write(f"api_campaign: error: {exc}\n")
+        sys.exit(1)
     print(json.dumps({k: report[k] for k in ("calls", "outcomes", "broke_contract", "wall_s", "cpu_s")}))
 
 

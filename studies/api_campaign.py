@@ -11,7 +11,9 @@ too: ``contact_law = 'jkr'``, ``&initial in_contact``, ``tip_bias``, ``debye_len
 ``ionic_strength``, the surface potentials, ``&output sample_from``/``last_periods``), the
 Config's properties and methods, ``tmafm.observe``, the Result's methods and ``tmafm.load``
 (also of a damaged archive), ``tmafm.Model``'s methods, the analysis functions,
-``tmafm.approach``, ``tmafm.frequency_sweep`` and ``tmafm.continuation``.  The hostile values:
+``tmafm.approach``, ``tmafm.frequency_sweep``, ``tmafm.continuation``, ``tmafm.sweep``,
+``sweeps.write_dataset``, ``read_dataset``, ``summarize`` and the sweep command line
+(``sweeps.main``, never on a real sweep file).  The hostile values:
 wrong types (None, bools, strings, bytes, lists, nested lists, dicts, object arrays, an object
 whose repr raises), NaN and infinities, 10**400, huge and tiny reals, negative counts, numpy
 scalars, and hostile paths (missing folders, a folder, a NUL byte, 5000 characters).
@@ -206,6 +208,12 @@ class Cache:
             self._result.save(self.folder / "good.npz")
         return self._result
 
+    def dataset(self):
+        import tmafm
+        if getattr(self, "_dataset", None) is None:
+            self._dataset = tmafm.sweep("fig2_n4", {"scene.delta_hat": [0.2, 0.1]}, max_periods=2, workers=1)
+        return self._dataset
+
 
 def generate(seed: int, folder: Path, cache: Cache) -> Call:
     """The call of `seed`; `folder` is where paths it writes point."""
@@ -214,7 +222,8 @@ def generate(seed: int, folder: Path, cache: Cache) -> Call:
     rng = np.random.Generator(np.random.PCG64(seed))
     base = list(BASES)[int(rng.integers(len(BASES)))]
     family = rng.choice(["run", "config", "observe", "result", "analysis", "model", "load", "curve",
-                         "continuation"], p=[0.3, 0.14, 0.14, 0.08, 0.1, 0.08, 0.06, 0.05, 0.05])
+                         "continuation", "sweep", "dataset", "cli"],
+                        p=[0.27, 0.12, 0.12, 0.07, 0.09, 0.07, 0.06, 0.05, 0.05, 0.04, 0.03, 0.03])
     count = int(rng.integers(1, 4))
     if family == "run":
         groups = overrides_of(rng, base, count)
@@ -353,6 +362,60 @@ def generate(seed: int, folder: Path, cache: Cache) -> Call:
                                                                       if isinstance(v, float)] or values
                 return tmafm.frequency_sweep("fig2_n4", omega, **keywords)
         return Call(seed, which, f"{which}(fig2_n4, {_short(values)}, {_short(keywords)})", curve_call)
+    if family == "sweep":
+        key = str(rng.choice(["scene.delta_hat", "scene.alpha2", "model.n_modes", "physical.tip_bias",
+                              "scene.bogus", "solver.rtol", "model.contact_law", "output.last_periods"]))
+        values = [hostile(rng) if rng.random() < 0.4 else float(v) for v in rng.uniform(0.05, 0.3, 2)]
+        axes = {key: values} if rng.random() < 0.8 else hostile(rng)
+        keywords = {"max_periods": int(rng.integers(1, 3)), "workers": 1}
+        if rng.random() < 0.4:
+            name = str(rng.choice(["chunk", "workers", "progress", "steady_tol", "observables", "bogus"]))
+            value = hostile(rng)
+            if name in ("chunk", "workers") and isinstance(value, int) and not isinstance(value, bool) \
+                    and value > 2:
+                value = -value
+            keywords[name] = value
+        sweep_base = "fig2_n4" if rng.random() < 0.7 else "biased_tip"
+
+        def sweep_call():
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                return tmafm.sweep(sweep_base, axes, **keywords)
+        return Call(seed, "sweep", f"sweep({sweep_base!r}, {_short(axes)}, {_short(keywords)})", sweep_call)
+    if family == "dataset":
+        which = str(rng.choice(["write_dataset", "read_dataset", "summarize"]))
+        arg = hostile_path(rng, folder)
+        spoil = rng.random() < 0.5
+
+        def dataset_call():
+            from tmafm import sweeps
+            ds = cache.dataset()
+            if which == "write_dataset":
+                return sweeps.write_dataset(hostile(rng) if spoil else ds, arg)
+            if which == "read_dataset":
+                return sweeps.read_dataset(arg if spoil else folder / "good.npz")
+            return sweeps.summarize(hostile(rng) if spoil else ds)
+        return Call(seed, f"sweeps.{which}", f"sweeps.{which}({_short(arg)}, spoiled {spoil})", dataset_call)
+    if family == "cli":
+        # Never a real sweep file (a whole sweep per call): a plain input, a missing file, a folder.
+        argv = [str(rng.choice([str(REPO / "inputs" / "fig2_n4.nml"), "none.nml", str(folder)]))] \
+            if rng.random() < 0.6 else []
+        for _ in range(int(rng.integers(0, 4))):
+            argv.append(str(rng.choice(["-o", "--workers", "--plot", "--progress", "--summarize", "--bogus",
+                                        "x.nc", "x.png", "nodir/x.nc", "-1", "0", "", "\x00", "x" * 300])))
+        if rng.random() < 0.1:
+            argv = hostile(rng)
+
+        def cli_call():
+            from tmafm import sweeps
+            import contextlib
+            import io
+            with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
+                code = sweeps.main(argv)
+            if code not in (0, 2):
+                raise SystemExit(code)
+            return code
+        return Call(seed, "sweeps.main", f"sweeps.main({_short(argv)})", cli_call)
     # continuation: the bistable scene's free branch, a few points.
     start, stop = 2.0e-3, 1.98e-3
     key = "scene.delta_hat"

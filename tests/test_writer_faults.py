@@ -111,7 +111,7 @@ def _write(name, target, inputs, exe, limit=0, variant=0, wait=True):
             if limit:
                 resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
         proc = subprocess.Popen([sys.executable, str(REPO / "studies" / "api_campaign.py"), "--calls",
-                                 str(20 + variant), "--out", str(target)], stdout=subprocess.PIPE,
+                                 str(3 + variant), "--out", str(target)], stdout=subprocess.PIPE,
                                 stderr=subprocess.PIPE, text=True, preexec_fn=limit_it)
         if not wait:
             return proc

@@ -776,6 +776,26 @@ def check_other_docs(ck, group="docs"):
              f"{b['cpu_ratio_text_over_npy']:.1f}"], "Cost")
     ck.text(group, "docs/output-format.md", "{} s (text) and {} s (`.npz`) for the first run",
             [f"{a['text']['wall_s']:.2f}", f"{a['npy']['wall_s']:.3f}"], "Cost")
+    api = load(result_path("api_campaign.json"))
+    ck.text(group, "docs/reliability.md", "commit {}): of {} calls over {} entry\npoints, {} broke the "
+            "contract: {} returned and {} were refused with a typed error, in\n{} s CPU",
+            [api["commit"][:7], grouped(api["calls"]), len(api["by_entry"]), api["broke_contract"],
+             grouped(api["outcomes"].get("ok", 0)), grouped(api["outcomes"].get("ok-error", 0)),
+             api["cpu_s"]], None)
+    sd = {(r["method"], json.dumps(r["solver"], sort_keys=True), json.dumps(r["model"], sort_keys=True)): r
+          for r in load(result_path("steady_dop853.json")) if "input" not in r}
+    n4 = json.dumps({"n_modes": 4})
+    defaults = json.dumps({"atol": 1e-10, "rtol": 1e-7}, sort_keys=True)
+    capped = sd[("dopri5", defaults, n4)]
+    ck.value(group, "docs/observables.md", "dopri5, N = 4 at the defaults: a period", "1",
+             str(capped["period"]))
+    ck.text(group, "docs/observables.md", "where `dop853` and `flight_exact` find period 1 after {}",
+            [sd[("dop853", defaults, n4)]["periods_run"]], None)
+    ck.value(group, "docs/observables.md", "flight_exact, N = 4: the same periods",
+             str(sd[("dop853", defaults, n4)]["periods_run"]), str(sd[("flight_exact", defaults, n4)]["periods_run"]))
+    ck.text(group, "docs/observables.md", "Capped inside the\n  interval it finds it after {} too",
+            [capped["periods_run"]], None)
+    ck.text(group, "docs/observables.md", "(mean h ω_4 from 1.13 to\n  {}; ", [f"{capped['mean_h_omega_n']:.2f}"], None)
     bl = load(result_path("basin_labels.json"))
     bud = bl["budget"]
     doc = "docs/sweeps.md"

@@ -390,6 +390,44 @@ def test_dop853_finds_the_period_of_a_free_high_q_orbit_as_dopri5_does():
     assert np.abs(found.poincare[-1] - reference.poincare[-1]).max() <= 2 * reach
 
 
+def _dopri5_stability(z):
+    """dopri5's stability function R(z): the series of its Butcher tableau, 1, 1, 1/2, 1/6, 1/24,
+    1/120, 1/600 (b^T A^k 1 of Dormand and Prince's 5th-order weights, computed here)."""
+    a = np.zeros((6, 6))
+    a[1, :1] = [1 / 5]
+    a[2, :2] = [3 / 40, 9 / 40]
+    a[3, :3] = [44 / 45, -56 / 15, 32 / 9]
+    a[4, :4] = [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729]
+    a[5, :5] = [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656]
+    b = np.array([35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84])
+    return 1 + z * b @ np.linalg.solve(np.eye(6) - z * a, np.ones(6))
+
+
+def test_dopri5_with_four_modes_at_the_defaults_finds_the_period_flight_exact_finds():
+    """dopri5 holds the imaginary axis only up to h omega = 0.997 (|R(iy)| <= 1); with N = 4 at
+    the defaults on the free tapping_polystyrene orbit its error control chose h omega_4 ~ 1.13,
+    where a mode needs zeta > 1.2e-4 not to be amplified by the method, and mode 4 (zeta 3.7e-5)
+    was: no period in 6000.  Its step is now capped at h omega_N = 0.9
+    (tmafm_method_adaptive dopri5_mode_reach), inside the interval."""
+    # The cap's premise, from the method's stability function: inside at 0.9, outside at 1.
+    assert abs(_dopri5_stability(0.9j)) < 1 < abs(_dopri5_stability(1.0j))
+    defaults = {"rtol": 1e-7, "atol": 1e-10}
+
+    def orbit(method):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", tmafm.UnsteadyWarning)
+            return tmafm.observe("tapping_polystyrene", max_periods=2500, model={"n_modes": 4},
+                                 solver={"method": method, **defaults}, observables=())
+    exact, found = orbit("flight_exact"), orbit("dopri5")
+    assert exact.period == found.period == 1, found.evidence
+    assert abs(len(found.poincare) - len(exact.poincare)) <= 0.1 * (len(exact.poincare) - 1)
+    # Every step inside the cap: 200 tau of the same run take at least 200 omega_4/0.9 steps.
+    config = tmafm.Config("tapping_polystyrene", model={"n_modes": 4},
+                          solver={"method": "dopri5", "tau_end": 200.0, **defaults})
+    omega_n = float(np.asarray(config.model()._f.beta)[3]) ** 2
+    assert config.run().counters["steps"] >= 200 * omega_n / 0.9
+
+
 def test_dop853_on_fig3_at_the_defaults_finds_period_one():
     """fig3 with dop853 at rtol 1e-7 fell into a two-period cycle of its step pattern (points
     4.7e-6 of the orbit apart) and had no period in 300 periods; flight_exact finds period 1

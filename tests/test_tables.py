@@ -109,9 +109,9 @@ def test_model_md_names_the_scene_keys_of_the_core():
 #: The defaults the reader resolves: errata 'convention' is written as the list its convention
 #: gives (the default 'consistent': all of them).
 RESOLVED = {("model", "errata"): "'E1,E2,E3,E4,E6,E7'"}
-#: Switches of optional physics (tmafm_keys key_t omit_default): the resolved text leaves them
-#: out while they have their default (off), so that a scene without that physics writes the
-#: text it always wrote.
+#: Switches of optional physics, and the output window (tmafm_keys key_t omit_default): the
+#: resolved text leaves them out while they have their default (off), so that an input without
+#: them writes the text it always wrote.
 OFF_SWITCHES = {("scene", "sls_relaxation_time"), ("scene", "sls_modulus_ratio"),
                 ("physical", "sample_relaxation_time"), ("physical", "sample_modulus_relaxed"),
                 ("scene", "medium_mass"), ("scene", "medium_reynolds"),
@@ -121,7 +121,7 @@ OFF_SWITCHES = {("scene", "sls_relaxation_time"), ("scene", "sls_modulus_ratio")
     {("scene", k) for k in ("electrostatic_strength", "electrostatic_radius", "cone_half_angle",
                             "double_layer_strength", "double_layer_range", "capillary_strength",
                             "capillary_range")} | \
-    {("initial", "in_contact")} | \
+    {("initial", "in_contact"), ("output", "sample_from"), ("output", "last_periods")} | \
     {("physical", k) for k in ("tip_bias", "contact_potential", "cone_half_angle", "medium_permittivity",
                                "debye_length", "ionic_strength", "temperature", "tip_surface_potential",
                                "sample_surface_potential", "relative_humidity", "meniscus_rupture_distance",

@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ._fortran import api as _api
-from ._namelist import shown
+from ._namelist import _NOT_NUMBERS, shown
 from ._run import Config
 from .errors import InputError, raise_for
 
@@ -90,7 +90,8 @@ def _finite_result(method: str, arguments: dict, **outputs) -> None:
 def _phase(in_contact) -> bool:
     """in_contact: a bool (or 0/1); anything else ("no", None, 2) is an InputError."""
     if isinstance(in_contact, (bool, np.bool_)) or (
-            isinstance(in_contact, (int, np.integer)) and in_contact in (0, 1)):
+            isinstance(in_contact, (int, np.integer)) and not isinstance(in_contact, _NOT_NUMBERS)
+            and in_contact in (0, 1)):
         return bool(in_contact)
     raise InputError(f"in_contact must be True or False, got {shown(in_contact)}")
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import f90nml
 import numpy as np
 
-from ._namelist import shown
+from ._namelist import _NOT_NUMBERS, shown
 from .errors import InputError, InputFileError, InputTypeError
 
 __all__ = ["save", "load", "MEMBERS"]
@@ -72,7 +72,7 @@ def _result_members(result) -> dict:
     if not isinstance(counters, dict):
         raise InputTypeError(f"Result.save: counters must be a dict, not {type(counters).__name__}")
     values = [counters.get(k, 0) for k in COUNTER_KEYS]
-    if any(isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer))
+    if any(isinstance(v, _NOT_NUMBERS) or not isinstance(v, (int, np.integer))
            or not 0 <= v < 2**63 for v in values):
         raise InputError(f"Result.save: counters must be integers from 0 to 2**63 - 1, got "
                          f"{shown(dict(zip(COUNTER_KEYS, values)))}")

@@ -22,7 +22,7 @@ from ._fortran import api as _api
 from ._fortran import text as _text
 from ._fortran import config_t as _config_t
 from ._fortran import polls
-from ._namelist import KEY_TYPES, check_groups, shown, to_text
+from ._namelist import _NOT_NUMBERS, KEY_TYPES, check_groups, shown, to_text
 from .errors import InputError, InputFileError, InputTypeError, SolverError, raise_for
 
 __all__ = ["Config", "Result", "run", "resolve", "SCENE_KEYS", "COUNTER_KEYS"]
@@ -129,7 +129,7 @@ def _for_core(text) -> bytes:
 def _checked_max_switches(max_switches):
     if max_switches is None:
         return None
-    if isinstance(max_switches, (bool, np.bool_, np.timedelta64)) \
+    if isinstance(max_switches, _NOT_NUMBERS) \
             or not isinstance(max_switches, (int, np.integer)) or max_switches < 0:
         raise InputError(f"max_switches = {shown(max_switches)}: must be an integer >= 0 or None")
     return int(max_switches)

@@ -13,6 +13,9 @@ samples.
 
 Definitions used throughout:
 
+* ``since`` (where a measure starts) defaults to the first sample: tau = 0, or the start of
+  the run's output window (``&output sample_from``, ``last_periods``), whose Poincare
+  sections are the run's own period boundaries inside the window;
 * drive period T = 2 pi / Omega; Poincare sections are the states at tau = k T, which needs
   ``sample_dtau = T / m`` for a whole number m (``sample_dtau_for``);
 * a section distance is the max-norm of the state difference, each component scaled by its
@@ -36,7 +39,7 @@ import numpy as np
 
 from ._model import POWER_NAMES, Model
 from ._checks import real_array
-from ._namelist import shown
+from ._namelist import _NOT_NUMBERS, shown
 from ._run import Config, Result
 from .errors import InputError, InputTypeError
 
@@ -64,7 +67,7 @@ def _real(what: str, name: str, value, optional: bool = False, positive: bool = 
     """A finite real number (None too when optional); InputError otherwise."""
     if value is None and optional:
         return None
-    ok = not isinstance(value, (bool, np.bool_)) and isinstance(value, (int, float, np.integer,
+    ok = not isinstance(value, _NOT_NUMBERS) and isinstance(value, (int, float, np.integer,
                                                                           np.floating))
     try:
         ok = ok and math.isfinite(float(value)) and (not positive or float(value) > 0)
@@ -86,7 +89,10 @@ def _scale(what: str, scale, sections: np.ndarray) -> np.ndarray:
 
 
 def _since(what: str, result, since) -> float:
-    """A time within the run's samples; InputError otherwise."""
+    """A time within the run's samples (None: the first sample, tau = 0 unless the run kept an
+    output window); InputError otherwise."""
+    if since is None:
+        return float(result.tau[0]) if np.size(result.tau) else 0.0
     since = _real(what, "since", since)
     start, end = (float(result.tau[0]), float(result.tau[-1])) if np.size(result.tau) else (0, 0)
     if not start <= since <= end:
@@ -99,7 +105,7 @@ def _count(what: str, name: str, value, optional: bool = False, low: int = 1) ->
     """An integer from `low` to 10**7 (None too when optional); InputError otherwise."""
     if value is None and optional:
         return None
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) \
+    if isinstance(value, _NOT_NUMBERS) or not isinstance(value, (int, np.integer)) \
             or not low <= value <= 10_000_000:
         raise InputError(f"{what}: {name} = {shown(value)}: must be an integer from {low} to "
                          f"10000000" + (" or None" if optional else ""))
@@ -160,15 +166,32 @@ def _stride(result) -> int:
     return stride
 
 
+def _offset(result) -> int:
+    """The run's index of the first sample, tau[0] = offset * sample_dtau: 0, or the first
+    sample of an output window (``&output sample_from``, ``last_periods``)."""
+    if result.tau.size < 2:
+        return 0
+    return int(round(result.tau[0] / (result.tau[1] - result.tau[0])))
+
+
+def _first_period_sample(result, since: float, stride: int) -> int:
+    """The index into the samples of the first whole period boundary at or after `since` and
+    at or after the first sample (an output window may start inside a period)."""
+    offset = _offset(result)
+    period = max(int(math.ceil(since / drive_period(result) - 1e-9)), -(-offset // stride))
+    return period * stride - offset
+
+
 def poincare_sections(result) -> tuple[np.ndarray, np.ndarray]:
-    """Times k T and states (a, adot) at every whole drive period of the run."""
+    """Times k T and states (a, adot) at every whole drive period of the run's samples (of
+    an output window: its period boundaries)."""
     _result(result, "poincare_sections")
     stride = _stride(result)
-    index = np.arange(0, result.tau.size, stride)
+    index = np.arange(_first_period_sample(result, 0.0, stride), result.tau.size, stride)
     return result.tau[index], np.hstack([result.a[index], result.adot[index]])
 
 
-def state_scale(result, since: float = 0.0) -> np.ndarray:
+def state_scale(result, since: float | None = None) -> np.ndarray:
     """Range of each state component (a, adot) over the samples after `since`."""
     _result(result, "state_scale")
     since = _since("state_scale", result, since)
@@ -251,12 +274,12 @@ def classify_sections(sections: np.ndarray, tol: float = 1e-6, max_period: int =
 def classify_period(result, tol: float | None = None, max_period: int = 16,
                     window: int | None = None) -> dict:
     """classify_sections on the Poincare sections of a run, scaled by the size of the
-    motion over the second half of the run; tol defaults to default_tolerance."""
+    motion over the second half of the run (of its samples); tol defaults to default_tolerance."""
     _result(result, "classify_period")
     tol = _real("classify_period", "tol", tol, optional=True, positive=True)
     tol = default_tolerance(result) if tol is None else tol
     return classify_sections(poincare_sections(result)[1], tol, max_period, window,
-                             state_scale(result, result.tau[-1] / 2))
+                             state_scale(result, (result.tau[0] + result.tau[-1]) / 2))
 
 
 def steady_state(result, tol: float | None = None, max_period: int = 16, hold: int = 4) -> dict:
@@ -264,7 +287,7 @@ def steady_state(result, tol: float | None = None, max_period: int = 16, hold: i
     for all later sections, at least `hold` cycles, by the core's rule (classify_sections):
     for the smallest such n, the earliest section s such that every section from s on
     repeats the one n periods earlier (distance <= tol, each component scaled by the size of
-    the motion over the second half of the run).  ``reached`` is False otherwise.  tol
+    the motion over the second half of the run, of its samples).  ``reached`` is False otherwise.  tol
     defaults to default_tolerance."""
     from .observe import steady_test
     _result(result, "steady_state")
@@ -273,7 +296,7 @@ def steady_state(result, tol: float | None = None, max_period: int = 16, hold: i
     hold = _count("steady_state", "hold", hold)
     tol = default_tolerance(result) if tol is None else tol
     times, sections = poincare_sections(result)
-    points = _scaled(sections, state_scale(result, result.tau[-1] / 2))
+    points = _scaled(sections, state_scale(result, (result.tau[0] + result.tau[-1]) / 2))
     total = points.shape[0]
 
     def repeats_from(start: int, n: int) -> bool:
@@ -381,7 +404,7 @@ def _observed_periods(result, since):
     return obs, slice(k0, obs.periods)
 
 
-def modal_amplitudes(result, since: float = 0.0) -> dict:
+def modal_amplitudes(result, since: float | None = None) -> dict:
     """Per mode, in contact and out of contact after `since`: max |a_j| and half peak-to-peak
     (max a_j - min a_j)/2.  The extrema are the core's, located on the dense output between
     the switches over the whole drive periods after `since` (``observation``); a Result the
@@ -412,7 +435,7 @@ def modal_amplitudes(result, since: float = 0.0) -> dict:
     return out
 
 
-def vt_max(result, since: float = 0.0) -> float:
+def vt_max(result, since: float | None = None) -> float:
     """The largest V_T after `since`: the core's located maximum over the whole drive periods
     after `since` (``observation``), or the largest sample when the core cannot re-run it."""
     _result(result, "vt_max")
@@ -424,7 +447,7 @@ def vt_max(result, since: float = 0.0) -> float:
     return float(result.vt[result.tau >= since].max())
 
 
-def per_period(result, since: float = 0.0) -> list[dict]:
+def per_period(result, since: float | None = None) -> list[dict]:
     """For every whole drive period after `since`: contact fraction, contacts begun, maximum
     indentation (-min V_T) and min V_T (these four, and the works, from the core's
     observation when there is one), peak normal and friction groups ((L/d) kappa f_c and (L/d) kappa h
@@ -434,13 +457,13 @@ def per_period(result, since: float = 0.0) -> list[dict]:
     since = _since("per_period", result, since)
     stride = _stride(result)
     flow = energy_flow(result)
-    first = int(math.ceil(since / drive_period(result) - 1e-9)) * stride
+    first = _first_period_sample(result, since, stride)
     obs = observation(result)
     rows = []
     for start in range(first, result.tau.size - stride, stride):
         sl = slice(start, start + stride + 1)
         tau = result.tau[sl]
-        k = start // stride
+        k = (start + _offset(result)) // stride
         if obs is not None and k < obs.periods:
             p = obs.per_period
             rows.append({
@@ -476,14 +499,14 @@ def per_period(result, since: float = 0.0) -> list[dict]:
 
 def _whole_periods(result, since):
     stride = _stride(result)
-    start = int(math.ceil(since / drive_period(result) - 1e-9)) * stride
+    start = _first_period_sample(result, since, stride)
     periods = (result.tau.size - 1 - start) // stride
     if periods < 1:
         raise InputError("no whole drive period after `since`")
     return slice(start, start + periods * stride), periods
 
 
-def lockin(result, since: float = 0.0) -> dict:
+def lockin(result, since: float | None = None) -> dict:
     """Amplitude and phase (radians) of V_T at the drive frequency over whole periods after
     `since`: V_T ~ mean + amplitude sin(Omega tau + phase); the mean of the core's per-period
     Fourier coefficients when it observes the run."""
@@ -492,7 +515,7 @@ def lockin(result, since: float = 0.0) -> dict:
     sl, periods = _whole_periods(result, since)
     obs = observation(result)
     if obs is not None:
-        k0 = sl.start // _stride(result)
+        k0 = (sl.start + _offset(result)) // _stride(result)
         rows = slice(k0, min(k0 + periods, obs.periods))
         # The core's steady harmonic: the harmonic over the periods, free of the +-180 wrap.
         from .observe import steady_harmonic
@@ -509,7 +532,7 @@ def lockin(result, since: float = 0.0) -> dict:
             "phase": float(math.atan2(quadrature, in_phase)), "periods": periods}
 
 
-def harmonics(result, since: float = 0.0, k_max: int = 20) -> np.ndarray:
+def harmonics(result, since: float | None = None, k_max: int = 20) -> np.ndarray:
     """Amplitudes of V_T at k Omega, k = 0..k_max, over whole periods after `since` (the core's
     per-period Fourier coefficients, averaged; |FFT| of the samples as the fallback)."""
     _result(result, "harmonics")
@@ -518,7 +541,7 @@ def harmonics(result, since: float = 0.0, k_max: int = 20) -> np.ndarray:
     sl, periods = _whole_periods(result, since)
     obs = observation(result, max(k_max, _CORE_HARMONICS))
     if obs is not None:
-        k0 = sl.start // _stride(result)
+        k0 = (sl.start + _offset(result)) // _stride(result)
         rows = slice(k0, min(k0 + periods, obs.periods))
         from .observe import steady_harmonic
         amp = obs.per_period["harmonic_amplitude"][rows, :k_max]
@@ -538,7 +561,7 @@ def summary(result, since: float | None = None, tol: float | None = None) -> dic
     tol = _real("summary", "tol", tol, optional=True, positive=True)
     period = drive_period(result)
     if since is None:
-        since = result.tau[-1] / 2
+        since = (result.tau[0] + result.tau[-1]) / 2
     tol = default_tolerance(result) if tol is None else tol
     cls = classify_period(result, tol=tol, max_period=8, window=8)
     rows = per_period(result, since)

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._fortran import LIMITS, OBSERVABLE_TABLE, api, batch_t, polls
-from ._namelist import shown
+from ._namelist import _NOT_NUMBERS, shown
 from ._checks import real_array
 from ._run import Config, _for_core, _source
 from .errors import InputError, InputTypeError, SolverError, UnsteadyWarning, raise_for
@@ -290,7 +290,7 @@ def _options(max_periods, p_max, steady_tol, steady_repeats, harmonics, stop_at_
                               ("p_max", p_max, LIMITS["max_p_max"]),
                               ("steady_repeats", steady_repeats, LIMITS["max_observed_periods"]),
                               ("harmonics", harmonics, LIMITS["max_harmonics"])):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        if isinstance(value, _NOT_NUMBERS) or not isinstance(value, (int, np.integer)):
             raise InputTypeError(f"observe {name} = {shown(value)}: must be an integer")
         if not 1 <= value <= most:
             raise InputError(f"observe {name} = {value}: must be 1 to {most}")
@@ -315,7 +315,7 @@ def _threads(threads, what: str, items: int) -> int:
     """The OpenMP thread count for the core (0: the OpenMP default), at most one per item."""
     if threads is None:
         return 0
-    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) \
+    if isinstance(threads, _NOT_NUMBERS) or not isinstance(threads, (int, np.integer)) \
             or not 1 <= threads <= MAX_THREADS:
         raise InputError(f"{what} threads = {shown(threads)}: must be an integer from 1 to "
                          f"{MAX_THREADS}, or None")
@@ -483,7 +483,7 @@ def observe_states(config, states, *, threads: int | None = None, max_periods: i
     if states.ndim != 2 or states.shape[1] != 2 * n:
         raise InputError(f"observe_states states: shape {states.shape}, must be (points, {2 * n})")
     confirm = opts["steady_repeats"] if confirm is None else confirm
-    if isinstance(confirm, bool) or not isinstance(confirm, (int, np.integer)) \
+    if isinstance(confirm, _NOT_NUMBERS) or not isinstance(confirm, (int, np.integer)) \
             or not 1 <= confirm <= 10_000_000:
         raise InputTypeError(f"observe_states confirm = {shown(confirm)}: must be an integer from 1 "
                              f"to 10000000")
@@ -549,7 +549,7 @@ def steady_test(points, p_max: int = 8, tol: float = 1e-6, repeats: int = 3, flo
     repeat relative to the size), 'closest_lag', 'steps' ({lag: largest step relative to the
     size} over the last ``repeats`` points, the evidence)}."""
     for name, value in (("p_max", p_max), ("repeats", repeats)):
-        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) \
+        if isinstance(value, _NOT_NUMBERS) or not isinstance(value, (int, np.integer)) \
                 or not 1 <= value <= 10_000_000:
             raise InputTypeError(f"steady_test {name} = {shown(value)}: must be an integer from "
                                  f"1 to 10000000")

@@ -327,7 +327,15 @@ module tmafm_keys
       key_t('output', 'sample_dtau', key_real, 0, 0, .false., upper_key='tau_end', unit='tau', &
             meaning='output interval: samples at tau = k sample_dtau, k = 0, 1, ...'), &
       key_t('output', 'format', key_string, first_word=format_words, last_word=size(words), unit='-', &
-            meaning="'text' (columns after # header lines) or 'npy' (a .npz archive)")]
+            meaning="'text' (columns after # header lines) or 'npy' (a .npz archive)"), &
+      key_t('output', 'sample_from', key_real, 0, 0, upper_key='tau_end', unit='tau', omit_default=.true., &
+            rule='keeps at least one sample; not with last_periods', &
+            meaning='output window: keep only the samples at tau >= sample_from (the run still starts at 0); '// &
+            '0 keeps all'), &
+      key_t('output', 'last_periods', key_integer, 1, 1.0e9_dp, zero_too=.true., unit='1', omit_default=.true., &
+            rule='or 0 for all; needs omega > 0, at most the periods in tau_end; not with sample_from', &
+            meaning='output window: keep only the samples of the last this many drive periods, '// &
+            'tau >= tau_end - last_periods 2 pi/Omega')]
 
    !> Every key, group by group in the order of key_groups, each group's keys in the order of
    !> the resolved text.
@@ -591,6 +599,10 @@ contains
          text = real_value(config%solver%sample_dtau)
       case ('format')
          text = quoted(config%output_format)
+      case ('sample_from')
+         text = real_value(config%solver%sample_from)
+      case ('last_periods')
+         text = int_text(config%solver%last_periods)
       case default
          ! A row without a case here: tests/test_tables.py finds it by its empty default.
          text = ''

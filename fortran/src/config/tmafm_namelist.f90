@@ -21,7 +21,7 @@ module tmafm_namelist
       physical_names, physical_values, scene_depends_on, scene_from_values, physical_from_values, &
       beam_rigidity, beam_mass_per_length
    use tmafm_settings, only: run_settings_t, check_run_size, comparison_intervals, comparison_points, &
-      mode_digits, comparison_rtol, vdw_method_refused, sls_method_refused
+      mode_digits, comparison_rtol, vdw_method_refused, sls_method_refused, first_sample_at, sample_count_real
    use tmafm_errata, only: errata_t, errata_for_convention, parse_errata, errata_label
    use tmafm_drive, only: drive_t, init_drive
    use tmafm_config, only: config_t
@@ -714,12 +714,16 @@ contains
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       character(len=:), allocatable :: file, format
-      real(dp) :: sample_dtau
+      real(dp) :: sample_dtau, sample_from
+      integer(i8) :: last_periods
+      type(nml_entry_t) :: other
       integer :: k, row
 
       file = trim(config%output_file)
       format = trim(config%output_format)
       sample_dtau = config%solver%sample_dtau
+      sample_from = config%solver%sample_from
+      last_periods = config%solver%last_periods
       ierr = ok
       do k = 1, g%n_entries
          if (ierr /= ok) return
@@ -746,6 +750,10 @@ contains
                call take_real(p, e, row, sample_dtau, ierr, errmsg, upper=config%solver%tau_end)
             case ('format')
                call take_word(p, e, row, len(config%output_format), format, ierr, errmsg)
+            case ('sample_from')
+               call take_real(p, e, row, sample_from, ierr, errmsg, upper=config%solver%tau_end)
+            case ('last_periods')
+               call take_integer(p, e, row, last_periods, ierr, errmsg)
             case default
                call unknown_key(p, e, row, ierr, errmsg)
             end select
@@ -753,9 +761,17 @@ contains
       end do
       if (ierr == ok) call check_repeats(p, g, ierr, errmsg)
       if (ierr /= ok) return
+      if (sample_from > 0 .and. last_periods > 0) then
+         other = entry_or_default(g, 'sample_from', 0.0_dp)
+         call key_error(p, entry_or_default(g, 'last_periods', 0.0_dp), 'cannot be given with sample_from = '// &
+                        other%written//' (two output windows): give one', ierr, errmsg)
+         return
+      end if
       config%output_file = adjustl(file)
       config%output_format = format
       config%solver%sample_dtau = sample_dtau
+      config%solver%sample_from = sample_from
+      config%solver%last_periods = int(last_periods)
    end subroutine read_output
 
    !> contact_law = 'dmt_vdw' needs an attraction (vdw_adhesion > 0, from &physical hamaker > 0)
@@ -919,7 +935,8 @@ contains
       type(nml_document_t), intent(in) :: doc
       !> The position of &physical in doc (0 if absent).
       integer, intent(in) :: physical_group
-      type(config_t), intent(in) :: config
+      !> Its output window's first sample is set here (check_window).
+      type(config_t), intent(inout) :: config
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       real(dp) :: derived(size(scene_names)), phys(size(physical_names)), defaults(size(physical_names))
@@ -1064,6 +1081,8 @@ contains
          errmsg = label//': '//trim(errmsg)
          return
       end if
+      call check_window(label, doc, drive, config%solver, ierr, errmsg)
+      if (ierr /= ok) return
       call check_run_size(config%solver, max(config%n_modes, 1), ierr, errmsg)
       if (ierr /= ok) then
          errmsg = label//': '//trim(errmsg)
@@ -1073,6 +1092,7 @@ contains
          ! The comparison runs of the automatic N, at the most modes the search may reach, on
          ! their finest grid (tmafm_settings comparison_intervals; not the output's samples).
          trial = config%solver
+         trial%first_sample = 0
          trial%method = 'dopri5'
          trial%tau_end = config%mode_horizon
          trial%sample_dtau = config%mode_horizon/comparison_intervals(config%mode_horizon, max_modes, &
@@ -1091,6 +1111,66 @@ contains
          text = names_text(physical_names(inputs))
       end function depends_text
    end subroutine check_derived
+
+   !> The output window (&output sample_from or last_periods) as the index of its first sample
+   !> (settings%first_sample): it must hold a sample, and last_periods needs a drive whose
+   !> periods (2 pi/fundamental) fit that many times in tau_end.
+   subroutine check_window(label, doc, drive, settings, ierr, errmsg)
+      character(len=*), intent(in) :: label
+      type(nml_document_t), intent(in) :: doc
+      type(drive_t), intent(in) :: drive
+      type(run_settings_t), intent(inout) :: settings
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      type(place_t) :: p
+      type(nml_group_t) :: none
+      real(dp) :: start, period
+      integer :: g, found
+      ierr = ok
+      errmsg = ''
+      settings%first_sample = 0
+      if (settings%sample_from <= 0 .and. settings%last_periods <= 0) return
+      p%label = label
+      p%group = 'output'
+      found = 0
+      do g = 1, doc%n_groups
+         if (doc%groups(g)%name == 'output') found = g
+      end do
+      if (settings%last_periods > 0) then
+         if (.not. (drive%fundamental > 0)) then
+            call window_error('last_periods', 'needs a drive period, and &scene omega is 0: '// &
+                              'give sample_from')
+            return
+         end if
+         period = 2*acos(-1.0_dp)/drive%fundamental
+         start = settings%tau_end - settings%last_periods*period
+         if (start < -4*epsilon(1.0_dp)*settings%tau_end) then
+            call window_error('last_periods', 'is '//real_text(settings%last_periods*period)// &
+                              ' in tau (drive period '//real_text(period)//'), longer than &solver tau_end = '// &
+                              real_text(settings%tau_end)//': lower it, or raise tau_end')
+            return
+         end if
+         settings%first_sample = first_sample_at(settings, max(start, 0.0_dp))
+      else
+         settings%first_sample = first_sample_at(settings, settings%sample_from)
+      end if
+      if (.not. (sample_count_real(settings) >= 1)) then
+         call window_error(merge('last_periods', 'sample_from ', settings%last_periods > 0), &
+                           'keeps no sample: the last one is at tau = '// &
+                           real_text(real(settings%first_sample - 1, dp)*settings%sample_dtau)// &
+                           ' (&output sample_dtau = '//real_text(settings%sample_dtau)//')')
+      end if
+   contains
+      subroutine window_error(key, what)
+         character(len=*), intent(in) :: key
+         character(len=*), intent(in) :: what
+         if (found > 0) then
+            call key_error(p, entry_or_default(doc%groups(found), trim(key), 0.0_dp), what, ierr, errmsg)
+         else
+            call key_error(p, entry_or_default(none, trim(key), 0.0_dp), what, ierr, errmsg)
+         end if
+      end subroutine window_error
+   end subroutine check_window
 
    ! --- typed access to entries ------------------------------------------------------------
 

@@ -11,7 +11,7 @@ module tmafm_settings
    private
 
    public :: run_settings_t, sample_count, sample_count_real, is_known_method, is_fixed_step_method
-   public :: method_choices, fixed_step_count_real
+   public :: first_sample_at, method_choices, fixed_step_count_real
    public :: method_rk4_paper, method_rk4_event, method_dopri5, method_dop853, method_flight_exact
    public :: known_methods, vdw_method_refused, sls_method_refused
    public :: method_names, default_max_steps, max_max_steps
@@ -90,6 +90,16 @@ module tmafm_settings
       real(dp) :: tau_end = 100.0_dp
       !> Output interval.
       real(dp) :: sample_dtau = 0.01_dp
+      !> &output sample_from: the output window starts at the first sample at or after this
+      !> time (0: every sample).
+      real(dp) :: sample_from = 0
+      !> &output last_periods: the output window holds the last this many drive periods of
+      !> the run (0: not asked).
+      integer :: last_periods = 0
+      !> The output window: the index k of its first sample, tau = k sample_dtau, from
+      !> sample_from or last_periods (tmafm_namelist check_window); the samples before it are
+      !> integrated and not kept.  0: every sample, from tau = 0.
+      integer(i8) :: first_sample = 0
       !> &initial in_contact: the phase the run starts in, -1 by the sign of V_T (V_T <= 0: in
       !> contact), 0 in flight, 1 in contact (a JKR neck held above the surface too).
       integer :: initial_contact = -1
@@ -147,26 +157,41 @@ contains
       end do
    end function method_choices
 
-   !> Number of output samples as a real (no overflow): tau = 0, sample_dtau, ..., tau_end.
+   !> Number of output samples as a real (no overflow): tau = k sample_dtau <= tau_end, from
+   !> k = first_sample (the output window; 0 without one).
    pure function sample_count_real(settings) result(n)
       type(run_settings_t), intent(in) :: settings
       real(dp) :: n
-      n = aint(settings%tau_end/settings%sample_dtau*(1.0_dp + 4*epsilon(1.0_dp))) + 1
+      n = aint(settings%tau_end/settings%sample_dtau*(1.0_dp + 4*epsilon(1.0_dp))) + 1 - &
+          real(settings%first_sample, dp)
    end function sample_count_real
 
-   !> Number of output samples for a run: tau = 0, sample_dtau, ..., up to tau_end.
+   !> Number of output samples for a run: tau = k sample_dtau, up to tau_end, from
+   !> k = first_sample (the output window; 0 without one).
    !> Valid for validated settings (at most huge(1) samples; validation bounds it far below).
    pure function sample_count(settings) result(n)
       type(run_settings_t), intent(in) :: settings
       integer :: n
       real(dp) :: count
-      count = settings%tau_end/settings%sample_dtau*(1.0_dp + 4*epsilon(1.0_dp))
+      count = settings%tau_end/settings%sample_dtau*(1.0_dp + 4*epsilon(1.0_dp)) - &
+              real(settings%first_sample, dp)
       if (.not. (count < real(huge(n) - 1, dp))) then
          n = huge(n)
       else
          n = floor(count) + 1
       end if
    end function sample_count
+
+   !> The index k of the first sample at or after tau, tau = k sample_dtau (the output window's
+   !> first sample; the same 4 eps allowance as sample_count, so a window start on the grid
+   !> keeps its sample).  Valid for 0 <= tau <= tau_end of validated settings.
+   pure function first_sample_at(settings, tau) result(k)
+      type(run_settings_t), intent(in) :: settings
+      real(dp), intent(in) :: tau
+      integer(i8) :: k
+      k = ceiling(tau/settings%sample_dtau*(1.0_dp - 4*epsilon(1.0_dp)), i8)
+      k = max(k, 0_i8)
+   end function first_sample_at
 
    !> Worst-case step count of a fixed-step run as a real (no overflow):
    !> ceil(tau_end/dtau) * contact_refine, every step taken in contact.

@@ -192,6 +192,8 @@ contains
          return
       end if
       settings%sample_dtau = settings%tau_end
+      ! Observables are of the whole run: an output window is for the samples only.
+      settings%first_sample = 0
       call check_run_size(settings, chosen%n_modes, ierr, errmsg)
    end subroutine prepare_observed
 

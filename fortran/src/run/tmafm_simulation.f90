@@ -101,6 +101,8 @@ contains
       trial = config
       trial%auto_modes = .false.
       trial%solver%tau_end = config%mode_horizon
+      ! The comparisons need every sample of their grid, not the output's window.
+      trial%solver%first_sample = 0
       trial%solver%method = method_dopri5
       trial%solver%rtol = comparison_rtol
       trial%solver%atol = comparison_atol

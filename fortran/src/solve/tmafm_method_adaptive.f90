@@ -83,6 +83,16 @@ module tmafm_method_adaptive
    !> 4.6 not: `python benchmarks/steady_dop853.py`), it finds it after 1731.  flight_exact's
    !> contact phases (this pair too) are not capped.
    real(dp), parameter :: dop853_mode_reach = 4.0_dp
+   !> The method dopri5 never steps further than h omega_N = dopri5_mode_reach.  Its stability
+   !> polynomial (1, 1, 1/2, 1/6, 1/24, 1/120, 1/600) holds the imaginary axis only up to
+   !> h omega = 0.9972: past it a mode of damping ratio zeta is amplified each step unless zeta
+   !> exceeds zeta_min(h omega), 1.4e-6 at 1.0 and 1.2e-4 at 1.13.  With N = 4 at the default
+   !> tolerances on tapping_polystyrene (free, Q4 ~ 13700, zeta4 = 3.7e-5) the error control
+   !> chose h omega_4 ~ 1.13: mode 4 was excited by the method and no period repeated in 6000
+   !> periods (issue 27).  0.9 keeps every step inside the interval (|R(i 0.9)| = 1 - 2.5e-5),
+   !> with a tenth of it for omega_N = beta_N^2 being an upper bound and the stepping's spread
+   !> (`python benchmarks/steady_dop853.py`; docs/observables.md, "Steady state").
+   real(dp), parameter :: dopri5_mode_reach = 0.9_dp
 
    !> Where an adaptive integration stands: time, state, phase, next step, and registers.
    type :: adaptive_state_t
@@ -114,7 +124,7 @@ module tmafm_method_adaptive
       !> yet known, then a quarter of the controller's step).
       real(dp) :: h_exit_cross = 0
       !> Largest step in tau (not in sigma): dop853_mode_reach/omega_N for the method dop853,
-      !> huge otherwise.
+      !> dopri5_mode_reach/omega_N for dopri5, huge otherwise (flight_exact's contacts).
       real(dp) :: h_max = huge(1.0_dp)
       !> The embedded pair and its registers.
       class(embedded_pair_t), allocatable :: pair
@@ -153,6 +163,7 @@ contains
       ! The first sample's phase is the run's (a JKR neck may start stretched: &initial in_contact).
       if (model%hysteretic) traj%contact(1) = merge(1, 0, state%in_contact)
       if (kind == pair_dop853) state%h_max = dop853_mode_reach/maxval(model%beta(1:model%n_modes)**2)
+      if (kind == pair_dopri5) state%h_max = dopri5_mode_reach/maxval(model%beta(1:model%n_modes)**2)
       call state%advance(model, settings, traj, .false., ierr, errmsg, progress, observer)
    end subroutine run_adaptive
 

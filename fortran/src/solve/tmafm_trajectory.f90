@@ -27,7 +27,7 @@ module tmafm_trajectory
 
    !> The sampled trajectory and the work counters of one run.
    type :: trajectory_t
-      !> Sample times tau_k = (k-1) sample_dtau.
+      !> Sample times tau_k = (first_sample + k - 1) sample_dtau.
       real(dp), allocatable :: tau(:)
       !> Tip gap V_T at the samples.
       real(dp), allocatable :: vt(:)
@@ -53,6 +53,12 @@ module tmafm_trajectory
       integer :: next_sample = 1
       !> Sample spacing (settings%sample_dtau).
       real(dp) :: sample_dtau = 0
+      !> The output window (settings%first_sample): sample 1 is the run's sample of this index,
+      !> at tau = first_sample sample_dtau.  With a window (first_sample > 0) the start state,
+      !> which every run loop stores first, is not kept (store).
+      integer(i8) :: first_sample = 0
+      !> .false. until the first store (the start state at tau = 0).
+      logical :: started = .false.
       !> sin and cos of Omega tau at the last sample filled.
       real(dp) :: last_sin = 0, last_cos = 1
       !> cos and sin of Omega sample_dtau: the rotation from one sample to the next (set at the
@@ -157,10 +163,12 @@ contains
       call prefault(traj%contact, storage_size(traj%contact, i8)/8*n)
       call prefault(traj%a, 8*int(n, i8)*n_modes)
       call prefault(traj%adot, 8*int(n, i8)*n_modes)
+      ! The same expression as without a window: a window's samples are the run's, bit for bit.
       do k = 1, n
-         traj%tau(k) = real(k - 1, dp)*settings%sample_dtau
+         traj%tau(k) = real(settings%first_sample + (k - 1), dp)*settings%sample_dtau
       end do
       traj%sample_dtau = settings%sample_dtau
+      traj%first_sample = settings%first_sample
       if (present(with_dashpot)) then
          if (with_dashpot) allocate (traj%dashpot(n), source=0.0_dp)
       end if
@@ -190,27 +198,57 @@ contains
       type(model_t), intent(in) :: model
       real(dp), contiguous, intent(in) :: y(:)
       real(dp) :: sin_phase, cos_phase
+      if (.not. self%started) then
+         ! The run loops store the start state first; a window that starts later drops it.
+         self%started = .true.
+         if (self%first_sample > 0) return
+      end if
       call self%next_phase(model, sin_phase, cos_phase)
       call self%store_at_phase(model, y, sin_phase, cos_phase)
    end subroutine trajectory_store
 
    !> Samples are filled in order, so the phase of sample k is that of sample k - 1 turned
-   !> by Omega sample_dtau; every phase_anchor_every samples (the first included) it is
-   !> sin and cos of Omega tau_k.
+   !> by Omega sample_dtau; every phase_anchor_every samples of the run (the first included)
+   !> it is sin and cos of Omega tau_k.  A window's first sample between anchors takes the
+   !> phase the run would have carried there (window_phase), so its samples are the run's.
    pure subroutine trajectory_next_phase(self, model, sin_phase, cos_phase)
       class(trajectory_t), intent(in) :: self
       type(model_t), intent(in) :: model
       real(dp), intent(out) :: sin_phase
       real(dp), intent(out) :: cos_phase
       integer :: k
+      real(dp) :: last_sin, last_cos, step_sin, step_cos
       k = self%next_sample
-      if (mod(k - 1, phase_anchor_every) == 0) then
+      if (mod(self%first_sample + (k - 1), int(phase_anchor_every, i8)) == 0) then
          call model%phase(self%tau(k), sin_phase, cos_phase)
+      else if (k == 1) then
+         call window_phase(self, model, last_sin, last_cos, step_sin, step_cos)
+         sin_phase = last_sin*step_cos + last_cos*step_sin
+         cos_phase = last_cos*step_cos - last_sin*step_sin
       else
          sin_phase = self%last_sin*self%step_cos + self%last_cos*self%step_sin
          cos_phase = self%last_cos*self%step_cos - self%last_sin*self%step_sin
       end if
    end subroutine trajectory_next_phase
+
+   !> The phase the run carries at the sample before a window's first one (first_sample - 1),
+   !> between two anchors: from the anchor before it, turned sample by sample as the run
+   !> turns it; and the turn (step_sin, step_cos).
+   pure subroutine window_phase(self, model, last_sin, last_cos, step_sin, step_cos)
+      class(trajectory_t), intent(in) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(out) :: last_sin, last_cos, step_sin, step_cos
+      integer(i8) :: anchor, i
+      real(dp) :: turned
+      call model%phase(self%sample_dtau, step_sin, step_cos)
+      anchor = self%first_sample - mod(self%first_sample, int(phase_anchor_every, i8))
+      call model%phase(real(anchor, dp)*self%sample_dtau, last_sin, last_cos)
+      do i = anchor + 1, self%first_sample - 1
+         turned = last_sin*step_cos + last_cos*step_sin
+         last_cos = last_cos*step_cos - last_sin*step_sin
+         last_sin = turned
+      end do
+   end subroutine window_phase
 
    !> One row: the state copied, V_T and its rate from model%gap_at_phase (their definition).
    pure subroutine trajectory_store_at_phase(self, model, y, sin_phase, cos_phase)
@@ -262,9 +300,10 @@ contains
       if (k == 1) call model%phase(self%sample_dtau, self%step_sin, self%step_cos)
       last_sin = self%last_sin
       last_cos = self%last_cos
+      if (k == 1 .and. self%first_sample > 0) call window_phase(self, model, last_sin, last_cos, step_sin, step_cos)
       step_sin = self%step_sin
       step_cos = self%step_cos
-      since = mod(k - 1, phase_anchor_every)
+      since = int(mod(self%first_sample + (k - 1), int(phase_anchor_every, i8)))
       do i = 1, count
          if (since == 0) then
             call model%phase(self%tau(k + i - 1), sin_phase(i), cos_phase(i))

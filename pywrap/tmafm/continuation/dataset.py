@@ -54,7 +54,7 @@ def _number(name: str, value) -> float:
         raise InputTypeError(f"{name} = {shown(value)}: must be a finite number")
     try:
         x = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise InputTypeError(f"{name} = {shown(value)}: must be a finite number") from None
     if not math.isfinite(x):
         raise InputError(f"{name} = {shown(value)}: must be finite")
@@ -64,12 +64,24 @@ def _number(name: str, value) -> float:
 def _guesses(y0, m: int) -> list:
     if y0 is None:
         return [None]
-    array = np.asarray(y0, dtype=object if isinstance(y0, list) else float)
     if isinstance(y0, list) and y0 and np.ndim(y0[0]) == 1:
         return [_state(f"y0[{k}]", g, m) for k, g in enumerate(y0)]
-    if np.ndim(array) == 2:
-        return [_state(f"y0[{k}]", g, m) for k, g in enumerate(np.asarray(y0, dtype=float))]
+    # A text (or anything else numpy cannot read as reals) is _state's InputError, not numpy's
+    # ValueError (the hostile-call campaign, issue 27).
+    try:
+        rank = np.ndim(y0)
+    except (TypeError, ValueError):  # a ragged nesting: _state refuses it by name
+        rank = 1
+    if not isinstance(y0, list) and rank == 2:
+        return [_state(f"y0[{k}]", g, m) for k, g in enumerate(_state_rows("y0", y0))]
     return [_state("y0", y0, m)]
+
+
+def _state_rows(name: str, value) -> np.ndarray:
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{name} must be real numbers, got {shown(value)}") from None
 
 
 def _is_dataset(value) -> bool:

@@ -214,7 +214,7 @@ def _curve(kind, base, key2, point, stop2, *, ds, ds_max, max_points, rtol, tol,
     start2 = float(groups[group2][name2])
     try:
         stop2 = float(stop2)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise InputTypeError(f"stop2 = {shown(stop2)}: must be a finite number") from None
     if not math.isfinite(stop2) or stop2 == start2:
         raise InputError(f"stop2 = {shown(stop2)}: must be finite and differ from {key2} = "

@@ -12,7 +12,7 @@ import numpy as np
 
 from .._fortran import api as _api
 from .._model import Model
-from .._namelist import shown
+from .._namelist import _NOT_NUMBERS, shown
 from .._run import Config
 from ..errors import InputError, InputTypeError, SolverError, raise_for
 from .periodic_schur import product_eigenvalues
@@ -58,7 +58,7 @@ def _model(base) -> Model:
 
 
 def _positive_int(name: str, value, upper: int | None = None) -> int:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < 1:
+    if isinstance(value, _NOT_NUMBERS) or not isinstance(value, (int, np.integer)) or value < 1:
         raise InputTypeError(f"{name} = {shown(value)}: must be a positive integer")
     if upper is not None and value > upper:
         raise InputError(f"{name} = {value}: must be at most {upper}")
@@ -70,7 +70,7 @@ def _tolerance(name: str, value, low: float, high: float) -> float:
         raise InputTypeError(f"{name} = {shown(value)}: must be a number")
     try:
         x = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise InputTypeError(f"{name} = {shown(value)}: must be a number") from None
     if not (low <= x <= high):
         raise InputError(f"{name} = {shown(value)}: must be in [{low:g}, {high:g}]")
@@ -106,7 +106,7 @@ def jacobian(model, tau: float, y, in_contact: bool) -> np.ndarray:
 def _state(name: str, value, size: int) -> np.ndarray:
     try:
         array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise InputError(f"{name} must be real numbers, got {shown(value)}") from None
     if array.shape != (size,):
         raise InputError(f"{name} must have shape ({size},) = (a, adot{'' if size % 2 == 0 else ', w'}), "
@@ -178,7 +178,7 @@ def _monodromy_list(monodromies) -> list[np.ndarray]:
             raise InputError(f"monodromies[{i}] must be real, got complex values")
         try:
             a = np.asarray(item, dtype=float)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise InputError(f"monodromies[{i}] must be real numbers, got {shown(item)}") from None
         if a.ndim != 2 or a.shape[0] != a.shape[1] or a.shape[0] == 0:
             raise InputError(f"monodromies[{i}] must be a non-empty square matrix, got shape "

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._namelist import shown
+from .._namelist import _NOT_NUMBERS, shown
 from .._run import Config
 from ..errors import InputError, InputTypeError
 from .attractors import _new_attractors, label_attractors
@@ -84,7 +84,7 @@ def basin(base, a1, adot1, *, tol=1e-3, workers=None, client=None, progress=Fals
 
 
 def _check_confirm(confirm) -> None:
-    if confirm is not None and (isinstance(confirm, (bool, np.bool_)) or not isinstance(
+    if confirm is not None and (isinstance(confirm, _NOT_NUMBERS) or not isinstance(
             confirm, (int, np.integer)) or not 1 <= confirm <= 10_000_000):
         raise InputTypeError(f"confirm = {shown(confirm)}: must be an integer from 1 to "
                              f"10000000, or None")
@@ -97,7 +97,7 @@ def _coarse_stride(shape: tuple, coarse) -> int:
         if min(shape) < 4:
             return 1
         return max(2, int(round(math.sqrt(shape[0] * shape[1] / 256))))
-    if isinstance(coarse, bool) or not isinstance(coarse, (int, np.integer)) or coarse < 1:
+    if isinstance(coarse, _NOT_NUMBERS) or not isinstance(coarse, (int, np.integer)) or coarse < 1:
         raise InputTypeError(f"coarse = {shown(coarse)}: must be a positive integer or None")
     return int(coarse)
 

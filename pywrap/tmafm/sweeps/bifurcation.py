@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._namelist import shown
+from .._namelist import _NOT_NUMBERS, shown
 from .._run import Config
 from ..errors import InputError, InputTypeError
 from .dataset import _grid_dataset
@@ -42,7 +42,7 @@ def bifurcation(base, key, values, *, periods_kept=32, workers=None, client=None
     import xarray as xr
     _split_key(key)
     values = _axis_values(key, values)
-    if isinstance(periods_kept, (bool, np.bool_)) or not isinstance(periods_kept, (int, np.integer)) \
+    if isinstance(periods_kept, _NOT_NUMBERS) or not isinstance(periods_kept, (int, np.integer)) \
             or periods_kept < 1:
         raise InputTypeError(f"periods_kept = {shown(periods_kept)}: must be a positive integer")
     keywords = _observe_keywords(dict(observe_keywords, max_periods=max_periods,

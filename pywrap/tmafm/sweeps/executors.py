@@ -15,7 +15,7 @@ from concurrent.futures import wait as _wait_futures
 
 import numpy as np
 
-from .._namelist import shown
+from .._namelist import _NOT_NUMBERS, shown
 from ..errors import InputTypeError
 from ..observe import MAX_THREADS
 from .runs import _run_chunk, _run_chunk_processes, _warn_failures, _warn_unsteady
@@ -39,7 +39,7 @@ def _check_run(workers=None, client=None, progress=False, chunk=None, backend="b
                              f"submit, cancel and scheduler_info) or None")
     if not isinstance(progress, (bool, np.bool_)):
         raise InputTypeError(f"progress = {shown(progress)}: must be True or False")
-    if chunk is not None and (isinstance(chunk, (bool, np.bool_))
+    if chunk is not None and (isinstance(chunk, _NOT_NUMBERS)
                               or not isinstance(chunk, (int, np.integer)) or chunk < 1):
         raise InputTypeError(f"chunk = {shown(chunk)}: must be a positive integer or None")
     if not isinstance(backend, str) or backend not in ("batch", "processes"):
@@ -151,7 +151,7 @@ def _dask_results(client, futures, done=None) -> list:
 def _chunks(n: int, chunk: int | None, workers: int) -> list[range]:
     if chunk is None:
         chunk = max(1, min(256, math.ceil(n / (4 * max(1, workers)))))
-    if not isinstance(chunk, (int, np.integer)) or isinstance(chunk, bool) or chunk < 1:
+    if not isinstance(chunk, (int, np.integer)) or isinstance(chunk, _NOT_NUMBERS) or chunk < 1:
         raise InputTypeError(f"chunk = {shown(chunk)}: must be a positive integer")
     return [range(i, min(n, i + int(chunk))) for i in range(0, n, int(chunk))]
 
@@ -161,7 +161,7 @@ def _workers(workers) -> int:
     if workers is None:
         return os.cpu_count() or 1
     limit = MAX_THREADS
-    if not isinstance(workers, (int, np.integer)) or isinstance(workers, (bool, np.bool_)) \
+    if not isinstance(workers, (int, np.integer)) or isinstance(workers, _NOT_NUMBERS) \
             or not 1 <= workers <= limit:
         raise InputTypeError(f"workers = {shown(workers)}: must be an integer from 1 to {limit}, "
                              f"or None")

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._namelist import GROUPS, KEY_TYPES, shown
+from .._namelist import _NOT_NUMBERS, GROUPS, KEY_TYPES, shown
 from .._run import Config
 from ..errors import InputError, InputTypeError
 from ..observe import _options, observable_groups, observed_config
@@ -85,7 +85,7 @@ def _axis_values(key: str, values, real: bool = False) -> np.ndarray:
 def _is_real(value) -> bool:
     """Whether `value` is a finite real number (a bool is not; an int too large for a float is
     not)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer,
+    if isinstance(value, _NOT_NUMBERS) or not isinstance(value, (int, float, np.integer,
                                                                      np.floating)):
         return False
     try:
@@ -165,7 +165,7 @@ def _resized_initial(groups: dict, point: Mapping) -> dict:
     """When n_modes is swept, the base's &initial vectors cut or padded with zeros to N."""
     n = point.get("model.n_modes")
     initial = groups.get("initial")
-    if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or not initial \
+    if not isinstance(n, (int, np.integer)) or isinstance(n, _NOT_NUMBERS) or not initial \
             or not 0 <= n <= MAX_MODES:
         return groups  # the core refuses an N out of range, by name
     for name in ("a0", "adot0"):

@@ -24,6 +24,7 @@ module tmafm_method_adaptive
    use tmafm_error_scale, only: error_scale_t
    use tmafm_dopri5, only: dopri5_pair_t
    use tmafm_dop853, only: dop853_pair_t
+   use tmafm_lawson, only: lawson_pair_t
    use tmafm_events, only: no_event, event_candidate, step_event_test, initial_phase, phase_sign, &
                            switch_margin, hermite_minimum
    use tmafm_roots, only: bracketed_root_t
@@ -31,7 +32,7 @@ module tmafm_method_adaptive
    implicit none
    private
 
-   public :: run_adaptive, adaptive_state_t, pair_dopri5, pair_dop853
+   public :: run_adaptive, adaptive_state_t, pair_dopri5, pair_dop853, pair_lawson
 
    !> Contact exit.  The contact force ~ (-V_T)^(3/2) has a kink where V_T reaches 0: a
    !> step across it, or a long one that ends near it, fails the error test.  After each
@@ -68,8 +69,10 @@ module tmafm_method_adaptive
    !> A learned step length is replaced only by a value outside [1/learn_band, learn_band] x it.
    real(dp), parameter :: learn_band = 1.25_dp
 
-   !> Which embedded pair an adaptive state uses.
-   integer, parameter :: pair_dopri5 = 1, pair_dop853 = 2
+   !> Which embedded pair an adaptive state uses: pair_lawson is dop853 in contact and its
+   !> Lawson form on the exact free flow in flight (tmafm_lawson; flight_exact with a force at a
+   !> distance).
+   integer, parameter :: pair_dopri5 = 1, pair_dop853 = 2, pair_lawson = 3
 
    !> The method dop853 never steps further than h omega_N = dop853_mode_reach, omega_N =
    !> beta_N^2 the highest mode's free frequency (the error norm's, tmafm_error_scale).  Past
@@ -148,8 +151,15 @@ contains
       type(observer_t), intent(inout), optional :: observer
       type(adaptive_state_t) :: state
 
+      ierr = ok
+      errmsg = ''
       call traj%store(model, y0)
       call state%init(kind, model, settings, 0.0_dp, y0)
+      select type (pair => state%pair)
+      type is (lawson_pair_t)
+         call pair%setup(model, ierr, errmsg)
+      end select
+      if (ierr /= ok) return
       ! The first sample's phase is the run's (a JKR neck may start stretched: &initial in_contact).
       if (model%hysteretic) traj%contact(1) = merge(1, 0, state%in_contact)
       if (kind == pair_dop853) state%h_max = dop853_mode_reach/maxval(model%beta(1:model%n_modes)**2)
@@ -169,6 +179,8 @@ contains
       select case (kind)
       case (pair_dop853)
          allocate (dop853_pair_t :: self%pair)
+      case (pair_lawson)
+         allocate (lawson_pair_t :: self%pair)
       case default
          allocate (dopri5_pair_t :: self%pair)
       end select

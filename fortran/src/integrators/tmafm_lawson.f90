@@ -24,6 +24,7 @@ module tmafm_lawson
    use tmafm_kinds, only: dp
    use tmafm_errors, only: ok
    use tmafm_model, only: model_t
+   use tmafm_modes, only: max_modes
    use tmafm_viscoelastic, only: sls_t, sls_free_relaxation
    use tmafm_drive, only: max_tones
    use tmafm_error_scale, only: error_scale_t
@@ -37,6 +38,9 @@ module tmafm_lawson
 
    !> Stages of a step (1-12), the new state's (13) and the dense output's (14-16).
    integer, parameter :: stages = 16
+   !> Most modal terms (one per eigenvalue of a 2 max_modes system): the size of the local
+   !> registers of the pure routines (fixed, so that they live on the stack).
+   integer, parameter :: max_terms = 2*max_modes
    !> The tableau's rows as columns: a_rows(:, i) are the coefficients of stage i, contiguous.
    real(dp), parameter :: a_rows(stages, stages) = transpose(dop853_a)
    !> Rows 4-7 of the dense output likewise: d_rows(:, row).
@@ -338,19 +342,14 @@ contains
       type(lawson_pair_t), intent(in) :: self
       real(dp), intent(in) :: weight(stages)
       real(dp), intent(out) :: e(:)
-      complex(dp) :: w(self%flight%n_terms)
-      integer :: i, k, m
-      m = self%n_modal
-      call stage_sum(self%flight%n_terms, 12, 1.0_dp, weight, self%k, w)
-      w = w*self%turn(:, 13)
+      complex(dp) :: w(max_terms)
+      integer :: n
+      n = self%flight%n_terms
+      call stage_sum(n, 12, 1.0_dp, weight, self%k, w)
+      w(1:n) = w(1:n)*self%turn(:, 13)
       e = 0
       associate (f => self%flight)
-         do k = 1, f%n_terms
-            do i = 1, m
-               e(i) = e(i) + f%multiplicity(k)*(real(f%vectors(i, k), dp)*real(w(k), dp) &
-                                                - aimag(f%vectors(i, k))*aimag(w(k)))
-            end do
-         end do
+         call add_modes(self%n_modal, n, f%multiplicity, f%sample_matrix, f%sample_blocks, w, e)
       end associate
    end subroutine turned_back
 
@@ -419,7 +418,7 @@ contains
       class(lawson_pair_t), intent(in) :: self
       real(dp), intent(in) :: theta
       real(dp), intent(out), contiguous :: y(:)
-      complex(dp) :: w(self%flight%n_terms)
+      complex(dp) :: w(max_terms)
       real(dp) :: s, phase
       if (.not. self%lawson_step) then
          call self%contact%dense(theta, y)

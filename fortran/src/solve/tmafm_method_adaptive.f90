@@ -63,6 +63,13 @@ module tmafm_method_adaptive
    !> cost 2 % of the instructions on the tilted scene at rtol 1e-10).
    integer, parameter :: warp_pi_steps = 4
 
+   !> A Lawson flight step toward the surface (V_T' < 0) covers at most this fraction of the
+   !> distance V_T + eps to the surface (eps = &scene vdw_range, the law's own length): the force
+   !> at a distance grows as the gap closes (as 1/(V_T + eps)^2 under 'dmt_vdw'), and the
+   !> controller, which learns a step from the last one, overshot it by norms of 1e2-1e4, about
+   !> seven rejections a flight (docs/performance.md, "Long-range forces in flight").
+   real(dp), parameter :: gap_reach = 0.5_dp
+
    !> Pieces a step (and then a piece) is split into by the dip search out of contact.
    integer, parameter :: dip_pieces = 8
 
@@ -119,6 +126,8 @@ module tmafm_method_adaptive
       !> Largest step in tau (not in sigma): dop853_mode_reach/omega_N for the method dop853,
       !> huge otherwise.
       real(dp) :: h_max = huge(1.0_dp)
+      !> .true. for pair_lawson: a flight step toward the surface is limited by gap_reach.
+      logical :: gap_limited = .false.
       !> The embedded pair and its registers.
       class(embedded_pair_t), allocatable :: pair
       !> The step-size controller.
@@ -181,6 +190,7 @@ contains
          allocate (dop853_pair_t :: self%pair)
       case (pair_lawson)
          allocate (lawson_pair_t :: self%pair)
+         self%gap_limited = .true.
       case default
          allocate (dopri5_pair_t :: self%pair)
       end select
@@ -344,6 +354,9 @@ contains
             if (model%hysteretic) call past_offset(model, y_new, self%in_contact, vt1, rate1)
             call model%drive_signals(pair%sin_end, pair%cos_end, base1, base_rate1, drive1)
             margin1 = switch_margin(model, y_new)
+            ! A Lawson flight toward the surface: the force in flight grows as the gap closes.
+            if (self%gap_limited .and. .not. self%in_contact .and. rate1 < 0) &
+               self%h = min(self%h, gap_reach*(vt1 + model%scene%vdw_range)/(-rate1))
             ! G's rates per unit of the step variable: dtau/ds = 1, or 2 sigma when warped.
             ds0 = 1
             ds1 = 1

@@ -19,7 +19,8 @@ largest |V_T - V_T,ref| over every sample of the 80 runs, over the largest |V_T,
 reference of each scene is its curve under flight_exact at rtol 1e-13 (atol 1e-17); the vdW
 curve under dop853 at rtol 1e-13 is compared with it too (`reference_check`), which bounds what
 the reference can resolve.  Cost is CPU time (user + sys of this process) of the runs alone
-(the configurations are built outside the clock), the least of REPEATS repeats.  The costs at
+(the configurations are built outside the clock), the least of REPEATS repeats, which go
+round all the curves in turn.  The costs at
 equal error are log-log interpolations of cost against error between the measured rtols, at
 the errors in TARGETS.  Writes longrange_flight.json and longrange_flight.png (work-precision).
 """
@@ -156,18 +157,22 @@ def main():
     references = {law: curve(law, "flight_exact", REFERENCE_RTOL, REFERENCE_RTOL * 1e-4, start)[0]
                   for law in ("dmt_vdw", "dmt")}
     check = curve("dmt_vdw", "dop853", REFERENCE_RTOL, REFERENCE_RTOL * 1e-4, start)[0]
-    runs = {}
-    for name, (law, method) in CASES.items():
-        rows = []
-        for rtol in RTOLS + EXTRA_RTOLS.get(name, ()):
-            costs = []
-            for _ in range(REPEATS):
-                vt, cpu, counters = curve(law, method, rtol, rtol / 1000, start)
-                costs.append(cpu)
-            rows.append({"rtol": rtol, "atol": rtol / 1000, "error": error(vt, references[law]),
-                         "cpu_s": min(costs), "cpu_s_all": costs, "counters": counters})
-            print(name, rows[-1])
-        runs[name] = rows
+    # The repeats go round every curve in turn, so that a spell of load on the shared machine
+    # falls on all of them alike; each curve keeps its least CPU.
+    plan = [(name, rtol) for name in CASES for rtol in RTOLS + EXTRA_RTOLS.get(name, ())]
+    measured = {key: {"costs": []} for key in plan}
+    for _ in range(REPEATS):
+        for name, rtol in plan:
+            law, method = CASES[name]
+            vt, cpu, counters = curve(law, method, rtol, rtol / 1000, start)
+            measured[(name, rtol)].update(error=error(vt, references[law]), counters=counters)
+            measured[(name, rtol)]["costs"].append(cpu)
+    runs = {name: [] for name in CASES}
+    for name, rtol in plan:
+        m = measured[(name, rtol)]
+        runs[name].append({"rtol": rtol, "atol": rtol / 1000, "error": m["error"], "cpu_s": min(m["costs"]),
+                           "cpu_s_all": m["costs"], "counters": m["counters"]})
+        print(name, runs[name][-1])
     at_targets = {}
     for target in TARGETS:
         cost = {name: at_error([(r["error"], r["cpu_s"]) for r in rows], target) for name, rows in runs.items()}

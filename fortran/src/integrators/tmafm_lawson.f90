@@ -147,6 +147,7 @@ contains
          self%vt_end = self%contact%vt_end
          self%rate_end = self%contact%rate_end
          self%stage_evaluations = self%contact%stage_evaluations
+         self%dense_evaluations = self%contact%dense_evaluations
          return
       end if
       self%map = map
@@ -174,7 +175,10 @@ contains
       call turned_back(self, dop853_e5, self%err5)
       call turned_back(self, dop853_e3, self%err3)
       call model%derivative_and_gap(y_new, .false., self%sin_end, self%cos_end, f_new, self%vt_end, self%rate_end)
+      ! The force at stages 1-12 and the derivative at the new state; the dense output adds the
+      ! force at the new state and stages 14-16.
       self%stage_evaluations = 13
+      self%dense_evaluations = 4
    end subroutine lawson_step_
 
    !> k(:, i) = exp(-lambda c_i h) V^-1 g: g acts on the velocities only (model_t%flight_force).

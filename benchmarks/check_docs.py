@@ -676,6 +676,7 @@ def check_performance(ck, group="performance"):
     check_off_cost(ck, group)
     check_forces_off_cost(ck, group)
     check_compose_cost(ck, group)
+    check_longrange(ck, group)
     _inventory(ck, group, doc)
 
 
@@ -1095,6 +1096,47 @@ def check_compose_cost(ck, group="performance"):
     for name, run in composed["runs"].items():
         ck.text(group, doc, f"| `{name}` | {{}} | {{}} | {{}} |",
                 [f"{run['specialised']:,}", f"{run['composed']:,}", f"{run['ratio']:.3f}"], sec)
+
+
+def check_longrange(ck, group="performance"):
+    """docs/performance.md's long-range flight section against benchmarks/results/longrange_flight.json
+    (`python benchmarks/longrange_flight.py`): its two tables (the script's table_rows) and the
+    ratios and counts the text derives from them."""
+    doc, sec = "docs/performance.md", "Long-range forces in flight"
+    report = load(result_path("longrange_flight.json"))
+    for line in bench_module("longrange_flight").table_rows(report):
+        ck.row(group, doc, line, 2 if line.startswith("| vdW") or line.startswith("| DMT") else 1, sec)
+    runs, at = report["runs"], report["at_error"]
+    lawson, dop853, dmt = runs["vdw_flight_exact"], runs["vdw_dop853"], runs["dmt_flight_exact"]
+
+    def flight(r):
+        return r["counters"]["steps"] - r["counters"]["contact_steps"]
+
+    to_dmt = [e["ratio_to_dmt_flight_exact"] for e in at.values()]
+    to_dop = [e["ratio_to_dop853"] for e in at.values() if "ratio_to_dop853" in e]
+    ck.text(group, doc, "the curve costs {}× its DMT twin", [span(to_dmt, lambda x: f"{x:.2f}")], sec)
+    low, high = f"{min(to_dop):.2f}", f"{max(to_dop):.2f}"
+    ck.text(group, doc, "(target 1.5×) and {}×", [low if low == high else f"{low}\u2013{high}"], sec)
+    ck.text(group, doc, "where it costs {} s: below {}×)",
+            [f"{dop853[-1]['cpu_s']:.3f}",
+             f"{math.ceil(100 * at['1e-08']['cpu_s']['vdw_flight_exact'] / dop853[-1]['cpu_s']) / 100:.2f}"], sec)
+    ck.text(group, doc, "is {}× that of the DMT curve",
+            [span([a["error"] / b["error"] for a, b in zip(lawson, dmt)], lambda x: f"{x:.2f}")], sec)
+    ratios = [b["error"] / a["error"] for a, b in zip(lawson, dop853)]
+    ck.text(group, doc, "where `dop853`'s is {}–{}×", [f"{min(ratios):.1f}", f"{max(ratios):.0f}"], sec)
+    ck.text(group, doc, "The contacts cost the same: {}× the DMT curve's contact steps",
+            [span([a["counters"]["contact_steps"] / b["counters"]["contact_steps"] for a, b in zip(lawson, dmt)],
+                  lambda x: f"{x:.3f}")], sec)
+    ck.text(group, doc, "and back ({} runs), {} drive periods a point",
+            [report["runs_per_curve"], report["periods_per_point"]], sec)
+    flights = flight(dmt[0])
+    ck.value(group, doc, "one closed-form step per flight at every rtol", {flight(r) for r in dmt}, {flights})
+    ck.text(group, doc, "one closed-form step per flight ({} flights)", [f"{flights:,}"], sec)
+    ck.text(group, doc, "the vdW flight takes {} Lawson steps per flight, {}× fewer",
+            [span([flight(r) / flights for r in lawson], lambda x: f"{x:.1f}"),
+             span([flight(b) / flight(a) for a, b in zip(lawson, dop853)], lambda x: f"{x:.2f}")], sec)
+    ck.text(group, doc, "(the vdW curve under `dop853` at rtol 1e-13 is within\n{} of it)",
+            [sci(report["reference_check"]["dop853_vs_flight_exact_vdw"], 2)], sec)
 
 
 def check_continuation(ck, group="continuation"):

@@ -52,12 +52,6 @@ CASES = {
 }
 
 
-def _forced_flight(scene, law):
-    """A force acts in flight: 'dmt_vdw' or a force at a distance (no flight_exact)."""
-    return law == "dmt_vdw" or scene.get("electrostatic_strength", 0) > 0 \
-        or scene.get("double_layer_strength", 0) != 0
-
-
 def _run(scene, law, method, rtol):
     return tmafm.run(SCENE, scene=scene, model={"contact_law": law},
                      solver={"method": method, "rtol": rtol, "atol": 1e-15, "tau_end": TAU_END},
@@ -76,8 +70,8 @@ def test_composed_trajectory_equals_the_independent_peer(case):
     peer_error = np.max(np.abs(loose - reference)) / scale
     # Both phases must be visited, else the test would not compose the contact with the rest.
     assert np.any(reference < 0) and np.any(reference > 0)
-    methods = ["dop853", "dopri5"] if _forced_flight(scene, law) else ["dop853", "dopri5", "flight_exact"]
-    for method in methods:
+    # flight_exact integrates a flight with a force at a distance by its Lawson form (tmafm_lawson).
+    for method in ["dop853", "dopri5", "flight_exact"]:
         tight = _run(scene, law, method, 1e-11)
         looser = _run(scene, law, method, 1e-9)
         # The method's own error at 1e-9 bounds its error at 1e-11.
@@ -91,9 +85,8 @@ def test_composed_trajectory_equals_the_independent_peer(case):
                                   "electrostatic+tones+sls", "double_layer+liquid", "jkr", "jkr+tones+liquid"])
 def test_energy_balance_closes_with_every_part(case):
     scene, law = CASES[case]
-    method = "dop853" if _forced_flight(scene, law) else "flight_exact"
     obs = tmafm.observe(SCENE, scene=scene, model={"contact_law": law},
-                        solver={"method": method, "rtol": 1e-11, "atol": 1e-15}, max_periods=200)
+                        solver={"method": "flight_exact", "rtol": 1e-11, "atol": 1e-15}, max_periods=200)
     assert obs.period >= 1
     p = obs.per_period
     orbit = slice(len(p["drive_work"]) - obs.period, None)
@@ -120,13 +113,6 @@ def test_energy_balance_closes_with_every_part(case):
 def test_a_viscoelastic_sample_under_a_fixed_step_method_is_refused_in_one_line(method):
     with pytest.raises(tmafm.InputError, match=f"method = '{method}'.*viscoelastic") as info:
         tmafm.run(SCENE, scene={**SLS, **TONES}, solver={"method": method, "tau_end": 1.0})
-    assert "\n" not in str(info.value)
-
-
-def test_the_attraction_under_the_exact_flight_is_refused_in_one_line():
-    with pytest.raises(tmafm.InputError, match="flight_exact.*dmt_vdw") as info:
-        tmafm.run(SCENE, scene={**VDW, **LIQUID, **TONES}, model={"contact_law": "dmt_vdw"},
-                  solver={"method": "flight_exact", "tau_end": 1.0})
     assert "\n" not in str(info.value)
 
 

@@ -276,8 +276,6 @@ VDW_NEEDS = "must be > 0 with &model contact_law = 'dmt_vdw'"
     ({"scene": {"vdw_adhesion": 0.0}}, "&scene vdw_adhesion = 0", VDW_NEEDS),
     ({"scene": {"vdw_adhesion": -1.0}}, "&scene vdw_adhesion = -1", "must be finite, >= 0"),
     ({"scene": {"vdw_adhesion": 1.0, "vdw_range": 0.0}}, "&scene vdw_range = 0", "must be finite, > 0"),
-    ({"scene": {"vdw_adhesion": 1.0}, "solver": {"method": "flight_exact"}},
-     "&solver method = 'flight_exact'", "does not support &model contact_law = 'dmt_vdw'"),
 ])
 def test_bad_vdw_inputs_give_one_line_errors_naming_the_key(groups, key, reason):
     groups = {"model": {"contact_law": "dmt_vdw", "n_modes": 1}} | groups

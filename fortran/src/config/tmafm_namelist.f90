@@ -21,7 +21,7 @@ module tmafm_namelist
       physical_names, physical_values, scene_depends_on, scene_from_values, physical_from_values, &
       beam_rigidity, beam_mass_per_length
    use tmafm_settings, only: run_settings_t, check_run_size, comparison_intervals, comparison_points, &
-      mode_digits, comparison_rtol, vdw_method_refused, sls_method_refused, first_sample_at, sample_count_real
+      mode_digits, comparison_rtol, sls_method_refused, first_sample_at, sample_count_real
    use tmafm_errata, only: errata_t, errata_for_convention, parse_errata, errata_label
    use tmafm_drive, only: drive_t, init_drive
    use tmafm_config, only: config_t
@@ -774,8 +774,8 @@ contains
       config%solver%last_periods = int(last_periods)
    end subroutine read_output
 
-   !> contact_law = 'dmt_vdw' needs an attraction (vdw_adhesion > 0, from &physical hamaker > 0)
-   !> and a method that integrates the flight (docs/model-notes.md, item 17).
+   !> contact_law = 'dmt_vdw' needs an attraction (vdw_adhesion > 0, from &physical hamaker > 0).
+   !> Every method integrates its flight (flight_exact by the Lawson form, tmafm_lawson).
    subroutine check_vdw(label, config, ierr, errmsg)
       character(len=*), intent(in) :: label
       type(config_t), intent(in) :: config
@@ -794,12 +794,6 @@ contains
                      ": must be > 0 with &model contact_law = 'dmt_vdw'"
          end if
          return
-      end if
-      if (vdw_method_refused(config%solver%method)) then
-         ierr = err_input
-         errmsg = label//": &solver method = '"//trim(config%solver%method)// &
-                  "': does not support &model contact_law = 'dmt_vdw' (its flight is the force-free "// &
-                  "solution; use dop853, dopri5, rk4_event or rk4_paper)"
       end if
    end subroutine check_vdw
 
@@ -866,41 +860,6 @@ contains
                   'medium_mass = '//real_text(config%scene%medium_mass)//')'
       end if
    end subroutine check_capillary
-
-   !> A force at a distance (electrostatic, double layer: docs/model.md §17) acts in flight: a
-   !> method that integrates the flight, as under 'dmt_vdw'.  The message names the key that
-   !> turns the force on, as the user wrote it.
-   subroutine check_surface_forces(label, config, ierr, errmsg)
-      character(len=*), intent(in) :: label
-      type(config_t), intent(in) :: config
-      integer, intent(out) :: ierr
-      character(len=*), intent(out) :: errmsg
-      character(len=:), allocatable :: given
-      ierr = ok
-      errmsg = ''
-      if (.not. vdw_method_refused(config%solver%method)) return
-      if (config%scene%electrostatic_strength > 0) then
-         if (.not. config%from_physical) then
-            given = '&scene electrostatic_strength = '//real_text(config%scene%electrostatic_strength)
-         else if (config%physical%tip_bias /= 0) then
-            given = '&physical tip_bias = '//real_text(config%physical%tip_bias)
-         else
-            given = '&physical contact_potential = '//real_text(config%physical%contact_potential)
-         end if
-      else if (config%scene%double_layer_strength /= 0) then
-         if (config%from_physical) then
-            given = '&physical tip_surface_potential = '//real_text(config%physical%tip_surface_potential)
-         else
-            given = '&scene double_layer_strength = '//real_text(config%scene%double_layer_strength)
-         end if
-      else
-         return
-      end if
-      ierr = err_input
-      errmsg = label//": &solver method = '"//trim(config%solver%method)//"': a force at a distance ("// &
-               given//') acts in flight, whose exact solution is force-free; use dop853, dopri5, '// &
-               'rk4_event or rk4_paper'
-   end subroutine check_surface_forces
 
    !> A viscoelastic sample needs a method that carries the dashpot's state (dopri5, dop853,
    !> flight_exact).  With n_modes = 0 the configuration runs the automatic-N search as it is
@@ -1040,8 +999,6 @@ contains
          end do
       end if
       call check_vdw(label, config, ierr, errmsg)
-      if (ierr /= ok) return
-      call check_surface_forces(label, config, ierr, errmsg)
       if (ierr /= ok) return
       call check_jkr(label, config, ierr, errmsg)
       if (ierr /= ok) return

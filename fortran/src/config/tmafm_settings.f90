@@ -13,7 +13,7 @@ module tmafm_settings
    public :: run_settings_t, sample_count, sample_count_real, is_known_method, is_fixed_step_method
    public :: first_sample_at, method_choices, fixed_step_count_real
    public :: method_rk4_paper, method_rk4_event, method_dopri5, method_dop853, method_flight_exact
-   public :: known_methods, vdw_method_refused, sls_method_refused
+   public :: known_methods, sls_method_refused
    public :: method_names, default_max_steps, max_max_steps
    public :: max_samples, max_trajectory_bytes, trajectory_bytes, check_run_size
    public :: comparison_intervals, comparison_points, mode_digits, comparison_rtol, comparison_atol
@@ -111,13 +111,6 @@ module tmafm_settings
    end type run_settings_t
 
 contains
-
-   !> Whether a method refuses contact_law = 'dmt_vdw', whose flight has a force: the exact
-   !> flight (the linear free solution out of contact).
-   pure logical function vdw_method_refused(method)
-      character(len=*), intent(in) :: method
-      vdw_method_refused = trim(method) == method_flight_exact
-   end function vdw_method_refused
 
    !> Whether a method refuses a viscoelastic sample (sls_relaxation_time > 0): the fixed-step
    !> RK4 schemes, which do not carry the dashpot's state (tmafm_driver refuses them too).

@@ -104,6 +104,51 @@ module tmafm_dop853
       d7_13 = -43.53345659001114_dp, d7_14 = 96.32455395918828_dp, d7_15 = -39.17726167561544_dp, &
       d7_16 = -149.72683625798564_dp
 
+   !> The tableau as arrays (for the Lawson form of the pair, tmafm_lawson): dop853_a(i, j) the
+   !> coefficient of stage j in stage i (stage 13 is the derivative at the new state), the nodes,
+   !> the weights of the solution, of the two error estimates and of rows 4-7 of the dense output.
+   real(dp), parameter, public :: dop853_a(16, 16) = reshape([ &
+      0.0_dp, a2_1, a3_1, a4_1, a5_1, a6_1, a7_1, a8_1, a9_1, a10_1, a11_1, a12_1, 0.0_dp, a14_1, a15_1, &
+      a16_1, 0.0_dp, 0.0_dp, a3_2, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, &
+      0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, a4_3, a5_3, 0.0_dp, 0.0_dp, &
+      0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, &
+      0.0_dp, a5_4, a6_4, a7_4, a8_4, a9_4, a10_4, a11_4, a12_4, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, &
+      0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, a6_5, a7_5, a8_5, a9_5, a10_5, a11_5, a12_5, 0.0_dp, 0.0_dp, &
+      0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, a7_6, a8_6, a9_6, a10_6, a11_6, &
+      a12_6, 0.0_dp, 0.0_dp, a15_6, a16_6, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, a8_7, &
+      a9_7, a10_7, a11_7, a12_7, 0.0_dp, a14_7, a15_7, a16_7, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, &
+      0.0_dp, 0.0_dp, 0.0_dp, a9_8, a10_8, a11_8, a12_8, 0.0_dp, a14_8, a15_8, a16_8, 0.0_dp, 0.0_dp, &
+      0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, a10_9, a11_9, a12_9, 0.0_dp, a14_9, &
+      0.0_dp, a16_9, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, &
+      a11_10, a12_10, 0.0_dp, a14_10, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, &
+      0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, a12_11, 0.0_dp, a14_11, a15_11, 0.0_dp, 0.0_dp, 0.0_dp, &
+      0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, a14_12, &
+      a15_12, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, &
+      0.0_dp, 0.0_dp, 0.0_dp, a14_13, a15_13, a16_13, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, &
+      0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, a15_14, a16_14, 0.0_dp, 0.0_dp, &
+      0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, &
+      0.0_dp, a16_15, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, &
+      0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp], [16, 16])
+   !> Nodes c_1..c_16 (c_13 = 1: the new state).
+   real(dp), parameter, public :: dop853_c(16) = [ &
+      0.0_dp, c2, c3, c4, c5, c6, c7, c8, c9, c10, c11, c12, 1.0_dp, c14, c15, c16]
+   !> Weights of the eighth-order solution, and of the fifth- and third-order error estimates.
+   real(dp), parameter, public :: dop853_b(16) = [ &
+      b1, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, b6, b7, b8, b9, b10, b11, b12, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp]
+   real(dp), parameter, public :: dop853_e5(16) = [ &
+      e5_1, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, e5_6, e5_7, e5_8, e5_9, e5_10, e5_11, e5_12, 0.0_dp, 0.0_dp, &
+      0.0_dp, 0.0_dp]
+   real(dp), parameter, public :: dop853_e3(16) = [ &
+      e3_1, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, e3_6, e3_7, e3_8, e3_9, e3_10, e3_11, e3_12, 0.0_dp, 0.0_dp, &
+      0.0_dp, 0.0_dp]
+   !> Rows 4-7 of the dense output: dop853_d(row, j).
+   real(dp), parameter, public :: dop853_d(4:7, 16) = reshape([ &
+      d4_1, d5_1, d6_1, d7_1, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, &
+      0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, d4_6, d5_6, d6_6, d7_6, d4_7, d5_7, d6_7, &
+      d7_7, d4_8, d5_8, d6_8, d7_8, d4_9, d5_9, d6_9, d7_9, d4_10, d5_10, d6_10, d7_10, d4_11, d5_11, &
+      d6_11, d7_11, d4_12, d5_12, d6_12, d7_12, d4_13, d5_13, d6_13, d7_13, d4_14, d5_14, d6_14, d7_14, &
+      d4_15, d5_15, d6_15, d7_15, d4_16, d5_16, d6_16, d7_16], [4, 16])
+
    !> Stage registers and the dense-output coefficients of the last step.
    type, extends(embedded_pair_t) :: dop853_pair_t
       !> Stage derivatives k(1:n, j), j = 2..12 and 14..16 (1 and 13 are the caller's f0, f_new),

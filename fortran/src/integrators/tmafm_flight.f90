@@ -159,7 +159,7 @@ module tmafm_flight
    integer, parameter :: max_scan_evaluations = 10000000
    !> Rows the sample kernel computes together (a fixed count, so that its inner loop has a
    !> constant length the compiler vectorises; sample_matrix is padded to a multiple of it).
-   integer, parameter :: sample_block = 8
+   integer, parameter, public :: sample_block = 8
    !> Modes and terms of the fixed-shape sample kernel (sample_run_4): N = 4 with four
    !> conjugate pairs, the Fig. 2 scenes (2N = sample_block: one block of rows).
    integer, parameter :: small_modes = 4

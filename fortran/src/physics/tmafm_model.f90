@@ -190,6 +190,9 @@ module tmafm_model
       procedure :: tip_gap_rate => model_tip_gap_rate
       !> V_T and dV_T/dtau, for callers that already hold sin(Omega tau) and cos(Omega tau).
       procedure :: gap_at_phase => model_gap_at_phase
+      !> The part of dy/dtau in flight that the force at a distance adds to the free system
+      !> (zero without one), and V_T, at a state and drive phase.
+      procedure :: flight_force => model_flight_force
       !> gap_at_phase for a table of states, one sample per row (the same sums, the same bits).
       procedure :: gap_rows => model_gap_rows
       !> The contact state (angle, radius, brackets) for displacements a at time tau.
@@ -1170,6 +1173,47 @@ contains
          if (self%sls%on) dydt(2*n + 1) = sls_rate(self%sls, hertz, w)
       end if
    end subroutine composed_kernel
+
+   !> composed_kernel's forced terms out of contact alone: g = (0, tip_push M^-1 p + P2 (M^-1 m +
+   !> M^-1 G a), 0) with the brackets of the flight (the van der Waals tail, the forces at a
+   !> distance), so that dy/dtau in flight is the free system's A y + b(tau) plus g (the exact
+   !> flight's perturbation, tmafm_lawson).  The same sums as composed_kernel, in the same order.
+   pure subroutine model_flight_force(self, y, sin_phase, cos_phase, g, vt)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in), contiguous :: y(:)
+      real(dp), intent(in) :: sin_phase
+      real(dp), intent(in) :: cos_phase
+      real(dp), intent(out), contiguous :: g(:)
+      real(dp), intent(out) :: vt
+      real(dp) :: tip_a, slope_a, sin1, cos1, transverse, axial, hertz, base, base_rate, base_accel, stiff
+      integer :: n, i, j
+      logical :: wet
+
+      n = self%n_modes
+      g = 0
+      call model_drive_signals(self, sin_phase, cos_phase, base, base_rate, base_accel)
+      tip_a = 0
+      slope_a = 0
+      do j = 1, n
+         tip_a = tip_a + self%tip(j)*y(j)
+         slope_a = slope_a + self%scaled_slope(j)*y(j)
+      end do
+      vt = tip_a + base + self%scene%delta_hat
+      ! A meniscus that holds the tip (its flag in y) pulls in flight too.
+      wet = .false.
+      if (self%meniscus_slot > 0) wet = y(self%meniscus_slot) > 0.5_dp
+      if (.not. (self%long_range .or. wet)) return
+      call contact_angle_sin_cos(self%sin_theta, self%cos_theta, slope_a, &
+                                 self%errata%e7_signed_slope, sin1, cos1)
+      call tip_sample_forces(self, .false., wet, vt, sin1, cos1, 0.0_dp, transverse, axial, hertz)
+      do i = 1, n
+         stiff = self%moment_force(i)
+         do j = 1, n
+            stiff = stiff + self%pass_g(i, j)*y(j)
+         end do
+         g(n + i) = self%scene%l_over_d*transverse*self%inv_mass_tip(i) + axial*stiff
+      end do
+   end subroutine model_flight_force
 
    !> The tip-sample law as composed from its parts, at gap vt and contact angle (sin1, cos1), in
    !> a phase: in contact the normal force group f is the elastic Hertz X = A^3 or, with a

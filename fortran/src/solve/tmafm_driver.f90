@@ -4,7 +4,7 @@ module tmafm_driver
    use tmafm_errors, only: ok, err_input, err_blowup
    use tmafm_model, only: model_t
    use tmafm_settings, only: run_settings_t, known_methods, method_rk4_paper, method_rk4_event, &
-      method_dopri5, method_dop853, method_flight_exact, vdw_method_refused
+      method_dopri5, method_dop853, method_flight_exact
    use tmafm_trajectory, only: trajectory_t, init_trajectory, progress_t, stop_poll
    use tmafm_method_paper, only: run_rk4_paper
    use tmafm_method_event, only: run_rk4_event
@@ -55,21 +55,6 @@ contains
       if (present(poll)) progress%poll => poll
       call init_trajectory(traj, settings, model%n_modes, with_dashpot=model%sls%on, &
                            with_meniscus=model%meniscus%on)
-      if (model%long_range .and. vdw_method_refused(settings%method)) then
-         ! The input check refuses this first (tmafm_namelist check_vdw, check_surface_forces); a
-         ! model built otherwise too.
-         ierr = err_input
-         if (model%surface%on) then
-            errmsg = "&solver method = '"//trim(settings%method)// &
-                     "': a force at a distance (electrostatic or double layer) acts in flight, whose exact "// &
-                     "solution is force-free; use dop853, dopri5, rk4_event or rk4_paper"
-         else
-            errmsg = "&solver method = '"//trim(settings%method)// &
-                     "': does not support &model contact_law = 'dmt_vdw' (its flight is the force-free "// &
-                     "solution; use dop853, dopri5, rk4_event or rk4_paper)"
-         end if
-         return
-      end if
       if (model%hysteretic .and. (trim(settings%method) == method_rk4_paper &
                                   .or. trim(settings%method) == method_rk4_event)) then
          ! The input check refuses this first (tmafm_namelist check_jkr, check_capillary); a model

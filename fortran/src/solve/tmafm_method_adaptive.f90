@@ -24,6 +24,7 @@ module tmafm_method_adaptive
    use tmafm_error_scale, only: error_scale_t
    use tmafm_dopri5, only: dopri5_pair_t
    use tmafm_dop853, only: dop853_pair_t
+   use tmafm_lawson, only: lawson_pair_t
    use tmafm_events, only: no_event, event_candidate, step_event_test, initial_phase, phase_sign, &
                            switch_margin, hermite_minimum
    use tmafm_roots, only: bracketed_root_t
@@ -31,7 +32,7 @@ module tmafm_method_adaptive
    implicit none
    private
 
-   public :: run_adaptive, adaptive_state_t, pair_dopri5, pair_dop853
+   public :: run_adaptive, adaptive_state_t, pair_dopri5, pair_dop853, pair_lawson
 
    !> Contact exit.  The contact force ~ (-V_T)^(3/2) has a kink where V_T reaches 0: a
    !> step across it, or a long one that ends near it, fails the error test.  After each
@@ -62,14 +63,23 @@ module tmafm_method_adaptive
    !> cost 2 % of the instructions on the tilted scene at rtol 1e-10).
    integer, parameter :: warp_pi_steps = 4
 
+   !> A Lawson flight step toward the surface (V_T' < 0) covers at most this fraction of the
+   !> distance V_T + eps to the surface (eps = &scene vdw_range, the law's own length): the force
+   !> at a distance grows as the gap closes (as 1/(V_T + eps)^2 under 'dmt_vdw'), and the
+   !> controller, which learns a step from the last one, overshot it by norms of 1e2-1e4, about
+   !> seven rejections a flight (docs/performance.md, "Long-range forces in flight").
+   real(dp), parameter :: gap_reach = 0.5_dp
+
    !> Pieces a step (and then a piece) is split into by the dip search out of contact.
    integer, parameter :: dip_pieces = 8
 
    !> A learned step length is replaced only by a value outside [1/learn_band, learn_band] x it.
    real(dp), parameter :: learn_band = 1.25_dp
 
-   !> Which embedded pair an adaptive state uses.
-   integer, parameter :: pair_dopri5 = 1, pair_dop853 = 2
+   !> Which embedded pair an adaptive state uses: pair_lawson is dop853 in contact and its
+   !> Lawson form on the exact free flow in flight (tmafm_lawson; flight_exact with a force at a
+   !> distance).
+   integer, parameter :: pair_dopri5 = 1, pair_dop853 = 2, pair_lawson = 3
 
    !> The method dop853 never steps further than h omega_N = dop853_mode_reach, omega_N =
    !> beta_N^2 the highest mode's free frequency (the error norm's, tmafm_error_scale).  Past
@@ -126,6 +136,8 @@ module tmafm_method_adaptive
       !> Largest step in tau (not in sigma): dop853_mode_reach/omega_N for the method dop853,
       !> dopri5_mode_reach/omega_N for dopri5, huge otherwise (flight_exact's contacts).
       real(dp) :: h_max = huge(1.0_dp)
+      !> .true. for pair_lawson: a flight step toward the surface is limited by gap_reach.
+      logical :: gap_limited = .false.
       !> The embedded pair and its registers.
       class(embedded_pair_t), allocatable :: pair
       !> The step-size controller.
@@ -158,8 +170,15 @@ contains
       type(observer_t), intent(inout), optional :: observer
       type(adaptive_state_t) :: state
 
+      ierr = ok
+      errmsg = ''
       call traj%store(model, y0)
       call state%init(kind, model, settings, 0.0_dp, y0)
+      select type (pair => state%pair)
+      type is (lawson_pair_t)
+         call pair%setup(model, ierr, errmsg)
+      end select
+      if (ierr /= ok) return
       ! The first sample's phase is the run's (a JKR neck may start stretched: &initial in_contact).
       if (model%hysteretic) traj%contact(1) = merge(1, 0, state%in_contact)
       if (kind == pair_dop853) state%h_max = dop853_mode_reach/maxval(model%beta(1:model%n_modes)**2)
@@ -180,6 +199,9 @@ contains
       select case (kind)
       case (pair_dop853)
          allocate (dop853_pair_t :: self%pair)
+      case (pair_lawson)
+         allocate (lawson_pair_t :: self%pair)
+         self%gap_limited = .true.
       case default
          allocate (dopri5_pair_t :: self%pair)
       end select
@@ -344,6 +366,9 @@ contains
             if (model%hysteretic) call past_offset(model, y_new, self%in_contact, vt1, rate1)
             call model%drive_signals(pair%sin_end, pair%cos_end, base1, base_rate1, drive1)
             margin1 = switch_margin(model, y_new)
+            ! A Lawson flight toward the surface: the force in flight grows as the gap closes.
+            if (self%gap_limited .and. .not. self%in_contact .and. rate1 < 0) &
+               self%h = min(self%h, gap_reach*(vt1 + model%scene%vdw_range)/(-rate1))
             ! G's rates per unit of the step variable: dtau/ds = 1, or 2 sigma when warped.
             ds0 = 1
             ds1 = 1

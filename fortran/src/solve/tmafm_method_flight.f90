@@ -1,6 +1,9 @@
 !> `flight_exact`: out of contact the state is propagated by the exact modal solution
 !> (tmafm_flight), and the next contact is the first root of V_T on that closed form; only
-!> the contact phases are integrated numerically, by the adaptive pair `contact_pair`.
+!> the contact phases are integrated numerically, by the adaptive pair `contact_pair`.  With a
+!> force at a distance (model_t%long_range) the flight is the exact free flow plus the force's
+!> response, integrated by the Lawson form of dop853 (tmafm_lawson) in the adaptive run loop,
+!> whose switches are located on the pair's dense output as dop853's.
 !> Each flight and its scan points are charged to &solver max_steps (one scan is itself
 !> bounded by tmafm_flight).  The caller's poll (progress_t) is asked after each flight and
 !> each chunk of a flight's samples, so a run that stays out of contact can be stopped too.
@@ -13,7 +16,7 @@ module tmafm_method_flight
    use tmafm_trajectory, only: trajectory_t, check_blowup, progress_t
    use tmafm_flight, only: free_flight_t
    use tmafm_flight_observables, only: flight_observables_t
-   use tmafm_method_adaptive, only: adaptive_state_t, pair_dop853
+   use tmafm_method_adaptive, only: adaptive_state_t, pair_dop853, pair_lawson, run_adaptive
    use tmafm_observers, only: observer_t, stop_requested
    implicit none
    private
@@ -48,6 +51,12 @@ contains
       logical :: found, over
       integer :: evaluations, left, count, k, mode
 
+      if (model%long_range) then
+         ! A force at a distance acts in flight: the exact free flow with the force as its
+         ! perturbation (tmafm_lawson), the contacts by the same dop853 pair.
+         call run_adaptive(pair_lawson, model, settings, y0, traj, ierr, errmsg, progress, observer)
+         return
+      end if
       call flight%init(model, ierr, errmsg)
       if (ierr /= ok) return
       call flight%sample_step(settings%sample_dtau)

@@ -77,6 +77,9 @@ module tmafm_lawson
       real(dp) :: sin_node(stages) = 0, cos_node(stages) = 1
       !> Start of the last step and the dashpot coordinate there.
       real(dp) :: tau0 = 0, dashpot0 = 0
+      !> A capillary meniscus's flag y(2N + 2) at the step's start (model_t%wet): constant over
+      !> a step, its stages and its dense output.
+      real(dp) :: flag0 = 0
    contains
       !> Decompose the free system of a model and allocate (once per run, after init).
       procedure :: setup => lawson_setup
@@ -156,6 +159,7 @@ contains
       call self%flight%start(model, map%s0, y)
       self%z = self%flight%z
       if (size(y) > self%n_modal) self%dashpot0 = y(self%n_modal + 1)
+      if (size(y) > self%n_modal + 1) self%flag0 = y(self%n_modal + 2)
       call stage_phases(model, map%s0, h, dop853_c, self%sin_node, self%cos_node)
       call turns(self%flight%n_terms, self%flight%eigenvalue, h, self%turn, self%unturn)
       ! Stage 1 at the step start (eta = 0): the caller's f0 is the whole derivative, not g.
@@ -307,6 +311,7 @@ contains
       if (size(y) > m) then
          y(m + 1) = sls_free_relaxation(self%sls, self%dashpot0, s)
          y(m + 2:) = 0
+         if (size(y) > m + 1) y(m + 2) = self%flag0
       end if
    end subroutine modal_state
 

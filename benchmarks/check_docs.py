@@ -675,6 +675,8 @@ def check_performance(ck, group="performance"):
     _etd_table(ck, group, doc)
     check_off_cost(ck, group)
     check_forces_off_cost(ck, group)
+    _off_cost_rows(ck, group, "off_cost_capillary.json")
+    _off_cost_rows(ck, group, "off_cost_window.json")
     check_compose_cost(ck, group)
     check_longrange(ck, group)
     _inventory(ck, group, doc)
@@ -1061,7 +1063,9 @@ def check_off_cost(ck, group="off_cost"):
 
 def check_forces_off_cost(ck, group="off_cost"):
     """docs/performance.md's cost of the forces at a distance and JKR when off against
-    benchmarks/results/off_cost_forces.json (`python benchmarks/off_cost.py --base fd2cc5e`)."""
+    benchmarks/results/off_cost_forces.json (`python benchmarks/off_cost.py --base fd2cc5e`); the
+    capillary meniscus and the JKR and meniscus continuation against off_cost_capillary.json
+    (`--base e8f5b66 --head 41bc323`) is read by check_performance."""
     _off_cost_rows(ck, group, "off_cost_forces.json")
 
 

@@ -675,6 +675,7 @@ def check_performance(ck, group="performance"):
     _etd_table(ck, group, doc)
     check_off_cost(ck, group)
     check_forces_off_cost(ck, group)
+    check_fuzz_campaign(ck)
     _off_cost_rows(ck, group, "off_cost_capillary.json")
     _off_cost_rows(ck, group, "off_cost_window.json")
     check_compose_cost(ck, group)
@@ -1059,6 +1060,20 @@ def check_off_cost(ck, group="off_cost"):
     """docs/performance.md's cost of the optional physics when off against
     benchmarks/results/off_cost.json (`python benchmarks/off_cost.py --base 615b428`)."""
     _off_cost_rows(ck, group, "off_cost.json")
+
+
+def check_fuzz_campaign(ck, group="reliability"):
+    """docs/reliability.md's last fuzz campaign against studies/results/fuzz_campaign.json
+    (`python studies/fuzz_campaign.py --cases 10000 --first-seed 30000`)."""
+    run = load(REPO / "studies" / "results" / "fuzz_campaign.json")
+    first, last = run["seeds"]
+    ck.text(group, "docs/reliability.md", "Last run: seeds {}–{} on commit {}",
+            [grouped(first), grouped(last), run["commit"][:7]], "Fuzz campaign")
+    ck.text(group, "docs/reliability.md", "Of the {} cases, {} broke the contract: {} succeeded",
+            [grouped(run["cases"]), run["broke_contract"], grouped(run["outcomes"].get("ok", 0))], "Fuzz campaign")
+    ck.text(group, "docs/reliability.md", "text and {} failed as documented. It ran on 2 processes in {} s CPU "
+            "and {} s wall", [grouped(run["outcomes"].get("ok-error", 0)), run["cpu_s"], run["wall_s"]],
+            "Fuzz campaign")
 
 
 def check_forces_off_cost(ck, group="off_cost"):

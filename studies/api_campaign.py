@@ -8,7 +8,8 @@ Each call is rebuilt from its seed by ``generate(seed)`` (numpy's PCG64): an ent
 arguments, most of them good and cheap (a few drive periods), one to three of them hostile.
 The entry points: ``tmafm.run`` and ``tmafm.Config`` with overrides of any key (the new ones
 too: ``contact_law = 'jkr'``, ``&initial in_contact``, ``tip_bias``, ``debye_length``,
-``ionic_strength``, the surface potentials, ``&output sample_from``/``last_periods``), the
+``ionic_strength``, the surface potentials, ``&output sample_from``/``last_periods``, the
+capillary meniscus's keys), the
 Config's properties and methods, ``tmafm.observe``, the Result's methods and ``tmafm.load``
 (also of a damaged archive), ``tmafm.Model``'s methods, the analysis functions,
 ``tmafm.approach``, ``tmafm.frequency_sweep``, ``tmafm.continuation``, ``tmafm.sweep``,
@@ -71,7 +72,9 @@ NEW_KEYS = [("model", "contact_law"), ("initial", "in_contact"), ("physical", "t
             ("physical", "contact_potential"), ("physical", "tip_surface_potential"),
             ("physical", "sample_surface_potential"), ("physical", "temperature"),
             ("physical", "medium_permittivity"), ("physical", "cone_half_angle"),
-            ("output", "sample_from"), ("output", "last_periods")]
+            ("output", "sample_from"), ("output", "last_periods"), ("physical", "relative_humidity"),
+            ("physical", "meniscus_rupture_distance"), ("physical", "water_contact_angle"),
+            ("physical", "water_surface_tension"), ("scene", "capillary_strength"), ("scene", "capillary_range")]
 
 
 class Odd:
@@ -169,7 +172,8 @@ def overrides_of(rng, base: str, count: int) -> dict:
             value = -abs(value)  # a cost key gets no large valid value: the run stays short
         if rng.random() < 0.15:
             value = {"contact_law": "jkr", "in_contact": int(rng.integers(-1, 2)), "method": "dop853",
-                     "last_periods": int(rng.integers(0, 4)), "sample_from": float(rng.random())}.get(key, value)
+                     "last_periods": int(rng.integers(0, 4)), "sample_from": float(rng.random()),
+                     "relative_humidity": float(rng.random())}.get(key, value)
         groups.setdefault(group, {})[key] = value
     if rng.random() < 0.03:
         groups[["bogus", "Solver", "output"][int(rng.integers(3))]] = hostile(rng)  # a group not a dict

@@ -205,6 +205,9 @@ module tmafm_model
       !> Where the phase of a state ends, as V_T = offset, and d(offset)/dtau: 0 but for a JKR neck
       !> and a meniscus in flight.
       procedure :: switch_offset => model_switch_offset
+      !> The switch function of a phase at (tau, y): V_T less the phase's offset (switch_offset),
+      !> positive in flight and negative in contact until the phase ends.
+      procedure :: switch_gap => model_switch_gap
       !> .true. while a meniscus holds the tip of a state y in flight (its flag in y).
       procedure :: wet => model_wet
       !> At a switch in flight with the meniscus held: .true. where it breaks (V_T near its
@@ -743,6 +746,18 @@ contains
          rate = (2*vt*vt_rate - offset*rupture_rate)/rupture
       end if
    end subroutine model_switch_offset
+
+   pure real(dp) function model_switch_gap(self, tau, y, in_contact) result(gap)
+      class(model_t), intent(in) :: self
+      real(dp), intent(in) :: tau
+      real(dp), intent(in) :: y(:)
+      logical, intent(in) :: in_contact
+      real(dp) :: offset, offset_rate
+      gap = self%tip_gap(tau, y)
+      if (.not. self%hysteretic) return
+      call self%switch_offset(y, in_contact, gap, 0.0_dp, offset, offset_rate)
+      gap = gap - offset
+   end function model_switch_gap
 
    !> sin and cos of the contact angle theta1 at a state y = (a, a'), with the slope p'.a/(L/d)
    !> and its rate.

@@ -233,19 +233,6 @@ contains
       rate = rate - offset_rate
    end subroutine past_offset
 
-   !> The switch function's V_T part at (tau, y) in a phase: V_T less the phase's offset.
-   pure real(dp) function switch_gap(model, tau, y, in_contact) result(gap)
-      type(model_t), intent(in) :: model
-      real(dp), intent(in) :: tau
-      real(dp), intent(in) :: y(:)
-      logical, intent(in) :: in_contact
-      real(dp) :: offset, offset_rate
-      gap = model%tip_gap(tau, y)
-      if (.not. model%hysteretic) return
-      call model%switch_offset(y, in_contact, gap, 0.0_dp, offset, offset_rate)
-      gap = gap - offset
-   end function switch_gap
-
    !> V_T, dV_T/dtau and the switch margin (tmafm_events) at a state, given sin and cos of the
    !> drive phase there.
    pure subroutine gap_state(model, sin_phase, cos_phase, y, vt, rate, margin, drive)
@@ -404,14 +391,14 @@ contains
                ! the last point the dip search cleared), not at s_test/h.
                call build_dense(self, model, traj, dense_ready)
                call pair%dense(s_test/h, y_sample)
-               g_test = side*switch_gap(model, map%time_at(s_test/h), y_sample, self%in_contact) + margin0
+               g_test = side*model%switch_gap(map%time_at(s_test/h), y_sample, self%in_contact) + margin0
                call root%start(theta_low, g_low, s_test/h, g_test, 4*epsilon(1.0_dp)*abs(tau)/h_time)
                do while (.not. root%converged())
                   call traj%charge(settings, tau, 1, ierr, errmsg)
                   if (ierr /= ok) return
                   call root%next_point(theta)
                   call pair%dense(theta, y_sample)
-                  call root%update(side*switch_gap(model, map%time_at(theta), y_sample, self%in_contact) + margin0)
+                  call root%update(side*model%switch_gap(map%time_at(theta), y_sample, self%in_contact) + margin0)
                end do
                call root%end_with_sign(-1.0_dp, theta)
                tau_end = map%time_at(theta)

@@ -23,7 +23,7 @@
 !>    when the force is continuous there: Hertz, or 'dmt_vdw', whose attraction meets the DMT
 !>    force at V_T = 0, without contact damping);
 !>  - with a capillary meniscus (docs/model.md §19), a flight it holds is integrated like a contact
-!>    (its force acts), and ends at V_T (1 - V_T/o) = 0 (phase_gap): where the tip touches again
+!>    (its force acts), and ends at V_T (1 - V_T/o) = 0 (model_t%switch_gap): where the tip touches again
 !>    (the saltation above) or where the meniscus breaks (its force is zero there: no saltation).
 !>    Its flag is the map state's last component, discrete: no row and no column of Phi.
 !> Along the way it records what grazing and the observables need (stats, stat_* indices).
@@ -451,7 +451,7 @@ contains
          rate1 = model%tip_gap_rate(tau0 + step, w%z_new(1:ns))
          ! The phase's switch function: V_T, but in a flight a meniscus holds V_T (1 - V_T/o), which
          ! also ends where it breaks (model_t%switch_offset).
-         crossed = side*phase_gap(model, tau0 + step, w%z_new(1:ns), in_contact) < 0
+         crossed = side*model%switch_gap(tau0 + step, w%z_new(1:ns), in_contact) < 0
          reach = step
          vt_reach = vt1
          if (.not. crossed .and. .not. in_contact .and. rate0 < 0 .and. rate1 >= 0) then
@@ -488,7 +488,7 @@ contains
             do while (.not. root%converged())
                call root%next_point(x)
                call dp5_step(model, w, tau0, w%z, x, w%z_try, gx, in_contact)
-               call root%update(phase_gap(model, tau0 + x, w%z_try(1:ns), in_contact))
+               call root%update(model%switch_gap(tau0 + x, w%z_try(1:ns), in_contact))
             end do
             call root%end_with_sign(-side, x)
             call dp5_step(model, w, tau0, w%z, x, w%z_new, gx, in_contact)
@@ -520,22 +520,7 @@ contains
       phi = reshape(w%z(ns + 1:), [m, m])
    end subroutine forced_phase
 
-   !> The switch function of a phase at (tau, y): V_T less the phase's offset (model_t%switch_offset:
-   !> V_T (1 - V_T/o) in a flight a meniscus holds, V_T less the pull-off gap while a JKR neck
-   !> holds), positive in flight and negative in contact.
-   pure real(dp) function phase_gap(model, tau, y, in_contact) result(gap)
-      type(model_t), intent(in) :: model
-      real(dp), intent(in) :: tau
-      real(dp), intent(in) :: y(:)
-      logical, intent(in) :: in_contact
-      real(dp) :: offset, offset_rate
-      gap = model%tip_gap(tau, y)
-      if (.not. model%hysteretic) return
-      call model%switch_offset(y, in_contact, gap, 0.0_dp, offset, offset_rate)
-      gap = gap - offset
-   end function phase_gap
-
-   !> The switch function phase_gap a step of length x from w%z at tau0 reaches (x = 0: w%z's).
+   !> The switch function model_t%switch_gap a step of length x from w%z at tau0 reaches (x = 0: w%z's).
    function bracket_value(model, w, tau0, x, in_contact) result(gap)
       type(model_t), intent(in) :: model
       type(work_t), intent(inout) :: w
@@ -547,9 +532,9 @@ contains
       ns = w%n_state
       if (x > 0) then
          call dp5_step(model, w, tau0, w%z, x, w%z_try, err, in_contact)
-         gap = phase_gap(model, tau0 + x, w%z_try(1:ns), in_contact)
+         gap = model%switch_gap(tau0 + x, w%z_try(1:ns), in_contact)
       else
-         gap = phase_gap(model, tau0, w%z(1:ns), in_contact)
+         gap = model%switch_gap(tau0, w%z(1:ns), in_contact)
       end if
    end function bracket_value
 

@@ -21,7 +21,7 @@ module tmafm_dop853
    implicit none
    private
 
-   public :: dop853_pair_t
+   public :: dop853_pair_t, dop853_norm
 
    !> Rows of the stage registers k: the longest state (2 max_modes + 2), whatever the run's.  With
    !> a leading dimension fixed at compile time the column k(:, j) is at a constant offset, and
@@ -296,14 +296,24 @@ contains
       real(dp), intent(in), contiguous :: f_new(:)
       type(error_scale_t), intent(in) :: scale
       real(dp), intent(out) :: norm
+      norm = dop853_norm(h, self%err5, self%err3, scale)
+   end subroutine dop853_error_norm
+
+   !> DOP853's error norm of a step of length h from its 5th- and 3rd-order error estimates (per
+   !> unit h): |h| s5/sqrt(s5 + s3/100) with their weighted sums of squares (Hairer's dop853.f).
+   pure real(dp) function dop853_norm(h, err5, err3, scale) result(norm)
+      real(dp), intent(in) :: h
+      real(dp), intent(in) :: err5(:)
+      real(dp), intent(in) :: err3(:)
+      type(error_scale_t), intent(in) :: scale
       real(dp) :: s5, s3
-      call scale%sums_of_squares(self%err5, self%err3, s5, s3)
+      call scale%sums_of_squares(err5, err3, s5, s3)
       if (s5 == 0 .and. s3 == 0) then
          norm = 0
       else
          norm = abs(h)*s5/sqrt(s5 + 0.01_dp*s3)
       end if
-   end subroutine dop853_error_norm
+   end function dop853_norm
 
    pure function dop853_growth(self, norm) result(ratio)
       class(dop853_pair_t), intent(in) :: self

@@ -29,7 +29,7 @@ module tmafm_lawson
    use tmafm_drive, only: max_tones
    use tmafm_error_scale, only: error_scale_t
    use tmafm_embedded_pair, only: embedded_pair_t, time_map_t, stage_phases
-   use tmafm_dop853, only: dop853_pair_t, dop853_a, dop853_b, dop853_c, dop853_d, dop853_e5, dop853_e3
+   use tmafm_dop853, only: dop853_pair_t, dop853_a, dop853_b, dop853_c, dop853_d, dop853_e5, dop853_e3, dop853_norm
    use tmafm_flight, only: free_flight_t, sample_block
    implicit none
    private
@@ -370,24 +370,18 @@ contains
       real(dp), intent(in), contiguous :: f_new(:)
       type(error_scale_t), intent(in) :: scale
       real(dp), intent(out) :: norm
-      real(dp) :: s5, s3
       if (.not. self%lawson_step) then
          call self%contact%error_norm(h, f0, f_new, scale, norm)
          return
       end if
-      call scale%sums_of_squares(self%err5, self%err3, s5, s3)
-      if (s5 == 0 .and. s3 == 0) then
-         norm = 0
-      else
-         norm = abs(h)*s5/sqrt(s5 + 0.01_dp*s3)
-      end if
+      norm = dop853_norm(h, self%err5, self%err3, scale)
    end subroutine lawson_error_norm
 
    pure function lawson_growth(self, norm) result(ratio)
       class(lawson_pair_t), intent(in) :: self
       real(dp), intent(in) :: norm
       real(dp) :: ratio
-      ratio = 1/sqrt(sqrt(sqrt(norm)))
+      ratio = self%contact%growth(norm)
    end function lawson_growth
 
    subroutine lawson_prepare_dense(self, model, y, y_new, in_contact, f0, f_new)

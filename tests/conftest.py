@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import f90nml
+import numpy as np
 import pytest
 
 import tmafm
@@ -114,3 +115,29 @@ def drive_interrupted_child(script: str, args, delay, timeout: float = 300):
         proc.kill()
     assert proc.returncode == 0, (proc.returncode, err[-3000:])
     return reports, err
+
+
+def _monodromy_against_differences(model, x0, continuous, rtol=1e-12, steps=(1e-4, 1e-5)):
+    """The monodromy matrix of the stroboscopic map at x0 and, for each relative step h, the
+    largest difference between its first `continuous` rows and columns and central differences of
+    the map (step h times the state's scale), over the matrix's largest entry."""
+    from tmafm.continuation.shooting import periodic_map
+
+    monodromy = periodic_map(model, x0, 1, rtol).monodromy
+    scale = np.max(np.abs(x0[:continuous]))
+    errors = []
+    for h in steps:
+        fd = np.empty((continuous, continuous))
+        for k in range(continuous):
+            e = np.zeros(len(x0))
+            e[k] = h * scale
+            fd[:, k] = (periodic_map(model, x0 + e, 1, rtol).y[:continuous]
+                        - periodic_map(model, x0 - e, 1, rtol).y[:continuous]) / (2 * h * scale)
+        errors.append(np.max(np.abs(monodromy[:continuous, :continuous] - fd)) / np.max(np.abs(monodromy)))
+    return monodromy, errors
+
+
+@pytest.fixture
+def monodromy_fd():
+    """_monodromy_against_differences, for the tests of a map's Jacobian."""
+    return _monodromy_against_differences

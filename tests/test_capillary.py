@@ -217,12 +217,12 @@ def test_the_humid_air_example_states_its_numbers():
     assert f"{v['dissipated_adhesion'] / v['contacts_per_period']:.2f}" == f"{pull() * rupture / 2 * 1e18:.2f}"
 
 
-def test_the_monodromy_matrix_of_a_held_orbit_is_the_maps_derivative():
+def test_the_monodromy_matrix_of_a_held_orbit_is_the_maps_derivative(monodromy_fd):
     """On humid_air's periodic orbit (contact, a flight the meniscus holds, its rupture, a free
     flight): the monodromy matrix equals central differences of the stroboscopic map, whose error
     falls as h^2 (1e-4 -> 1e-5: at least 50x) to below 1e-7 of |M|; the flag (the map state's last
     component) has a zero row and column; Newton converges in a few iterations."""
-    from tmafm.continuation.shooting import map_size, periodic_map, periodic_orbit
+    from tmafm.continuation.shooting import map_size, periodic_orbit
 
     model = tmafm.Model("humid_air")
     m = map_size(model)
@@ -233,18 +233,8 @@ def test_the_monodromy_matrix_of_a_held_orbit_is_the_maps_derivative():
     orbit = periodic_orbit(model, guess, rtol=1e-11)
     assert orbit.iterations <= 5 and orbit.stable
     x0 = orbit.states[0]
-    monodromy = periodic_map(model, x0, 1, 1e-12).monodromy
+    monodromy, errors = monodromy_fd(model, x0, 6)
     assert np.all(monodromy[-1] == 0) and np.all(monodromy[:, -1] == 0)
-    scale = np.max(np.abs(x0[:6]))
-    errors = []
-    for h in (1e-4, 1e-5):
-        fd = np.empty((6, 6))
-        for k in range(6):
-            e = np.zeros(m)
-            e[k] = h * scale
-            fd[:, k] = (periodic_map(model, x0 + e, 1, 1e-12).y[:6]
-                        - periodic_map(model, x0 - e, 1, 1e-12).y[:6]) / (2 * h * scale)
-        errors.append(np.max(np.abs(monodromy[:6, :6] - fd)) / np.max(np.abs(monodromy)))
     assert errors[0] / errors[1] > 50 and errors[1] < 1e-7, errors
 
 

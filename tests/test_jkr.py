@@ -151,12 +151,12 @@ def test_what_the_jkr_law_does_not_support_is_refused_in_one_line(overrides, mes
     assert "\n" not in str(err.value)
 
 
-def test_the_monodromy_matrix_through_the_pull_off_is_the_maps_derivative():
+def test_the_monodromy_matrix_through_the_pull_off_is_the_maps_derivative(monodromy_fd):
     """On the JKR orbit at Z = 12 nm (a neck that holds across the period boundary, flag 1, and
     breaks at the pull-off, where f ~ sqrt(D - D_c)): the monodromy matrix equals central
     differences of the stroboscopic map, whose error falls as h^2 (1e-4 -> 1e-5: at least 50x) to
     below 1e-8 of |M|; the flag has a zero row and column; Newton converges in a few steps."""
-    from tmafm.continuation.shooting import map_size, periodic_map, periodic_orbit
+    from tmafm.continuation.shooting import map_size, periodic_orbit
 
     config = tmafm.Config(BASE, physical={"tip_sample_distance": 12e-9}, **JKR)
     model = tmafm.Model(config)
@@ -167,18 +167,8 @@ def test_the_monodromy_matrix_through_the_pull_off_is_the_maps_derivative():
     orbit = periodic_orbit(model, guess, rtol=1e-11)
     assert orbit.iterations <= 5 and orbit.stable and orbit.states[0][-1] == 1
     x0 = orbit.states[0]
-    monodromy = periodic_map(model, x0, 1, 1e-12).monodromy
+    monodromy, errors = monodromy_fd(model, x0, 6)
     assert np.all(monodromy[-1] == 0) and np.all(monodromy[:, -1] == 0)
-    scale = np.max(np.abs(x0[:6]))
-    errors = []
-    for h in (1e-4, 1e-5):
-        fd = np.empty((6, 6))
-        for k in range(6):
-            e = np.zeros(m)
-            e[k] = h * scale
-            fd[:, k] = (periodic_map(model, x0 + e, 1, 1e-12).y[:6]
-                        - periodic_map(model, x0 - e, 1, 1e-12).y[:6]) / (2 * h * scale)
-        errors.append(np.max(np.abs(monodromy[:6, :6] - fd)) / np.max(np.abs(monodromy)))
     assert errors[0] / errors[1] > 50 and errors[1] < 1e-8, errors
 
 

@@ -163,7 +163,7 @@ module tmafm_keys
       key_t('scene', 'double_layer_range', key_real, 0, 1.0e3_dp, .false., unit='1', omit_default=.true., &
             meaning='electrical double layer: Debye length over gap, lambda_D/d'), &
       key_t('scene', 'capillary_strength', key_real, 0, 1.0e6_dp, unit='1', omit_default=.true., &
-            rule="not with contact_law = 'jkr'; method dop853, dopri5 or flight_exact", &
+            rule="not with contact_law = 'jkr' or a liquid; method dop853, dopri5 or flight_exact", &
             meaning='capillary meniscus: its pull in contact, 4 pi R gamma_w cos(theta_w)/(1.5 pi gamma R); '// &
             '0 = off (docs/model.md section 19)'), &
       key_t('scene', 'capillary_range', key_real, 0, 1.0e3_dp, .false., unit='1', omit_default=.true., &

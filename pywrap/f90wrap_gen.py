@@ -27,7 +27,8 @@ from pathlib import Path
 #: variable of the caller: docs/model-notes.md, finding 11; tests/test_threads.py checks it).
 THREADSAFE = ("f90wrap_tmafm_api__run_config", "f90wrap_tmafm_api__config_from_text",
               "f90wrap_tmafm_api__config_from_texts", "f90wrap_tmafm_api__trajectory_energy_flow",
-              "f90wrap_tmafm_api__batch_run", "f90wrap_tmafm_api__observe_states_of")
+              "f90wrap_tmafm_api__batch_run", "f90wrap_tmafm_api__observe_states_of",
+              "f90wrap_tmafm_api_instrument__z_schedule_run")
 #: Core entities that Python never calls (the integrators' own helpers).  f90wrap's --skip
 #: leaves type-bound procedures wrapped, so those named here are hidden from it
 #: (hide_bindings below).
@@ -125,7 +126,7 @@ def main() -> None:
         subprocess.run([sys.executable, "-m", "f90wrap", "--f90wrap", "-m", "_objects", "-k", kind_map,
                         "--f90-mod-name", "tmafm._fwrap", "--skip", *SKIP,
                         "--", *sources], check=True, stdout=subprocess.DEVNULL)
-        for wrapper in Path(".").glob("f90wrap_tmafm_api.f90"):
+        for wrapper in Path(".").glob("f90wrap_tmafm_api*.f90"):
             mark_threadsafe(wrapper)
     elif step == "f2py":
         sources = [s for s in sources if s.endswith(".f90")]

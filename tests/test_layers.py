@@ -10,9 +10,9 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "fortran" / "src"
 APP = SRC.parent / "app"
 #: Bottom to top.  `facade` is fortran/src/tmafm.f90.
-LAYERS = ("base", "physics", "integrators", "config", "solve", "run", "output", "facade", "api")
+LAYERS = ("base", "physics", "integrators", "config", "solve", "run", "output", "instrument", "facade", "api")
 #: Layers that do not use each other (neither is below the other).
-SIBLINGS = {frozenset({"run", "output"})}
+SIBLINGS = {frozenset({"run", "output"}), frozenset({"output", "instrument"})}
 USE = re.compile(r"^\s*use\s*(?:,\s*non_intrinsic\s*)?(?:::)?\s*(tmafm\w*)", re.I | re.M)
 
 

@@ -8,6 +8,9 @@ from . import _objects
 #: The in-memory entry points (fortran/src/api/tmafm_api.f90).
 api = _objects.tmafm_api
 
+#: The instrument's entry points (fortran/src/api/tmafm_api_instrument.f90).
+api_instrument = _objects.tmafm_api_instrument
+
 #: A new, empty config_t handle (filled by api.config_from_text(s)).
 config_t = _objects.tmafm_config.config_t
 

@@ -21,7 +21,8 @@ module tmafm_driver
 contains
 
    !> Integrate `model` from (a0, adot0) at tau = 0 and sample it; ierr /= 0 on failure.
-   subroutine run_trajectory(model, settings, a0, adot0, traj, ierr, errmsg, progress_unit, observer, poll)
+   subroutine run_trajectory(model, settings, a0, adot0, traj, ierr, errmsg, progress_unit, observer, poll, &
+                             tail)
       type(model_t), intent(in) :: model
       type(run_settings_t), intent(in) :: settings
       real(dp), intent(in) :: a0(:)
@@ -36,6 +37,9 @@ contains
       !> If present, asked at the first step and every poll_every steps (tmafm_trajectory)
       !> whether to stop: the run then ends with err_interrupted.
       procedure(stop_poll), optional :: poll
+      !> If present, the state's components past (a, a'): a viscoelastic sample's dashpot w and
+      !> a capillary meniscus's flag (a run continued from another's end, tmafm_period_stepper).
+      real(dp), intent(in), optional :: tail(:)
       type(progress_t) :: progress
       real(dp) :: y0(model%n_state)
 
@@ -43,6 +47,15 @@ contains
       y0 = 0
       y0(1:size(a0)) = a0
       y0(size(a0) + 1:size(a0) + size(adot0)) = adot0
+      if (present(tail)) then
+         if (size(tail) /= model%n_state - size(a0) - size(adot0)) then
+            ierr = err_input
+            errmsg = 'run_trajectory: the state''s tail has '//int_text(size(tail))//' components, the model''s '// &
+                     int_text(model%n_state - size(a0) - size(adot0))
+            return
+         end if
+         y0(size(a0) + size(adot0) + 1:) = tail
+      end if
       if (model%sls%on .and. (settings%method == method_rk4_paper .or. settings%method == method_rk4_event)) then
          ierr = err_input
          errmsg = '&solver method = '''//trim(settings%method)//''': a viscoelastic sample (&scene '// &

@@ -46,6 +46,7 @@ module tmafm
    use tmafm_nml_syntax, only: nml_document_t, parse_namelist, entry_text
    use tmafm_simulation, only: build_model, simulate, choose_mode_count, load_model
    use tmafm_period_stepper, only: period_stepper_t, init_period_stepper, with_distance
+   use tmafm_controllers, only: lowpass_t, pi_controller_t
    use tmafm_output, only: write_trajectory_file, output_sink_t, prepare_output, check_output_size, &
       begin_output, write_output, discard_output, target_file, target_device, target_stdout
    implicit none
@@ -75,6 +76,6 @@ module tmafm
              write_output, discard_output, sample_count, target_file, target_device, target_stdout
    public :: physical_derived, derived_names, derived_units, derived_meanings, n_derived, config_errata
    public :: physical_series, n_series, series_names, series_units
-   public :: period_stepper_t, init_period_stepper, with_distance
+   public :: period_stepper_t, init_period_stepper, with_distance, lowpass_t, pi_controller_t
 
 end module tmafm

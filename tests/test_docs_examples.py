@@ -298,7 +298,17 @@ def _check_time_domain(ns, seen, out):
     assert int(np.argmax(ns["spectrum"][1:])) + 1 == 4
 
 
+def _check_z_schedule(ns, seen, out):
+    # docs/instrument.md: one value per drive period; 10 nm nearer, the tip taps and the
+    # amplitude falls below the far one.
+    steps = ns["steps"]
+    amplitude = steps.values["amplitude"]
+    assert amplitude.shape == (800,) and steps.units["amplitude"] == "nm"
+    assert amplitude[-1] < amplitude[399] and steps.values["peak_force"][-1] > 0
+
+
 BLOCKS = {
+    ("docs/instrument.md", "import numpy as np, tmafm"): Block(check=_check_z_schedule),
     ("docs/continuation.md", "import tmafm"): Block(check=_check_continuation),
     ("docs/continuation.md", 'base = tmafm.Config("tapping_polystyrene", physical={"drive_frequency": '
                              '301e3})'): Block(check=_check_s_curve),

@@ -27,9 +27,9 @@ def __getattr__(name):
     if name in _SWEEPS:
         from . import sweeps
         return getattr(sweeps, name)
-    if name == "continuation":  # the package, callable as tmafm.continuation(base, key, ...)
+    if name in ("continuation", "instrument"):  # tmafm.continuation is callable too
         import importlib
-        return importlib.import_module(".continuation", __name__)
+        return importlib.import_module("." + name, __name__)
     raise AttributeError(f"module 'tmafm' has no attribute {name!r}")
 
 try:
@@ -43,4 +43,4 @@ __all__ = ["run", "resolve", "load", "Config", "Model", "Result", "ContactState"
            "TmafmError", "InputError",
            "InputTypeError", "InputFileError", "SolverError", "BlowUpError", "TmafmWarning",
            "UnsteadyWarning", "FailedRunWarning", "ContinuationWarning", "__version__",
-           "sweep", "approach", "frequency_sweep", "bifurcation", "basin", "continuation"]
+           "sweep", "approach", "frequency_sweep", "bifurcation", "basin", "continuation", "instrument"]

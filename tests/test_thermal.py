@@ -325,3 +325,18 @@ def test_the_executable_refuses_noise_with_a_method_it_cannot_do(run_exe, tmp_pa
     done = run_exe("in.nml")
     assert done.returncode != 0
     assert "thermal_noise = 1: needs method 'dop853' or 'dopri5'" in done.stderr
+
+
+def test_the_holds_variance_deficit_is_the_one_the_docs_quote():
+    """docs/model.md section 21: a held force on a grid of Delta = T/32 leaves a mode of
+    Q >> 1 a variance low by (pi f Delta)^2/3 = 0.32 %, against the closed form of the hold."""
+    from pathlib import Path
+    mass, damping, stiffness = np.eye(1), np.array([[1e-3]]), np.eye(1)    # omega = 1, Q = 1000
+    f, g = _system(mass, damping, stiffness)
+    step = 2 * np.pi / 32
+    a, b = _zoh_step(f, g, step)
+    held = sl.solve_discrete_lyapunov(a, b @ (2 * damping / step) @ b.T)
+    deficit = 1 - held[0, 0] / 1.0                   # theta K^-1 = 1
+    assert deficit == pytest.approx((np.pi / 32) ** 2 / 3, rel=0.02, abs=0)
+    text = (Path(__file__).resolve().parent.parent / "docs" / "model.md").read_text()
+    assert f"{100 * (np.pi / 32) ** 2 / 3:.2f} % for the fastest mode" in text

@@ -307,8 +307,18 @@ def _check_z_schedule(ns, seen, out):
     assert amplitude[-1] < amplitude[399] and steps.values["peak_force"][-1] > 0
 
 
+def _check_thermal(ns, seen, out):
+    """docs/model.md section 21: the spectrum of inputs/thermal_air.nml peaks within the
+    resonance's width (f0/Q = 3.5 kHz) of f0 = 70 kHz, in m^2/Hz of the order k_B T/(k f0/Q)."""
+    assert abs(ns["peak"] - 70e3) < 3.5e3
+    assert ns["dof"] > 40
+    level = 1.380649e-23 * 298.15 / 2.0 / (70e3 / 20)
+    assert 0.1 * level < ns["S"].max() < 10 * level
+
+
 BLOCKS = {
     ("docs/instrument.md", "import numpy as np, tmafm"): Block(check=_check_z_schedule),
+    ("docs/model.md", "import numpy as np, tmafm"): Block(check=_check_thermal),
     ("docs/continuation.md", "import tmafm"): Block(check=_check_continuation),
     ("docs/continuation.md", 'base = tmafm.Config("tapping_polystyrene", physical={"drive_frequency": '
                              '301e3})'): Block(check=_check_s_curve),

@@ -122,6 +122,8 @@ OFF_SWITCHES = {("scene", "sls_relaxation_time"), ("scene", "sls_modulus_ratio")
                             "double_layer_strength", "double_layer_range", "capillary_strength",
                             "capillary_range")} | \
     {("initial", "in_contact"), ("output", "sample_from"), ("output", "last_periods")} | \
+    {("scene", "thermal_energy"), ("solver", "thermal_noise"), ("solver", "noise_seed"),
+     ("solver", "noise_step")} | \
     {("physical", k) for k in ("tip_bias", "contact_potential", "cone_half_angle", "medium_permittivity",
                                "debye_length", "ionic_strength", "temperature", "tip_surface_potential",
                                "sample_surface_potential", "relative_humidity", "meniscus_rupture_distance",

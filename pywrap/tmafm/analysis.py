@@ -47,7 +47,7 @@ __all__ = ["observation", "drive_period", "sample_dtau_for", "poincare_sections"
            "default_tolerance", "state_scale",
            "classify_sections", "classify_period", "steady_state", "modal_amplitudes", "vt_max",
            "energy_flow", "per_period", "energy_balance", "lockin", "harmonics", "summary",
-           "POWER_NAMES"]
+           "deflection_psd", "POWER_NAMES"]
 
 
 
@@ -579,3 +579,50 @@ def summary(result, since: float | None = None, tol: float | None = None) -> dic
             "modal_amplitudes": amplitudes, "lockin": lockin(result, since),
             "harmonics": harmonics(result, since, 10).tolist(), "since": since,
             "drive_period": period}
+
+
+def deflection_psd(result, segments: int = 8, since: float | None = None):
+    """The one-sided power spectral density of the tip's deflection (Welch: the samples after
+    ``since`` cut in ``segments`` halves-overlapping Hann-windowed segments, their periodograms
+    averaged), for the thermal spectrum of a run with ``&solver thermal_noise = 1``
+    (docs/model.md, section 21).  Returns ``(f, S, dof)``: frequencies and density, and the
+    estimate's degrees of freedom (each S has a relative standard error of about
+    sqrt(2/dof)).  For a scene given in ``&physical``: f in Hz and S in m^2/Hz from the core's
+    SI series (``deflection_m``, ``t_s``); for a ``&scene`` input: f in cycles per unit tau and
+    S in d^2 tau, of the tip's displacement p.a.  The mean is removed from each segment.
+    Check ``sum(S) df`` against the deflection's variance (Parseval)."""
+    what = "deflection_psd"
+    result = _result(result, what)
+    segments = _count(what, "segments", segments)
+    since = _since(what, result, since)
+    keep = result.tau >= since
+    if result.physical is not None:
+        t = np.asarray(result.physical["t_s"], dtype=float)[keep]
+        x = np.asarray(result.physical["deflection_m"], dtype=float)[keep]
+    else:
+        t = np.asarray(result.tau, dtype=float)[keep]
+        x = np.asarray(result.a, dtype=float)[keep] @ Model(result.config).tip
+    length = 2 * (x.size // (segments + 1))
+    if length < 8:
+        raise InputError(f"{what}: segments = {segments}: the run keeps {x.size} samples after "
+                         f"since, too few for segments of at least 8 samples")
+    dt = (t[-1] - t[0]) / (t.size - 1)
+    window = np.hanning(length)
+    norm = 2.0 * dt / np.sum(window**2)
+    step = length // 2
+    total = np.zeros(length // 2 + 1)
+    count = 0
+    for start in range(0, x.size - length + 1, step):
+        piece = x[start:start + length]
+        spectrum = np.fft.rfft(window * (piece - piece.mean()))
+        total += np.abs(spectrum) ** 2
+        count += 1
+    density = norm * total / count
+    density[0] /= 2
+    if length % 2 == 0:
+        density[-1] /= 2
+    f = np.fft.rfftfreq(length, dt)
+    # Hann windows overlapping by half are correlated by 0.167 (Welch 1967): 2 count/(1 + 2
+    # 0.167^2), about 1.9 count degrees of freedom (2 for one segment).
+    return f, density, 2.0 * count / (1.0 + 2 * 0.167**2 * (count > 1))
+

@@ -167,7 +167,11 @@ module tmafm_keys
             meaning='capillary meniscus: its pull in contact, 4 pi R gamma_w cos(theta_w)/(1.5 pi gamma R); '// &
             '0 = off (docs/model.md section 19)'), &
       key_t('scene', 'capillary_range', key_real, 0, 1.0e3_dp, .false., unit='1', omit_default=.true., &
-            meaning='capillary meniscus: the normal gap at which it breaks, over gap, D/d')]
+            meaning='capillary meniscus: the normal gap at which it breaks, over gap, D/d'), &
+      key_t('scene', 'thermal_energy', key_real, 0, 1.0e6_dp, unit='1', omit_default=.true., &
+            rule='> 0 with &solver thermal_noise = 1; from &physical: k_B temperature L^3/(E1 I d^2)', &
+            meaning='thermal noise: k_B T L^3/(E1 I d^2), the thermal energy in the model units '// &
+            '(docs/model.md section 21)')]
 
    type(key_t), parameter :: physical_rows(*) = [ &
       key_t('physical', 'length', key_real, 0, 1, .false., unit='m', meaning='beam length L'), &
@@ -318,7 +322,16 @@ module tmafm_keys
       key_t('solver', 'blowup_limit', key_real, 0, 1.0e10_dp, .false., unit='d', &
             meaning='the run stops with an error once some |a_j| exceeds this'), &
       key_t('solver', 'max_steps', key_integer, 1, real(max_max_steps, dp), unit='1', &
-            meaning='work budget of one run: steps tried, switch-search iterations, flight-scan points')]
+            meaning='work budget of one run: steps tried, switch-search iterations, flight-scan points'), &
+      key_t('solver', 'thermal_noise', key_integer, 0, 1, unit='1', omit_default=.true., &
+            rule='1 needs method dopri5 or dop853, and &scene thermal_energy > 0 (from &physical: temperature)', &
+            meaning='1: a Langevin force on each mode at the temperature (fluctuation-dissipation; '// &
+            'docs/model.md section 21); 0: none'), &
+      key_t('solver', 'noise_seed', key_integer, 0, 2147483647.0_dp, unit='1', omit_default=.true., &
+            meaning='thermal noise: the seed of its realisation (the same seed, the same force on every method)'), &
+      key_t('solver', 'noise_step', key_real, 0, 10, unit='tau', omit_default=.true., &
+            rule='or 0: the fastest free mode period/32', &
+            meaning='thermal noise: the grid on which the force is held constant (zero-order hold)')]
 
    type(key_t), parameter :: output_rows(*) = [ &
       key_t('output', 'file', key_string, unit='-', &
@@ -593,6 +606,12 @@ contains
          text = real_value(config%solver%blowup_limit)
       case ('max_steps')
          text = int_text(config%solver%max_steps)
+      case ('thermal_noise')
+         text = int_text(config%solver%thermal_noise)
+      case ('noise_seed')
+         text = int_text(config%solver%noise_seed)
+      case ('noise_step')
+         text = real_value(config%solver%noise_step)
       case ('file')
          text = quoted(config%output_file)
       case ('sample_dtau')

@@ -667,11 +667,12 @@ contains
       character(len=*), intent(out) :: errmsg
       type(run_settings_t) :: s
       character(len=:), allocatable :: method
-      integer(i8) :: refine
+      integer(i8) :: refine, noise
       integer :: k, row
 
       s = config%solver
       refine = s%contact_refine
+      noise = s%thermal_noise
       method = trim(s%method)
       ierr = ok
       do k = 1, g%n_entries
@@ -695,6 +696,12 @@ contains
                call take_real(p, e, row, s%blowup_limit, ierr, errmsg)
             case ('max_steps')
                call take_integer(p, e, row, s%max_steps, ierr, errmsg)
+            case ('thermal_noise')
+               call take_integer(p, e, row, noise, ierr, errmsg)
+            case ('noise_seed')
+               call take_integer(p, e, row, s%noise_seed, ierr, errmsg)
+            case ('noise_step')
+               call take_real(p, e, row, s%noise_step, ierr, errmsg)
             case default
                call unknown_key(p, e, row, ierr, errmsg)
             end select
@@ -704,6 +711,7 @@ contains
       if (ierr /= ok) return
       s%method = method
       s%contact_refine = int(refine)
+      s%thermal_noise = int(noise)
       config%solver = s
    end subroutine read_solver
 
@@ -861,6 +869,46 @@ contains
       end if
    end subroutine check_capillary
 
+   !> Thermal noise (docs/model.md §21): &solver thermal_noise = 1 needs a thermal energy (from
+   !> &physical temperature, or &scene thermal_energy > 0) and a method that integrates its
+   !> piecewise-constant force (dopri5, dop853); its keys and a &scene thermal_energy are refused
+   !> without it (nothing is silently ignored).
+   subroutine check_thermal(label, config, ierr, errmsg)
+      character(len=*), intent(in) :: label
+      type(config_t), intent(in) :: config
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      ierr = ok
+      errmsg = ''
+      associate (s => config%solver)
+         if (s%thermal_noise == 0) then
+            if (s%noise_seed /= 0) then
+               ierr = err_input
+               errmsg = label//': &solver noise_seed = '//int_text(s%noise_seed)// &
+                        ': needs &solver thermal_noise = 1 (it seeds the thermal noise)'
+            else if (s%noise_step /= 0) then
+               ierr = err_input
+               errmsg = label//': &solver noise_step = '//real_text(s%noise_step)// &
+                        ': needs &solver thermal_noise = 1 (it is the thermal noise grid)'
+            else if (.not. config%from_physical .and. config%scene%thermal_energy > 0) then
+               ierr = err_input
+               errmsg = label//': &scene thermal_energy = '//real_text(config%scene%thermal_energy)// &
+                        ': acts only with &solver thermal_noise = 1'
+            end if
+            return
+         end if
+         if (trim(s%method) /= 'dopri5' .and. trim(s%method) /= 'dop853') then
+            ierr = err_input
+            errmsg = label//": &solver thermal_noise = 1: needs method 'dop853' or 'dopri5' (method = '"// &
+                     trim(s%method)//"' does not integrate the noise grid; docs/model.md section 21)"
+         else if (.not. (config%scene%thermal_energy > 0)) then
+            ierr = err_input
+            errmsg = label//': &solver thermal_noise = 1: needs &scene thermal_energy > 0 (the thermal energy '// &
+                     'k_B T L^3/(E1 I d^2)), or &physical input with its temperature'
+         end if
+      end associate
+   end subroutine check_thermal
+
    !> A viscoelastic sample needs a method that carries the dashpot's state (dopri5, dop853,
    !> flight_exact).  With n_modes = 0 the configuration runs the automatic-N search as it is
    !> made (~7 s), and the run it serves would then be refused: refused here, before the search.
@@ -1005,6 +1053,8 @@ contains
       call check_capillary(label, config, ierr, errmsg)
       if (ierr /= ok) return
       call check_sls_method(label, config, ierr, errmsg)
+      if (ierr /= ok) return
+      call check_thermal(label, config, ierr, errmsg)
       if (ierr /= ok) return
       ! The drive's tones: a second tone needs a frequency commensurate with the first.
       if (config%from_physical) then

@@ -108,6 +108,13 @@ module tmafm_settings
       !> Step budget of one run (accepted + rejected steps, event iterations); fixed-step runs
       !> are checked up front.
       integer(i8) :: max_steps = default_max_steps
+      !> &solver thermal_noise: 1 adds the Langevin force of the scene's thermal_energy
+      !> (tmafm_thermal, docs/model.md §21); 0 none.
+      integer :: thermal_noise = 0
+      !> &solver noise_seed: the seed of the noise's realisation.
+      integer(i8) :: noise_seed = 0
+      !> &solver noise_step: the noise grid's spacing in tau (0: the fastest free mode's period/32).
+      real(dp) :: noise_step = 0
    end type run_settings_t
 
 contains

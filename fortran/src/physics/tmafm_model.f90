@@ -23,7 +23,7 @@
 !> as sin/cos(Omega tau) (derivative_at_phase: the pairs compute them once per step), or
 !> takes one sin/cos per evaluation (derivative); none of theta1 (see contact_angle_sin_cos).
 module tmafm_model
-   use tmafm_kinds, only: dp
+   use tmafm_kinds, only: dp, i8
    use tmafm_errors, only: ok, err_input, err_runtime
    use tmafm_modes, only: beam_roots, mode_shape, max_modes
    use tmafm_galerkin, only: mode_integrals_closed_form, axial_matrix_closed_form, &
@@ -39,6 +39,7 @@ module tmafm_model
    use tmafm_surface_forces, only: surface_forces_t, surface_force_group, flight_separation
    use tmafm_jkr, only: law_jkr, jkr_radius, jkr_force_group, jkr_pull_off_depth
    use tmafm_capillary, only: capillary_t, meniscus_force_group
+   use tmafm_thermal, only: thermal_t, init_thermal, standard_normals
    implicit none
    private
 
@@ -173,7 +174,18 @@ module tmafm_model
       !> The right-hand side goes to composed_kernel (a viscoelastic sample, a general drive or a
       !> force in flight, in any combination): the one test the entry points make before rhs_kernel.
       logical :: special_rhs = .false.
+      !> The thermal bath (tmafm_thermal, docs/model.md §21; off: none).  A run with noise holds
+      !> its own copy of the model and sets noise_accel at each grid interval (set_noise_interval).
+      type(thermal_t) :: thermal
+      !> M^-1 xi_k: the Langevin force of the current grid interval as a'' takes it (with noise).
+      real(dp), allocatable :: noise_accel(:)
+      !> The standard normals of the current interval (a register: no allocation per interval).
+      real(dp), allocatable :: noise_normals(:)
    contains
+      !> Turn the thermal bath on: theta = scene%thermal_energy, the grid step and the seed.
+      procedure :: set_thermal => model_set_thermal
+      !> The Langevin force of grid interval k (tau in [k Delta, (k + 1) Delta)) into noise_accel.
+      procedure :: set_noise_interval => model_set_noise_interval
       !> Time derivative (a', a'') of the state y = (a, a') in a given phase.
       procedure :: derivative => model_derivative
       !> The same, for callers that already hold sin(Omega tau) and cos(Omega tau) (see phase).
@@ -1165,6 +1177,11 @@ contains
             acc(i) = acc(i) + (self%pass_a(i, j)*y(j) + self%pass_v(i, j)*y(n + j))
          end do
       end do
+      if (self%thermal%on) then
+         do i = 1, n
+            acc(i) = acc(i) + self%noise_accel(i)
+         end do
+      end if
       if (forced) then
          do i = 1, n
             stiff(i) = self%moment_force(i)
@@ -1561,5 +1578,37 @@ contains
          end if
       end associate
    end subroutine model_energy_flow
+
+   !> Turn the thermal bath on (docs/model.md §21): theta from the scene, the modal damping
+   !> C_jj (beam and liquid), a grid of spacing step (tau) and a seed; noise_accel starts at
+   !> interval 0.  The right-hand side goes to composed_kernel, which adds noise_accel.
+   pure subroutine model_set_thermal(self, step, seed)
+      class(model_t), intent(inout) :: self
+      real(dp), intent(in) :: step
+      integer(i8), intent(in) :: seed
+      self%thermal = init_thermal(self%scene%thermal_energy, self%modal_damping, step, seed)
+      self%special_rhs = .true.
+      if (allocated(self%noise_accel)) deallocate (self%noise_accel, self%noise_normals)
+      allocate (self%noise_accel(self%n_modes), self%noise_normals(self%n_modes))
+      call model_set_noise_interval(self, 0_i8)
+   end subroutine model_set_thermal
+
+   !> noise_accel = M^-1 xi_k, xi_k = amplitude z_k, for grid interval k.
+   pure subroutine model_set_noise_interval(self, k)
+      class(model_t), intent(inout) :: self
+      integer(i8), intent(in) :: k
+      integer :: i, j, n
+      n = self%n_modes
+      call standard_normals(self%thermal%seed, k, self%noise_normals)
+      self%noise_normals = self%thermal%amplitude*self%noise_normals
+      do i = 1, n
+         self%noise_accel(i) = 0
+      end do
+      do j = 1, n
+         do i = 1, n
+            self%noise_accel(i) = self%noise_accel(i) + self%inv_mass(i, j)*self%noise_normals(j)
+         end do
+      end do
+   end subroutine model_set_noise_interval
 
 end module tmafm_model

@@ -89,6 +89,9 @@ module tmafm_scene
       real(dp) :: capillary_strength = 0.0_dp
       !> D/d: the normal gap at which the meniscus breaks, over the gap.
       real(dp) :: capillary_range = 4.0e-4_dp
+      !> theta = k_B T L^3/(E1 I d^2): the thermal energy in units of E1 I d^2/L^3, for the
+      !> Langevin force of &solver thermal_noise (tmafm_thermal, docs/model.md §21).
+      real(dp) :: thermal_energy = 0.0_dp
    end type scene_t
 
    !> Physical inputs in SI units; converted to a scene_t by Eq. (12).
@@ -219,13 +222,13 @@ module tmafm_scene
    end type physical_t
 
    !> The &scene keys, in the order of scene_values (their ranges: config/tmafm_keys.f90).
-   character(len=*), parameter :: scene_names(30) = [character(len=22) :: 'alpha1', 'alpha2', &
+   character(len=*), parameter :: scene_names(31) = [character(len=22) :: 'alpha1', 'alpha2', &
       'alpha3', 'alpha4', 'alpha5', 'alpha6', 'beta', 'omega', 'theta', 'l_over_d', 'g0_over_d', &
       'delta_hat', 'xi0', &
       'medium_mass', 'medium_reynolds', 'vdw_adhesion', 'vdw_range', 'sls_relaxation_time', &
       'sls_modulus_ratio', 'alpha2_2', 'omega_2', 'drive_phase', 'drive_phase_2', &
       'electrostatic_strength', 'electrostatic_radius', 'cone_half_angle', 'double_layer_strength', &
-      'double_layer_range', 'capillary_strength', 'capillary_range']
+      'double_layer_range', 'capillary_strength', 'capillary_range', 'thermal_energy']
    !> The &physical keys, in the order of physical_values.
    character(len=*), parameter :: physical_names(52) = [character(len=25) :: 'length', 'width', &
       'thickness', 'density', 'youngs_modulus_tip', 'poisson_ratio_tip', 'youngs_modulus_sample', &
@@ -254,7 +257,7 @@ contains
                 scene%sls_relaxation_time, scene%sls_modulus_ratio, scene%alpha2_2, scene%omega_2, &
                 scene%drive_phase, scene%drive_phase_2, scene%electrostatic_strength, scene%electrostatic_radius, &
                 scene%cone_half_angle, scene%double_layer_strength, scene%double_layer_range, &
-                scene%capillary_strength, scene%capillary_range]
+                scene%capillary_strength, scene%capillary_range, scene%thermal_energy]
    end function scene_values
 
    !> The physical inputs as an array, in the order of physical_names.
@@ -311,6 +314,7 @@ contains
       scene%double_layer_range = values(28)
       scene%capillary_strength = values(29)
       scene%capillary_range = values(30)
+      scene%thermal_energy = values(31)
    end function scene_from_values
 
    !> The physical inputs whose values are `v`, in the order of physical_names (physical_values'
@@ -443,8 +447,10 @@ contains
          keys = [44, 45, 46, 43, 12, 27]
       case (29)
          keys = [49, 50, 51, 52, 10]
-      case default
+      case (30)
          keys = [50, 49, 51, 52, 46, 12, 27]
+      case default
+         keys = [46, 5, 2, 3, 1, 21, 22, 12, 27]
       end select
    end function scene_depends_on
 
@@ -552,6 +558,9 @@ contains
                                     /(3*phys%adhesion_energy)
          scene%capillary_range = meniscus_rupture_distance_of(phys)/d
       end if
+      ! The thermal energy k_B T in units of E1 I d^2/L^3 (docs/model.md §21); it acts only
+      ! with &solver thermal_noise = 1.
+      scene%thermal_energy = boltzmann*phys%temperature*phys%length**3/(rigidity*d**2)
    end function scene_from_physical
 
    !> The normal gap D (m) at which the meniscus of a physical scene breaks: the given one, else

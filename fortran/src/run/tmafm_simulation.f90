@@ -104,6 +104,10 @@ contains
       ! The comparisons need every sample of their grid, not the output's window.
       trial%solver%first_sample = 0
       trial%solver%method = method_dopri5
+      ! The search compares the deterministic model (the noise would differ between N and N+1).
+      trial%solver%thermal_noise = 0
+      trial%solver%noise_seed = 0
+      trial%solver%noise_step = 0
       trial%solver%rtol = comparison_rtol
       trial%solver%atol = comparison_atol
       config%n_mode_differences = 0

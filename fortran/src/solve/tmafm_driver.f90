@@ -84,6 +84,14 @@ contains
          end if
          return
       end if
+      if (settings%thermal_noise == 1 .and. .not. (trim(settings%method) == method_dopri5 &
+                                                     .or. trim(settings%method) == method_dop853)) then
+         ! The input check refuses this first (tmafm_namelist check_thermal).
+         ierr = err_input
+         errmsg = "&solver thermal_noise = 1: needs method 'dop853' or 'dopri5' (method = '"// &
+                  trim(settings%method)//"')"
+         return
+      end if
       select case (trim(settings%method))
       case (method_rk4_paper)
          call run_rk4_paper(model, settings, y0, traj, ierr, errmsg, progress, observer)

@@ -14,8 +14,13 @@
 !> time_map_t), by the same pair, error norm and controller, until sigma >= warp_leave x the
 !> next step in sigma; then the run goes on in tau with the step 2 sigma dsigma.  Samples,
 !> switches and observers read the step's dense output through its time map.
+!>
+!> Thermal noise (docs/model.md §21).  The Langevin force is constant on each interval of the
+!> noise grid: run_adaptive holds its own copy of the model, whose noise_accel it sets at each
+!> grid point, and `advance` ends its steps on the grid (tau_stop) and returns there, so that no
+!> step straddles a jump of the force; it then resumes in the same phase with a fresh derivative.
 module tmafm_method_adaptive
-   use tmafm_kinds, only: dp
+   use tmafm_kinds, only: dp, i8
    use tmafm_errors, only: ok, err_runtime
    use tmafm_model, only: model_t
    use tmafm_settings, only: run_settings_t
@@ -29,6 +34,7 @@ module tmafm_method_adaptive
                            switch_margin, hermite_minimum
    use tmafm_roots, only: bracketed_root_t
    use tmafm_observers, only: observer_t, stop_requested
+   use tmafm_thermal, only: automatic_noise_step
    implicit none
    private
 
@@ -138,6 +144,12 @@ module tmafm_method_adaptive
       real(dp) :: h_max = huge(1.0_dp)
       !> .true. for pair_lawson: a flight step toward the surface is limited by gap_reach.
       logical :: gap_limited = .false.
+      !> Steps end at this time at the latest, and `advance` returns there (the next point of the
+      !> thermal noise grid; huge: no such stop).
+      real(dp) :: tau_stop = huge(1.0_dp)
+      !> .true. when `advance` returned at tau_stop within a phase: the next call goes on in that
+      !> phase with a fresh derivative (the force changed), not as a phase start.
+      logical :: resume = .false.
       !> The embedded pair and its registers.
       class(embedded_pair_t), allocatable :: pair
       !> The step-size controller.
@@ -169,7 +181,45 @@ contains
       !> If present, fed every accepted step and contact (tmafm_observers); may stop the run.
       type(observer_t), intent(inout), optional :: observer
       type(adaptive_state_t) :: state
+      type(model_t) :: noisy
+      real(dp) :: noise_step
+      integer(i8) :: interval
 
+      ierr = ok
+      errmsg = ''
+      if (settings%thermal_noise /= 1) then
+         call start_adaptive(kind, model, settings, y0, traj, state, ierr, errmsg)
+         if (ierr /= ok) return
+         call state%advance(model, settings, traj, .false., ierr, errmsg, progress, observer)
+         return
+      end if
+      ! Thermal noise: this run's copy of the model carries the force of the current interval.
+      noise_step = settings%noise_step
+      if (.not. (noise_step > 0)) noise_step = automatic_noise_step(maxval(model%beta(1:model%n_modes)**2))
+      noisy = model
+      call noisy%set_thermal(noise_step, settings%noise_seed)
+      call start_adaptive(kind, noisy, settings, y0, traj, state, ierr, errmsg)
+      if (ierr /= ok) return
+      interval = 0
+      do
+         state%tau_stop = real(interval + 1, dp)*noise_step
+         call state%advance(noisy, settings, traj, .false., ierr, errmsg, progress, observer)
+         if (ierr /= ok .or. traj%complete() .or. stop_requested(observer)) return
+         interval = interval + 1
+         call noisy%set_noise_interval(interval)
+      end do
+   end subroutine run_adaptive
+
+   !> Store the first sample and set up the state and its pair for a run from y0 at tau = 0.
+   subroutine start_adaptive(kind, model, settings, y0, traj, state, ierr, errmsg)
+      integer, intent(in) :: kind
+      type(model_t), intent(in) :: model
+      type(run_settings_t), intent(in) :: settings
+      real(dp), intent(in) :: y0(:)
+      type(trajectory_t), intent(inout) :: traj
+      type(adaptive_state_t), intent(inout) :: state
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
       ierr = ok
       errmsg = ''
       call traj%store(model, y0)
@@ -183,8 +233,7 @@ contains
       if (model%hysteretic) traj%contact(1) = merge(1, 0, state%in_contact)
       if (kind == pair_dop853) state%h_max = dop853_mode_reach/maxval(model%beta(1:model%n_modes)**2)
       if (kind == pair_dopri5) state%h_max = dopri5_mode_reach/maxval(model%beta(1:model%n_modes)**2)
-      call state%advance(model, settings, traj, .false., ierr, errmsg, progress, observer)
-   end subroutine run_adaptive
+   end subroutine start_adaptive
 
    subroutine adaptive_init(self, kind, model, settings, tau0, y0)
       class(adaptive_state_t), intent(inout) :: self
@@ -270,16 +319,34 @@ contains
       real(dp) :: ds0, ds1, tau_end, sigma_end, h_next, theta_low, g_low, g_test
       ! V_T, its rate and the margin at the step start (0) and end (1); G = side V_T + margin0.
       real(dp) :: vt0, rate0, margin0, vt1, rate1, margin1, vt_test, rate_test, margin_test
-      logical :: have_f0, dense_ready, phase_start
+      logical :: have_f0, dense_ready, phase_start, capped
       integer :: status
 
       ierr = ok
       errmsg = ''
       have_f0 = .false.
+      phase_start = .false.
       side = 1
       associate (tau => self%tau, y => self%y, pair => self%pair, controller => self%controller, &
                  f0 => self%f0, f_new => self%f_new, y_new => self%y_new, y_sample => self%y_sample)
          do while (.not. traj%complete())
+            ! The noise grid's next point (reached, or a located switch a few ulps before it).
+            if (self%tau_stop - tau <= 64*epsilon(1.0_dp)*max(1.0_dp, abs(tau))) then
+               self%resume = have_f0
+               return
+            end if
+            if (.not. have_f0 .and. self%resume) then
+               ! On in the same phase after a grid point: only the force changed.
+               self%resume = .false.
+               call model%derivative(tau, y, self%in_contact, f0)
+               traj%rhs_evaluations = traj%rhs_evaluations + 1
+               if (self%warped) f0 = 2*self%sigma*f0
+               have_f0 = .true.
+               side = phase_sign(self%in_contact)
+               call model%phase(tau, sin_test, cos_test)
+               call gap_state(model, sin_test, cos_test, y, vt0, rate0, margin0, drive)
+               if (model%hysteretic) call past_offset(model, y, self%in_contact, vt0, rate0)
+            end if
             if (.not. have_f0) then
                ! A phase starts here: a fresh derivative in this phase, and G from the state.
                self%warped = self%in_contact .and. self%entry_pending
@@ -311,6 +378,17 @@ contains
                end if
             end if
             if (.not. self%warped) self%h = min(self%h, self%h_max)
+            ! A step ends on the noise grid at the latest.
+            capped = .false.
+            if (self%warped) then
+               if ((self%sigma + self%h)**2 >= self%tau_stop - self%warp_origin) then
+                  self%h = sqrt(self%tau_stop - self%warp_origin) - self%sigma
+                  capped = .true.
+               end if
+            else if (self%h >= self%tau_stop - tau) then
+               self%h = self%tau_stop - tau
+               capped = .true.
+            end if
             h = self%h
             if (self%warped) then
                map = time_map_t(s0=self%sigma, h=h, origin=self%warp_origin, warped=.true.)
@@ -385,6 +463,7 @@ contains
             if (status == no_event) then
                tau_end = tau + h
                if (self%warped) tau_end = map%time_at(1.0_dp)
+               if (capped) tau_end = self%tau_stop
                sigma_end = self%sigma + h
             else
                ! G(theta) = side V_T + margin0 on the dense output: positive at theta_low (0, or

@@ -67,3 +67,22 @@ def test_bad_schedules_are_refused_in_one_line():
         z_schedule("fig2_n4", [25e-9])
     with pytest.raises(tmafm.InputError, match="rk4_event"):
         z_schedule("tapping_polystyrene", [25e-9], solver={"method": "rk4_event"})
+
+
+def test_thermal_noise_takes_a_new_realisation_every_period():
+    # Each period of the stepper is a run of its own with its own seed (docs/instrument.md): the
+    # per-period lock-in amplitude and phase then scatter as a single noisy run's do, by
+    # sqrt(k_B T/k) and sqrt(k_B T/k)/A (docs/model.md §21; k = 2 N/m, A = 10 nm: 0.0454 nm and
+    # 0.260 deg).  Q = 20: the amplitude's correlation time is Q/pi ~ 6 periods, so 1000 periods
+    # hold ~80 independent samples and a standard deviation is known to ~8 %; 0.3 is about 4
+    # standard errors.  A realisation repeated every period would scatter far less once settled.
+    base = tmafm.Config("thermal_air", physical={"free_amplitude": 10e-9})
+    stepped = z_schedule(base, np.full(1200, 100e-9))
+    thermal = np.sqrt(1.380649e-23*298.15/2.0)*1e9
+    amplitude = stepped.values["amplitude"][200:]
+    phase = np.radians(stepped.values["phase"][200:])
+    assert amplitude.mean() == pytest.approx(10.0, rel=2e-2, abs=0)
+    assert amplitude.std() == pytest.approx(thermal, rel=0.3, abs=0)
+    assert phase.std() == pytest.approx(thermal/10.0, rel=0.3, abs=0)
+    again = z_schedule(base, np.full(1200, 100e-9))
+    np.testing.assert_array_equal(again.values["amplitude"], stepped.values["amplitude"])

@@ -14,6 +14,11 @@
 !> material is a new sample under the tip, met relaxed (w = 0).  A capillary meniscus's flag and
 !> a JKR neck's phase carry over as they are.
 !>
+!> With thermal noise (&solver thermal_noise = 1, docs/model.md §21) each period is a run of its
+!> own, so each takes its own realisation: the seed of period k (k = 0, 1, ...) is the input's
+!> noise_seed + 1 + k 2654435761 (a Weyl sequence mod 2^31, mixed again by the generator), and
+!> its grid starts at the period's start (white noise on disjoint intervals is independent).
+!>
 !> Every period starts at the drive's phase 0 (the equations depend on time only through the
 !> drive) and lasts one period of the current drive, so a drive whose frequency changes between
 !> periods stays continuous in phase, as a synthesiser's that updates at the zero crossings.
@@ -38,6 +43,8 @@ module tmafm_period_stepper
    public :: period_stepper_t, init_period_stepper, with_distance
 
    real(dp), parameter :: pi = acos(-1.0_dp)
+   !> Each period's noise seed: a Weyl sequence of this step mod 2^31 (&solver noise_seed's range).
+   integer(i8), parameter :: weyl_step = 2654435761_i8, seed_modulus = 2147483648_i8
 
    !> A cantilever stepped period by period: its current scene, model and state.
    type :: period_stepper_t
@@ -63,6 +70,8 @@ module tmafm_period_stepper
       real(dp) :: period = 0
       !> The last period's observables, in tmafm.observe's units (nm, deg, nN, us, aJ).
       real(dp) :: values(n_observables) = 0
+      !> The input's &solver noise_seed (each period's own seed derives from it).
+      integer(i8) :: noise_seed = 0
    contains
       !> Change the setting to a new physical scene, carrying the state over.
       procedure :: set_physical => stepper_set_physical
@@ -110,6 +119,7 @@ contains
       stepper%y(1:n) = stepper%config%a0(1:n)
       stepper%y(n + 1:2*n) = stepper%config%adot0(1:n)
       stepper%phase = stepper%config%solver%initial_contact
+      stepper%noise_seed = stepper%config%solver%noise_seed
       call settle_setting(stepper, ierr, errmsg)
    end subroutine init_period_stepper
 
@@ -206,6 +216,7 @@ contains
       integer :: n, last
 
       n = self%config%n_modes
+      self%settings%noise_seed = modulo(self%noise_seed + 1 + self%periods*weyl_step, seed_modulus)
       self%settings%initial_contact = -1
       if (self%model%hysteretic) self%settings%initial_contact = self%phase
       call observer%init(self%model, 1, 1, 1, 1.0e-6_dp, 1, .false., self%y, self%groups)

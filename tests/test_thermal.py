@@ -311,6 +311,8 @@ def test_an_ensemble_over_seeds_is_the_same_on_the_batch_and_on_dask():
      "noise_seed = -1"),
     ({"solver": {"thermal_noise": 1, "method": "dop853", "noise_step": -0.1}, "scene": {"thermal_energy": 1e-8}},
      "noise_step = -0.1"),
+    ({"solver": {"thermal_noise": 1, "method": "dop853", "noise_step": 1e-9, "max_steps": 1000},
+      "scene": {"thermal_energy": 1e-8}}, "grid intervals, more than &solver max_steps = 1000"),
 ])
 def test_bad_noise_input_is_refused_in_one_line(groups, words):
     with pytest.raises(tmafm.InputError) as info:

@@ -7,6 +7,9 @@ computed here with scipy from the model's M, C and K (tmafm.Model.matrices), not
 package.
 """
 
+from pathlib import Path
+
+import f90nml
 import numpy as np
 import pytest
 import scipy.linalg as sl
@@ -20,19 +23,20 @@ K_B = 1.380649e-23
 FREE = {"scene": {"alpha2": 0.0, "delta_hat": 1.0, "thermal_energy": 1e-8},
         "solver": {"method": "dop853", "thermal_noise": 1, "noise_seed": 1}}
 
-#: A soft cantilever in air by its calibration (k = 2 N/m, f0 = 70 kHz, Q = 20), one mode,
-#: 100 nm above the sample, undriven, at the default 298.15 K.
-AIR = {"model": {"n_modes": 1, "contact_law": "dmt", "convention": "consistent"},
-       "physical": {"spring_constant": 2.0, "resonance_frequency": 70e3, "quality_factor": 20.0,
-                    "tip_mass_ratio": 0.01, "length": 200e-6, "youngs_modulus_tip": 130e9,
-                    "tip_radius": 10e-9, "tip_length": 15e-6, "tip_position": 200e-6,
-                    "drive_frequency": 70e3, "drive_amplitude": 0.0, "tip_sample_distance": 100e-9},
-       "solver": {"method": "dop853", "thermal_noise": 1, "noise_seed": 1}}
+INPUTS = Path(__file__).resolve().parent.parent / "inputs"
 
-#: The same cantilever in water (its calibration in the liquid: f0 = 20 kHz, Q = 3).
-WATER = {**AIR, "physical": {**AIR["physical"], "medium_density": 1000.0, "medium_viscosity": 1e-3,
-                             "resonance_frequency": 20e3, "drive_frequency": 20e3,
-                             "quality_factor": 3.0}}
+
+def _input(name):
+    """The groups of inputs/<name>.nml as a dict (the tests override their length)."""
+    groups = {k: dict(v) for k, v in f90nml.read(str(INPUTS / f"{name}.nml")).items()}
+    del groups["output"]
+    return groups
+
+
+#: A soft cantilever in air by its calibration (k = 2 N/m, f0 = 70 kHz, Q = 20), one mode,
+#: 100 nm above the sample, undriven, at 298.15 K; and in water (f0 = 20 kHz, Q = 3).
+AIR = _input("thermal_air")
+WATER = _input("thermal_water")
 
 
 def _merge(base, **groups):
@@ -307,6 +311,8 @@ def test_an_ensemble_over_seeds_is_the_same_on_the_batch_and_on_dask():
      "noise_seed = -1"),
     ({"solver": {"thermal_noise": 1, "method": "dop853", "noise_step": -0.1}, "scene": {"thermal_energy": 1e-8}},
      "noise_step = -0.1"),
+    ({"solver": {"thermal_noise": 1, "method": "dop853", "noise_step": 1e-9, "max_steps": 1000},
+      "scene": {"thermal_energy": 1e-8}}, "grid intervals, more than &solver max_steps = 1000"),
 ])
 def test_bad_noise_input_is_refused_in_one_line(groups, words):
     with pytest.raises(tmafm.InputError) as info:
@@ -330,7 +336,6 @@ def test_the_executable_refuses_noise_with_a_method_it_cannot_do(run_exe, tmp_pa
 def test_the_holds_variance_deficit_is_the_one_the_docs_quote():
     """docs/model.md section 21: a held force on a grid of Delta = T/32 leaves a mode of
     Q >> 1 a variance low by (pi f Delta)^2/3 = 0.32 %, against the closed form of the hold."""
-    from pathlib import Path
     mass, damping, stiffness = np.eye(1), np.array([[1e-3]]), np.eye(1)    # omega = 1, Q = 1000
     f, g = _system(mass, damping, stiffness)
     step = 2 * np.pi / 32
@@ -338,5 +343,12 @@ def test_the_holds_variance_deficit_is_the_one_the_docs_quote():
     held = sl.solve_discrete_lyapunov(a, b @ (2 * damping / step) @ b.T)
     deficit = 1 - held[0, 0] / 1.0                   # theta K^-1 = 1
     assert deficit == pytest.approx((np.pi / 32) ** 2 / 3, rel=0.02, abs=0)
-    text = (Path(__file__).resolve().parent.parent / "docs" / "model.md").read_text()
+    text = (INPUTS.parent / "docs" / "model.md").read_text()
     assert f"{100 * (np.pi / 32) ** 2 / 3:.2f} % for the fastest mode" in text
+
+
+def test_continuation_refuses_a_noisy_input():
+    """Periodic orbits are the noiseless model's: a noisy base is refused, not run without it."""
+    pytest.importorskip("xarray")
+    with pytest.raises(tmafm.InputError, match="thermal_noise = 1: periodic orbits are the noiseless"):
+        tmafm.continuation(FREE, "scene.delta_hat", 1.0, 0.9)

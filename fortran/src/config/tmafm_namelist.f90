@@ -905,6 +905,12 @@ contains
             ierr = err_input
             errmsg = label//': &solver thermal_noise = 1: needs &scene thermal_energy > 0 (the thermal energy '// &
                      'k_B T L^3/(E1 I d^2)), or &physical input with its temperature'
+         else if (s%noise_step > 0 .and. s%tau_end/max(s%noise_step, tiny(1.0_dp)) > real(s%max_steps, dp)) then
+            ! Each grid interval takes a step at least: a grid finer than the budget never ends.
+            ierr = err_input
+            errmsg = label//': &solver noise_step = '//real_text(s%noise_step)//': tau_end/noise_step = '// &
+                     real_text(s%tau_end/s%noise_step)//' grid intervals, more than &solver max_steps = '// &
+                     int_text(s%max_steps)//' steps'
          end if
       end associate
    end subroutine check_thermal

@@ -147,6 +147,8 @@ module tmafm_method_adaptive
       !> Steps end at this time at the latest, and `advance` returns there (the next point of the
       !> thermal noise grid; huge: no such stop).
       real(dp) :: tau_stop = huge(1.0_dp)
+      !> .true. when tau_stop is set (a run with thermal noise): the loop's only test otherwise.
+      logical :: stops = .false.
       !> .true. when `advance` returned at tau_stop within a phase: the next call goes on in that
       !> phase with a fresh derivative (the force changed), not as a phase start.
       logical :: resume = .false.
@@ -202,6 +204,7 @@ contains
       if (ierr /= ok) return
       interval = 0
       do
+         state%stops = .true.
          state%tau_stop = real(interval + 1, dp)*noise_step
          call state%advance(noisy, settings, traj, .false., ierr, errmsg, progress, observer)
          if (ierr /= ok .or. traj%complete() .or. stop_requested(observer)) return
@@ -331,9 +334,11 @@ contains
                  f0 => self%f0, f_new => self%f_new, y_new => self%y_new, y_sample => self%y_sample)
          do while (.not. traj%complete())
             ! The noise grid's next point (reached, or a located switch a few ulps before it).
-            if (self%tau_stop - tau <= 64*epsilon(1.0_dp)*max(1.0_dp, abs(tau))) then
-               self%resume = have_f0
-               return
+            if (self%stops) then
+               if (self%tau_stop - tau <= 64*epsilon(1.0_dp)*max(1.0_dp, abs(tau))) then
+                  self%resume = have_f0
+                  return
+               end if
             end if
             if (.not. have_f0 .and. self%resume) then
                ! On in the same phase after a grid point: only the force changed.
@@ -380,14 +385,16 @@ contains
             if (.not. self%warped) self%h = min(self%h, self%h_max)
             ! A step ends on the noise grid at the latest.
             capped = .false.
-            if (self%warped) then
-               if ((self%sigma + self%h)**2 >= self%tau_stop - self%warp_origin) then
-                  self%h = sqrt(self%tau_stop - self%warp_origin) - self%sigma
+            if (self%stops) then
+               if (self%warped) then
+                  if ((self%sigma + self%h)**2 >= self%tau_stop - self%warp_origin) then
+                     self%h = sqrt(self%tau_stop - self%warp_origin) - self%sigma
+                     capped = .true.
+                  end if
+               else if (self%h >= self%tau_stop - tau) then
+                  self%h = self%tau_stop - tau
                   capped = .true.
                end if
-            else if (self%h >= self%tau_stop - tau) then
-               self%h = self%tau_stop - tau
-               capped = .true.
             end if
             h = self%h
             if (self%warped) then

@@ -13,7 +13,7 @@ from .._namelist import shown
 from ..errors import ContinuationWarning, InputError, InputTypeError, SolverError
 from ..sweeps.dataset import key_units
 from ..sweeps.executors import _check_run, _dask_results, _process_pool, _progress, _results, _workers
-from ..sweeps.points import _base_config, _base_dict, _config, _split_key
+from ..sweeps.points import _base_config, _base_dict, _config, _noiseless, _split_key
 from ..sweeps.runs import _observe_one
 from .branch import (FINISHED, Problem, _ns_test, _pd_test, follow, grazing_distance, physical_tangent,
                      start_point, switch_period_doubling)
@@ -305,6 +305,7 @@ def continuation(base, key, start, stop, *, y0=None, period=None, direction=1, d
         if not isinstance(flag, (bool, np.bool_)):
             raise InputTypeError(f"{name} = {shown(flag)}: must be True or False")
     base_config = _base_config(base)
+    _noiseless(base_config, "continuation")
     groups = _base_dict(base_config)
     _config(groups, {key: start})
     _config(groups, {key: stop})

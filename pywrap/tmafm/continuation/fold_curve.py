@@ -27,7 +27,7 @@ from .._model import Model
 from .._namelist import shown
 from .._run import Config
 from ..errors import InputError, InputTypeError, SolverError
-from ..sweeps.points import _base_config, _base_dict, _config, _split_key
+from ..sweeps.points import _base_config, _base_dict, _config, _noiseless, _split_key
 from .shooting import (_jacobian, _merge_stats, _positive_int, _residual, _tolerance, floquet_multipliers,
                        map_size, periodic_map, state_scale)
 
@@ -207,6 +207,7 @@ def _curve(kind, base, key2, point, stop2, *, ds, ds_max, max_points, rtol, tol,
     tol = _tolerance("tol", tol, 1e-13, 1e-4)
     ds = _tolerance("ds", ds, 1e-8, 1.0)
     ds_max = _tolerance("ds_max", ds_max, 1e-8, 1.0)
+    _noiseless(_base_config(base), f"{kind}_curve")
     groups = _base_dict(_base_config(base))
     group2, name2 = key2.split(".")
     if name2 not in groups.get(group2, {}):

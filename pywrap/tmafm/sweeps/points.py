@@ -276,6 +276,14 @@ def _base_config(base) -> Config:
     return base if isinstance(base, Config) else observed_config(base)
 
 
+def _noiseless(config: Config, what: str) -> None:
+    """InputError when the input asks for thermal noise (&solver thermal_noise = 1): periodic
+    orbits and their continuation are those of the noiseless model (docs/model.md section 21)."""
+    if int(config.to_dict().get("solver", {}).get("thermal_noise", 0)) == 1:
+        raise InputError(f"{what}: &solver thermal_noise = 1: periodic orbits are the noiseless "
+                         f"model's; remove thermal_noise (and noise_seed, noise_step, thermal_energy)")
+
+
 #: The swept key of a physical base that stands for each &scene key a dimensionless base sweeps.
 _PHYSICAL_FOR = {"delta_hat": "physical.tip_sample_distance (tmafm.approach(base, z=...))",
                  "omega": "physical.drive_frequency (tmafm.frequency_sweep(base, frequency=...))",

@@ -1189,6 +1189,22 @@ def check_continuation(ck, group="continuation"):
                        [len(f["brute_force"]) - 1]], "5a. Folds in two parameters")
 
 
+def check_scan(ck, group="scan"):
+    """docs/instrument.md's AM imaging cost and line against benchmarks/results/scan_line.json
+    (`python benchmarks/scan_line.py`)."""
+    scan = load(result_path("scan_line.json"))
+    doc, sec = "docs/instrument.md", "AM imaging"
+    ck.text(group, doc, "trace and retrace at 2 Hz, {} periods per pixel) took {} s of CPU for {} scan periods "
+            "and {} periods of ring-up", [scan["periods_per_pixel"], f"{scan['cpu_s']:.1f}",
+                                           grouped(scan["scan_periods"], ","), grouped(scan["engage_periods"], ",")],
+            sec)
+    ck.text(group, doc, "({} µs per period", [f"{scan['cpu_us_per_period']:.0f}"], sec)
+    ck.text(group, doc, "It shows a step of {} nm for the 5 nm step, the softer material {} nm higher than "
+            "polystyrene and a phase contrast of {} deg",
+            [f"{scan['apparent_step_nm']:.3f}", f"{scan['apparent_material_step_nm']:.3f}",
+             f"{scan['phase_contrast_deg']:.1f}".replace("-", MINUS)], sec)
+
+
 # ----------------------------------------------------------------------------- main
 GROUPS = {
     "figures": lambda ck: check_figures(ck, load(SUMMARY)),
@@ -1199,6 +1215,7 @@ GROUPS = {
     "errata": check_errata,
     "am_afm": check_am_afm,
     "continuation": check_continuation,
+    "scan": check_scan,
 }
 
 

@@ -47,6 +47,10 @@ module tmafm
    use tmafm_simulation, only: build_model, simulate, choose_mode_count, load_model
    use tmafm_period_stepper, only: period_stepper_t, init_period_stepper, with_distance
    use tmafm_controllers, only: lowpass_t, pi_controller_t
+   use tmafm_scan_settings, only: scan_settings_t, check_scan_settings, scan_height
+   use tmafm_am_scan, only: run_am_scan, scan_period_count, n_scan_columns, scan_column_names, &
+      scan_column_units, scan_column_meanings, n_scan_info, scan_info_names, scan_info_units, &
+      n_record_columns, record_column_names, record_column_units
    use tmafm_output, only: write_trajectory_file, output_sink_t, prepare_output, check_output_size, &
       begin_output, write_output, discard_output, target_file, target_device, target_stdout
    implicit none
@@ -77,5 +81,8 @@ module tmafm
    public :: physical_derived, derived_names, derived_units, derived_meanings, n_derived, config_errata
    public :: physical_series, n_series, series_names, series_units
    public :: period_stepper_t, init_period_stepper, with_distance, lowpass_t, pi_controller_t
+   public :: scan_settings_t, check_scan_settings, scan_height, run_am_scan, scan_period_count, n_scan_columns, &
+             scan_column_names, scan_column_units, scan_column_meanings, n_scan_info, scan_info_names, &
+             scan_info_units, n_record_columns, record_column_names, record_column_units
 
 end module tmafm

@@ -160,14 +160,16 @@ def test_the_lockin_filter_has_its_stated_bandwidth():
     (dict(material_b={"spring_constant": 2.0}, material_boundary=5e-9), "material_b: spring_constant = 2.0"),
     (dict(material_boundary=5e-9), "needs material_b"),
     (dict(setpoint_ratio=None, setpoint=25e-9), "must be below the free amplitude"),
+    (dict(physical={**FAST, "tip_sample_distance": 15e-9}), "the tip touches the sample there"),
 ])
 def test_bad_inputs_are_refused_in_one_line(bad, message):
     keywords = dict(scan_length=10e-9, pixels=2, line_rate=1e3, **LOOP)
     keywords.update(bad)
     if keywords.get("setpoint_ratio") is None:
         keywords.pop("setpoint_ratio")
+    keywords.setdefault("physical", FAST)
     with pytest.raises(tmafm.InputError) as info:
-        scan_line("tapping_polystyrene", physical=FAST, **keywords)
+        scan_line("tapping_polystyrene", **keywords)
     assert message in str(info.value)
     assert "\n" not in str(info.value)
 

@@ -20,7 +20,7 @@ module tmafm_am_scan
    use tmafm_scan_settings, only: scan_settings_t, check_scan_settings, scan_height
    use tmafm_period_stepper, only: period_stepper_t, init_period_stepper, with_distance
    use tmafm_controllers, only: lowpass_t, pi_controller_t
-   use tmafm_observers, only: obs_amplitude, obs_phase, obs_peak_force, obs_dissipated
+   use tmafm_observers, only: obs_amplitude, obs_phase, obs_peak_force, obs_dissipated, obs_contacts
    use tmafm_trajectory, only: stop_poll
    use tmafm_text, only: real_text, int_text
    implicit none
@@ -171,6 +171,12 @@ contains
          end if
       end do
       a0 = ring(n_ring)
+      if (stepper%values(obs_contacts) > 0) then
+         ierr = err_input
+         errmsg = '&physical tip_sample_distance = '//real_text(z_start)//': the tip touches the sample there; '// &
+                  'the scan measures A0 and engages from a start out of contact'
+         return
+      end if
       tau_c = period*n_ring
       do k = 2, n_ring
          if (ring(k) >= (1 - exp(-1.0_dp))*a0) then

@@ -87,6 +87,8 @@ def scan_line(base, *, scan_length, pixels, line_rate, lockin_bandwidth, setpoin
     scan.pixels = int(pixels)
     if not isinstance(topography, str):
         raise InputTypeError(f"scan: topography = {topography!r} must be a string")
+    if len(topography) > 16:
+        raise InputError(f"scan: topography = {topography!r} must be 'flat', 'step' or 'sphere'")
     scan.topography = topography
     if topography == "step" and step_position is None:
         raise InputError("scan: topography = 'step' needs step_position (m)")

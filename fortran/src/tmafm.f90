@@ -47,6 +47,8 @@ module tmafm
    use tmafm_simulation, only: build_model, simulate, choose_mode_count, load_model
    use tmafm_period_stepper, only: period_stepper_t, init_period_stepper, with_distance
    use tmafm_controllers, only: lowpass_t, pi_controller_t
+   use tmafm_fm_settings, only: fm_settings_t
+   use tmafm_fm, only: fm_loop_t, init_fm_loop, fm_point, check_fm_settings, n_fm_columns, n_fm_trace
    use tmafm_output, only: write_trajectory_file, output_sink_t, prepare_output, check_output_size, &
       begin_output, write_output, discard_output, target_file, target_device, target_stdout
    implicit none
@@ -77,5 +79,6 @@ module tmafm
    public :: physical_derived, derived_names, derived_units, derived_meanings, n_derived, config_errata
    public :: physical_series, n_series, series_names, series_units
    public :: period_stepper_t, init_period_stepper, with_distance, lowpass_t, pi_controller_t
+   public :: fm_settings_t, fm_loop_t, init_fm_loop, fm_point, check_fm_settings, n_fm_columns, n_fm_trace
 
 end module tmafm

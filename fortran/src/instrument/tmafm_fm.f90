@@ -10,13 +10,13 @@
 !>
 !> The loops, each period T_k (e the period's error, u the output for the next period):
 !> - the PLL: e = phi_k - phi_set (rad); Δf = K_p e + K_i sum(T e) (Hz), the NCO's next
-!>   frequency f0 + Δf.  Near resonance the phase answers a frequency step as a first-order
-!>   lag of time constant tau_r = -dphi/domega of the free response (2Q/omega0 for one mode),
-!>   so K_p = B_PLL, K_i = B_PLL/tau_r puts the PI's zero on that pole: the closed loop is
-!>   first order of bandwidth B_PLL (Δf follows a step of the resonance as 1 - exp(-2 pi B t)).
+!>   frequency f0 + Δf.  Near resonance the phase answers the drive's frequency as a first-order
+!>   lag -tau_r/(1 + s tau_r) (rad per rad/s), tau_r = -dphi/domega of the free response
+!>   (2Q/omega0 for one mode);
 !> - the amplitude controller: e = (A_set - A_k)/A_set; the drive amplitude (m) =
-!>   K_p e + K_i sum(T e), K_p = 2 pi B_A tau_r f_free, K_i = 2 pi B_A f_free, f_free = A_set/|h|
-!>   the free drive: the same pole cancellation, closed-loop bandwidth B_A (free cantilever).
+!>   K_p e + K_i sum(T e): A/A_set answers the drive with the lag (1/f_free)/(1 + s tau_r),
+!>   f_free = A_set/|h| the free drive;
+!> and each PI places its closed loop's two poles at -2 pi B (place_poles), B its bandwidth.
 !> Each Z point runs settle_periods, then averages average_periods: the NCO's frequency shift
 !> Δf, the drive and its rise over the free one, the period's energies and lock-in values.
 module tmafm_fm
@@ -28,7 +28,7 @@ module tmafm_fm
    use tmafm_scene, only: physical_t
    use tmafm_calibration, only: free_response
    use tmafm_observers, only: obs_amplitude, obs_phase, obs_mean_deflection, obs_min_gap, obs_peak_force, &
-      obs_dissipated, obs_dissipated_beam, obs_drive_work
+      obs_dissipated, obs_dissipated_beam, obs_drive_work, obs_contact_normal_work
    use tmafm_trajectory, only: stop_poll
    use tmafm_period_stepper, only: period_stepper_t, init_period_stepper, with_distance
    use tmafm_controllers, only: pi_controller_t
@@ -40,7 +40,7 @@ module tmafm_fm
    public :: n_fm_columns, n_fm_trace
    public :: fm_z, fm_df, fm_drive, fm_drive_ratio, fm_dissipation, fm_drive_work, fm_dissipated, &
       fm_dissipated_beam, fm_dissipated_tip_sample, fm_amplitude, fm_phase, fm_phase_error, fm_peak_force, &
-      fm_min_gap, fm_mean_deflection, fm_df_spread
+      fm_min_gap, fm_mean_deflection, fm_df_spread, fm_contact_normal_work
 
    real(dp), parameter :: pi = acos(-1.0_dp)
 
@@ -48,12 +48,13 @@ module tmafm_fm
    !> amplitude (nm) and its ratio to the free one, the dissipation from the drive's rise
    !> E_free (drive/drive_free - 1) (aJ), the period's drive work, dissipated energy, the beam's
    !> and the tip-sample's part (aJ), A (nm), phase and phase error (deg), peak force (nN),
-   !> minimum gap (nm), mean deflection (nm), and Δf's spread over the average window (Hz).
-   integer, parameter :: n_fm_columns = 16
+   !> minimum gap (nm), mean deflection (nm), Δf's spread over the average window (Hz), and
+   !> the tip-sample force's work on the modes (aJ: drive_work + it - dissipated = 0 when steady).
+   integer, parameter :: n_fm_columns = 17
    integer, parameter :: fm_z = 1, fm_df = 2, fm_drive = 3, fm_drive_ratio = 4, fm_dissipation = 5, &
       fm_drive_work = 6, fm_dissipated = 7, fm_dissipated_beam = 8, fm_dissipated_tip_sample = 9, &
       fm_amplitude = 10, fm_phase = 11, fm_phase_error = 12, fm_peak_force = 13, fm_min_gap = 14, &
-      fm_mean_deflection = 15, fm_df_spread = 16
+      fm_mean_deflection = 15, fm_df_spread = 16, fm_contact_normal_work = 17
    !> Number of values per period of the loop's trace: Δf (Hz), drive (nm), A (nm), phase (deg).
    integer, parameter :: n_fm_trace = 4
 
@@ -181,12 +182,14 @@ contains
       call loop%stepper%advance(ierr, errmsg, poll)
       if (ierr /= ok) return
       loop%free_work = loop%stepper%values(obs_drive_work)
-      loop%pll%proportional = settings%pll_bandwidth
-      loop%pll%integral = settings%pll_bandwidth/loop%response_time
+      ! Hz per rad: the phase answers δω (rad/s) with the gain tau_r (rad per rad/s).
+      call place_poles(settings%pll_bandwidth, loop%response_time, 2*pi*loop%response_time, &
+                       loop%pll%proportional, loop%pll%integral)
       loop%pll%lower = -loop%free_frequency/2
       loop%pll%upper = loop%free_frequency/2
-      loop%amplitude_control%proportional = 2*pi*settings%amplitude_bandwidth*loop%response_time*loop%free_drive
-      loop%amplitude_control%integral = 2*pi*settings%amplitude_bandwidth*loop%free_drive
+      ! m per unit relative amplitude error: A/A_set answers the drive (m) with the gain 1/f_free.
+      call place_poles(settings%amplitude_bandwidth, loop%response_time, 1/loop%free_drive, &
+                       loop%amplitude_control%proportional, loop%amplitude_control%integral)
       loop%amplitude_control%lower = 0
       loop%amplitude_control%integrator = loop%free_drive
       loop%amplitude_control%output = loop%free_drive
@@ -244,6 +247,8 @@ contains
             values(fm_peak_force) = values(fm_peak_force) + loop%stepper%values(obs_peak_force)
             values(fm_min_gap) = values(fm_min_gap) + loop%stepper%values(obs_min_gap)
             values(fm_mean_deflection) = values(fm_mean_deflection) + loop%stepper%values(obs_mean_deflection)
+            values(fm_contact_normal_work) = values(fm_contact_normal_work) + &
+                                             loop%stepper%values(obs_contact_normal_work)
          end if
          ! The controllers act on the period just measured; their outputs hold over the next.
          loop%frequency = loop%free_frequency + loop%pll%update(error, period)
@@ -261,6 +266,25 @@ contains
          errmsg = 'fm: the loop''s values are not finite at z = '//real_text(z)
       end if
    end subroutine fm_point
+
+   !> The PI gains K_p, K_i (per second) for a plant G/(1 + s tau) (gain G, time constant tau, s)
+   !> that give the closed loop tau s^2 + (1 + G K_p) s + G K_i a double root at -2 pi B
+   !> (K_p = (2 tau w - 1)/G, K_i = tau w^2/G, w = 2 pi B): both its poles at the bandwidth,
+   !> so the loop also rejects a disturbance at that rate.  If 2 tau w < 1 (a resonator faster
+   !> than the loop: a liquid's low Q) K_p = 0 and K_i = w/G: an integrating loop of bandwidth ~B.
+   pure subroutine place_poles(bandwidth, tau, gain, proportional, integral)
+      real(dp), intent(in) :: bandwidth, tau, gain
+      real(dp), intent(out) :: proportional, integral
+      real(dp) :: w
+      w = 2*pi*bandwidth
+      if (2*tau*w >= 1) then
+         proportional = (2*tau*w - 1)/gain
+         integral = tau*w**2/gain
+      else
+         proportional = 0
+         integral = w/gain
+      end if
+   end subroutine place_poles
 
    !> Set the stepper's scene to Z = z and the loop's drive frequency and amplitude.
    subroutine move_to(loop, z, ierr, errmsg)

@@ -35,6 +35,8 @@ FM_COLUMNS = (
     ("min_gap", "nm", "the period's closest approach"),
     ("mean_deflection", "nm", "the tip's mean deflection"),
     ("df_spread", "Hz", "max - min of df over the average window (how settled)"),
+    ("contact_normal_work", "aJ", "the tip-sample force's work on the modes per period "
+     "(drive_work + it - dissipated = 0 when steady)"),
 )
 #: The per-period trace's columns.
 _TRACE = (("df", "Hz"), ("drive", "nm"), ("amplitude", "nm"), ("phase", "deg"))

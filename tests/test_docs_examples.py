@@ -298,7 +298,23 @@ def _check_time_domain(ns, seen, out):
     assert int(np.argmax(ns["spectrum"][1:])) + 1 == 4
 
 
+def _check_z_schedule(ns, seen, out):
+    # docs/instrument.md, the period stepper: one value per period; the amplitude, ringing up
+    # towards the free 20 nm at Z = 25 nm, falls once the tip taps at Z = 15 nm
+    amplitude = ns["steps"].values["amplitude"]
+    assert amplitude.size == 800
+    assert 18 < amplitude[399] < 20 and amplitude[-1] < amplitude[399] - 2
+
+
+def _check_fm_approach(ns, seen, out):
+    # docs/instrument.md, FM-AFM: the Δf the text quotes (tests/test_fm.py checks them against
+    # the Sader-Jarvis integral)
+    assert np.allclose(ns["fm"].df.values, [-0.648, -1.67, -9.57], rtol=2e-3, atol=0)
+
+
 BLOCKS = {
+    ("docs/instrument.md", "from tmafm.instrument import fm_approach"): Block(check=_check_fm_approach),
+    ("docs/instrument.md", "import numpy as np, tmafm"): Block(check=_check_z_schedule),
     ("docs/continuation.md", "import tmafm"): Block(check=_check_continuation),
     ("docs/continuation.md", 'base = tmafm.Config("tapping_polystyrene", physical={"drive_frequency": '
                              '301e3})'): Block(check=_check_s_curve),

@@ -30,6 +30,12 @@ def __getattr__(name):
     if name == "continuation":  # the package, callable as tmafm.continuation(base, key, ...)
         import importlib
         return importlib.import_module(".continuation", __name__)
+    if name == "instrument":  # the instrument's loops (docs/instrument.md)
+        import importlib
+        return importlib.import_module(".instrument", __name__)
+    if name == "fm_approach":  # the FM-AFM approach curve (docs/instrument.md, "FM-AFM")
+        from .instrument import fm_approach
+        return fm_approach
     raise AttributeError(f"module 'tmafm' has no attribute {name!r}")
 
 try:

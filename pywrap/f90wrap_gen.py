@@ -29,7 +29,8 @@ THREADSAFE = ("f90wrap_tmafm_api__run_config", "f90wrap_tmafm_api__config_from_t
               "f90wrap_tmafm_api__config_from_texts", "f90wrap_tmafm_api__trajectory_energy_flow",
               "f90wrap_tmafm_api__batch_run", "f90wrap_tmafm_api__observe_states_of",
               "f90wrap_tmafm_api_instrument__z_schedule_run",
-              "f90wrap_tmafm_api_scan__am_scan_run")
+              "f90wrap_tmafm_api_scan__am_scan_run",
+              "f90wrap_tmafm_api_fm__fm_approach_run")
 #: Core entities that Python never calls (the integrators' own helpers).  f90wrap's --skip
 #: leaves type-bound procedures wrapped, so those named here are hidden from it
 #: (hide_bindings below).

@@ -316,7 +316,14 @@ def _check_thermal(ns, seen, out):
     assert 0.1 * level < ns["S"].max() < 10 * level
 
 
+def _check_fm_approach(ns, seen, out):
+    # docs/instrument.md, FM-AFM: the Δf the text quotes (tests/test_fm.py checks them against
+    # the Sader-Jarvis integral)
+    assert np.allclose(ns["fm"].df.values, [-0.648, -1.67, -9.57], rtol=2e-3, atol=0)
+
+
 BLOCKS = {
+    ("docs/instrument.md", "from tmafm.instrument import fm_approach"): Block(check=_check_fm_approach),
     ("docs/instrument.md", "import numpy as np, tmafm"): Block(check=_check_z_schedule),
     ("docs/model.md", "import numpy as np, tmafm"): Block(check=_check_thermal),
     ("docs/continuation.md", "import tmafm"): Block(check=_check_continuation),

@@ -51,6 +51,8 @@ module tmafm
    use tmafm_am_scan, only: run_am_scan, scan_period_count, n_scan_columns, scan_column_names, &
       scan_column_units, scan_column_meanings, n_scan_info, scan_info_names, scan_info_units, &
       n_record_columns, record_column_names, record_column_units
+   use tmafm_fm_settings, only: fm_settings_t
+   use tmafm_fm, only: fm_loop_t, init_fm_loop, fm_point, check_fm_settings, n_fm_columns, n_fm_trace
    use tmafm_output, only: write_trajectory_file, output_sink_t, prepare_output, check_output_size, &
       begin_output, write_output, discard_output, target_file, target_device, target_stdout
    implicit none
@@ -84,5 +86,6 @@ module tmafm
    public :: scan_settings_t, check_scan_settings, scan_height, run_am_scan, scan_period_count, n_scan_columns, &
              scan_column_names, scan_column_units, scan_column_meanings, n_scan_info, scan_info_names, &
              scan_info_units, n_record_columns, record_column_names, record_column_units
+   public :: fm_settings_t, fm_loop_t, init_fm_loop, fm_point, check_fm_settings, n_fm_columns, n_fm_trace
 
 end module tmafm

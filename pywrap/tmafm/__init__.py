@@ -30,6 +30,9 @@ def __getattr__(name):
     if name in ("continuation", "instrument"):  # tmafm.continuation is callable too
         import importlib
         return importlib.import_module("." + name, __name__)
+    if name == "fm_approach":  # the FM-AFM approach curve (docs/instrument.md, "FM-AFM")
+        from .instrument import fm_approach
+        return fm_approach
     raise AttributeError(f"module 'tmafm' has no attribute {name!r}")
 
 try:

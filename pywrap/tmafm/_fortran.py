@@ -10,6 +10,8 @@ api = _objects.tmafm_api
 
 #: The instrument's entry points (fortran/src/api/tmafm_api_instrument.f90).
 api_instrument = _objects.tmafm_api_instrument
+#: The FM-AFM loop's entry points (fortran/src/api/tmafm_api_fm.f90).
+api_fm = _objects.tmafm_api_fm
 
 #: A new, empty config_t handle (filled by api.config_from_text(s)).
 config_t = _objects.tmafm_config.config_t

@@ -240,11 +240,14 @@ contains
    !> V_T's first-harmonic complex amplitude per unit alpha2 in steady free flight (module
    !> comment): the free amplitude is alpha2 |h| gap units.  At the scene's omega, or at
    !> `frequency` (a second tone's: V_T's lock-in at it is that tone's own linear response).
-   function free_response(model, ierr, errmsg, frequency) result(h)
+   function free_response(model, ierr, errmsg, frequency, modal) result(h)
       type(model_t), intent(in) :: model
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       real(dp), intent(in), optional :: frequency
+      !> If present, the modal amplitudes X per unit alpha2 (a = alpha2 Re(X e^(i Omega tau))):
+      !> the steady free state, which the FM loop starts from (tmafm_fm).
+      complex(dp), intent(out), optional :: modal(:)
       complex(dp) :: h
       complex(dp) :: z(model%n_modes, model%n_modes), x(model%n_modes)
       complex(dp), parameter :: i = (0.0_dp, 1.0_dp)
@@ -280,6 +283,7 @@ contains
          return
       end if
       h = sum(model%tip*x) - i
+      if (present(modal)) modal = x
    end function free_response
 
    !> The first root beta of the continuum clamped-free beam with a tip mass alpha1 at its free

@@ -7,7 +7,9 @@ AM Z feedback, the FM loops) are built on the same core stepper (fortran/src/ins
 """
 
 from ._schedule import ZSchedule, z_schedule
+from .fm import FM_COLUMNS, fm_approach, plot_fm_approach
 from .scan import MATERIAL_KEYS, plot_scan, scan_line
 
 __all__ = ["ZSchedule", "z_schedule"]
+__all__ += ["FM_COLUMNS", "fm_approach", "plot_fm_approach"]
 __all__ += ["MATERIAL_KEYS", "plot_scan", "scan_line"]

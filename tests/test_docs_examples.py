@@ -340,6 +340,10 @@ BLOCKS = {
                   'workers=2)  # xarray'): Block(
         skip="a sketch of the sweep API: `...` stands for the arrays; docs/sweeps.md runs "
              "each call in full"),
+    ("README.md", 'ds = tmafm.instrument.scan_line("tapping_polystyrene", topography="step", ...)  '
+                  '# height, phase, ...'): Block(
+        skip="a sketch of the instrument's API: `...` stands for the settings; docs/instrument.md "
+             "runs each call in full"),
     ("README.md", 'o = tmafm.observe("fig3", max_periods=100)        # no trajectory kept; '
                   'stops at steady state'): Block(
         setup='c1, c2, c3 = (tmafm.Config(name, solver={"method": "flight_exact"})\n'

@@ -1,7 +1,7 @@
 """Would an exponential collocation (ETD) flight make flight_exact cheap with a force at a distance?
 A measured probe for issue 29, item 5 (docs/performance.md, "Long-range forces in flight").
 
-    python studies/etd_flight_probe.py [--out DIR]            # ~2 min CPU
+    python studies/etd_flight_probe.py [--out DIR]            # ~3 min CPU
     python studies/etd_flight_probe.py --table studies/results/etd_flight_probe.json
 
 A study, not a method of tmafm.  The scene is benchmarks/longrange_flight.py's van der Waals
@@ -30,7 +30,13 @@ the same end (its sample before the entry) by
            (order s - 1: conservative), in the RMS norm over atol + rtol |y|max, the step from
            0.9 err^(-1/s) within [0.2, 4]; a step toward the surface or away from it limited to
            `reach` (V_T + eps)/|V_T'| (eps = &scene vdw_range; flight_exact's gap_reach is 0.5
-           toward the surface).  Forces counts every evaluation of N (a rejected step's too).
+           toward the surface);
+  shaped   the same with the force's growth toward the surface factored out: N interpolated as
+           (a/(a + b x))^2 q(x), q the polynomial through N_j (a/(a + b c_j))^-2, a + b x the
+           gap V_T + eps along its tangent at the step's start (a = V_T + eps, b = h V_T'), the
+           weights a_j the integrals of exp(lambda h (theta - x)) (a/(a + b x))^2 l_j(x) by
+           48-point Gauss-Legendre (scalars per node and eigenvalue: no force evaluations).
+Forces counts every evaluation of N (a rejected step's too).
 Error: |V_T - V_T,ref| at the flight's end over the largest |V_T| of the rtol 1e-12 run, the
 reference scipy's DOP853 at rtol 1e-13 (atol 1e-18) on the full right-hand side; atol = rtol/1000.
 Cost: right-hand sides per flight (per period in the free regime): tmafm's rhs_evaluations for
@@ -56,8 +62,11 @@ REPO = Path(__file__).resolve().parent.parent
 SCENE = "tapping_polystyrene"
 VDW = {"hamaker": 1.0e-19, "intermolecular_distance": 0.165e-9}
 RTOLS = (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11)
-#: (family, nodes s, reach)
-VARIANTS = (("lobatto", 6, 0.5), ("lobatto", 8, 1.0), ("gauss", 6, 1.0))
+#: (family, nodes s, reach toward the surface, reach away from it, shaped)
+VARIANTS = (("lobatto", 6, 0.5, 0.5, False), ("lobatto", 8, 1.0, 1.0, False), ("gauss", 6, 1.0, 1.0, False),
+            ("gauss", 6, 0.8, 3.0, True))
+#: Gauss-Legendre points of the shaped flight's weights
+SHAPE_X, SHAPE_W = legendre.leggauss(48)
 #: the regimes: (name, Z, kind)
 REGIMES = (("tapping_12nm", 12e-9, "tapping"), ("free_25nm", 25e-9, "free"), ("free_21.8nm", 21.8e-9, "free"))
 TAPPING_FLIGHTS = 8
@@ -158,38 +167,57 @@ def weights(split, theta, h, lag):
                      for j in range(lag.shape[0])])
 
 
-def etd_flight(split, y0, t0, t1, rtol, atol, scale, family, s, reach):
-    """One flight by adaptive exponential collocation: the end state and the counts."""
+def shaped_weights(split, theta, h, lag, a, b):
+    """a_j(theta; lambda h) of the shaped flight: the integral over [0, theta] of
+    exp(lambda h (theta - x)) (a/(a + b x))^2 l_j(x), by Gauss-Legendre on SHAPE_POINTS points."""
+    x = (SHAPE_X + 1) / 2 * theta
+    weight = SHAPE_W / 2 * theta * (a / (a + b * x)) ** 2
+    poly = np.vander(x, lag.shape[1], increasing=True) @ lag.T            # (points, s): l_j(x)
+    turn = np.exp(np.outer(theta - x, split.lam * h))                      # (points, m)
+    return np.einsum("q,qj,qm->jm", weight, poly, turn)
+
+
+def etd_flight(split, y0, t0, t1, rtol, atol, scale, family, s, reach_in, reach_out, shaped):
+    """One flight by adaptive exponential collocation: the end state and the counts.  Shaped:
+    the force is interpolated as (a/(a + b x))^2 q(x), q the polynomial, a + b x the gap V_T + eps
+    along the step's tangent at its start (a = V_T + eps, b = h V_T')."""
     c = nodes_of(family, s)
     lag, low = fit(c, s - 1), fit(c, s - 2)
     t, y, h = t0, y0.copy(), 0.05
     steps = rejected = sweeps = near_steps = 0
-    previous = None                      # (coefficients of N in x = sigma / h, h) of the last step
+    previous = None                      # (coefficients of q in x = sigma / h, h, a, b) of the last step
     n_start = None
     while t < t1 - 1e-13 * max(1.0, abs(t1)):
         vt, rate = split.gap(t, y)
+        reach = reach_in if rate < 0 else reach_out
         h = min(h, reach * (vt + split.eps) / abs(rate), t1 - t)
+        a, b = (vt + split.eps, rate * h) if shaped else (1.0, 0.0)
+        shape = (a / (a + b * c)) ** 2
         if n_start is None:
             n_start = split.force(t, y)
         if previous is None:
             nj = np.array([n_start] * s)
         else:
-            coef, h_old = previous
+            coef, h_old, a_old, b_old = previous
             x = (h_old + c * h) / h_old
-            nj = np.array([sum(coef[k] * xi ** k for k in range(len(coef))) for xi in x])
+            nj = ((a_old / (a_old + b_old * x)) ** 2)[:, None] * (np.vander(x, len(coef), increasing=True) @ coef)
         if c[0] == 0.0:
             nj[0] = n_start
-        w_nodes = [weights(split, ci, h, lag) if ci > 0 else None for ci in c]
-        w_end, w_low = weights(split, 1.0, h, lag), weights(split, 1.0, h, low)
+        if shaped:
+            w_nodes = [shaped_weights(split, ci, h, lag, a, b) for ci in c]
+            w_end, w_low = shaped_weights(split, 1.0, h, lag, a, b), shaped_weights(split, 1.0, h, low, a, b)
+        else:
+            w_nodes = [weights(split, ci, h, lag) if ci > 0 else None for ci in c]
+            w_end, w_low = weights(split, 1.0, h, lag), weights(split, 1.0, h, low)
         tol = atol + rtol * scale
-        modal = (split.Vi @ nj.T).T
+        modal = (split.Vi @ (nj / shape[:, None]).T).T
         end = split.state(t, y, 1.0, h, h * (w_end * modal).sum(0))
         for _ in range(MAX_SWEEPS):
             new = nj.copy()
             for i, ci in enumerate(c):
                 if ci > 0:
                     new[i] = split.force(t + ci * h, split.state(t, y, ci, h, h * (w_nodes[i] * modal).sum(0)))
-            nj, modal = new, (split.Vi @ new.T).T
+            nj, modal = new, (split.Vi @ (new / shape[:, None]).T).T
             sweeps += 1
             end_new = split.state(t, y, 1.0, h, h * (w_end * modal).sum(0))
             moved = np.max(np.abs(end_new - end) / tol)
@@ -200,7 +228,7 @@ def etd_flight(split, y0, t0, t1, rtol, atol, scale, family, s, reach):
         err = math.sqrt(np.mean(((end - lower) / tol) ** 2))
         factor = 0.9 * max(err, 1e-12) ** (-1.0 / s)
         if err <= 1:
-            previous = (lag.T @ nj, h)
+            previous = (lag.T @ (nj / shape[:, None]), h, a, b)
             near_steps += vt * split.length < NEAR
             t, y, steps = t + h, end, steps + 1
             n_start = None
@@ -209,6 +237,11 @@ def etd_flight(split, y0, t0, t1, rtol, atol, scale, family, s, reach):
             rejected += 1
             h *= min(1.0, max(0.2, factor))
     return y, dict(steps=steps, rejected=rejected, sweeps=sweeps, near_steps=near_steps)
+
+
+def variant_label(family, s, reach_in, reach_out, shaped):
+    reach = f"{reach_in}" if reach_in == reach_out else f"{reach_in}_{reach_out}"
+    return f"etd_{family}{s}_reach{reach}" + ("_shaped" if shaped else "")
 
 
 def lawson_flight(split, y0, t0, t1, rtol):
@@ -313,14 +346,14 @@ def study():
                 errors.append(abs(split.vdw.tip @ (end - ref)[:split.n]) / s_v)
             runs["lawson"].append(dict(rtol=rtol, steps=totals["steps"] / per, rejected=totals["rejected_steps"] / per,
                                        rhs=totals["rhs_evaluations"] / per, error=max(errors)))
-        for family, s, reach in VARIANTS:
-            label = f"etd_{family}{s}_reach{reach}"
+        for variant in VARIANTS:
+            label = variant_label(*variant)
             runs[label] = []
             for rtol in RTOLS:
                 split.evaluations = 0
                 totals, errors = {}, []
                 for (t0, y0, t1), ref in zip(flights, references):
-                    end, counts = etd_flight(split, y0, t0, t1, rtol, rtol / 1000, scale, family, s, reach)
+                    end, counts = etd_flight(split, y0, t0, t1, rtol, rtol / 1000, scale, *variant)
                     totals = {k: totals.get(k, 0) + v for k, v in counts.items()}
                     errors.append(abs(split.vdw.tip @ (end - ref)[:split.n]) / s_v)
                 runs[label].append(dict(rtol=rtol, steps=totals["steps"] / per, rejected=totals["rejected"] / per,
@@ -355,7 +388,8 @@ def table_rows(regime):
 
 
 LABELS = {"lawson": "Lawson (tmafm)", "etd_lobatto6_reach0.5": "ETD Lobatto 6, reach 0.5",
-          "etd_lobatto8_reach1.0": "ETD Lobatto 8, reach 1", "etd_gauss6_reach1.0": "ETD Gauss 6, reach 1"}
+          "etd_lobatto8_reach1.0": "ETD Lobatto 8, reach 1", "etd_gauss6_reach1.0": "ETD Gauss 6, reach 1",
+          "etd_gauss6_reach0.8_3.0_shaped": "shaped ETD Gauss 6, reach 0.8/3"}
 REGIME_LABELS = {"tapping_12nm": "tapping, Z = 12 nm, per flight", "free_25nm": "free, Z = 25 nm, per period",
                  "free_21.8nm": "free, Z = 21.8 nm, per period"}
 

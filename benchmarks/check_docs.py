@@ -680,6 +680,7 @@ def check_performance(ck, group="performance"):
     _off_cost_rows(ck, group, "off_cost_window.json")
     check_compose_cost(ck, group)
     check_longrange(ck, group)
+    check_etd_flight(ck, group)
     _inventory(ck, group, doc)
 
 
@@ -1156,6 +1157,58 @@ def check_longrange(ck, group="performance"):
              span([flight(b) / flight(a) for a, b in zip(lawson, dop853)], lambda x: f"{x:.2f}")], sec)
     ck.text(group, doc, "(the vdW curve under `dop853` at rtol 1e-13 is within\n{} of it)",
             [sci(report["reference_check"]["dop853_vs_flight_exact_vdw"], 2)], sec)
+
+
+def check_etd_flight(ck, group="performance"):
+    """docs/performance.md's exponential collocation flight probe against
+    studies/results/etd_flight_probe.json (`python studies/etd_flight_probe.py`): its table (the
+    study's summary_rows) and the counts the text quotes."""
+    doc, sec = "docs/performance.md", "An exponential collocation flight"
+    probe = bench_module("etd_flight_probe")
+    report = load(result_path("etd_flight_probe.json"))
+    for line in probe.summary_rows(report):
+        ck.row(group, doc, line, 2, sec)
+    shaped = "etd_gauss6_reach0.8_3.0_shaped"
+    ratios = {"free": [], "plain": [], "shaped": []}
+    for regime in report["regimes"].values():
+        for _, costs in probe.equal_error(regime):
+            etd = [v for k, v in costs.items() if k != "lawson" and v is not None]
+            plain = [v for k, v in costs.items() if k not in ("lawson", shaped) and v is not None]
+            if regime["kind"] == "free":
+                ratios["free"].append(costs["lawson"] / min(etd))
+            else:
+                ratios["plain"].append(costs["lawson"] / min(plain))
+                ratios["shaped"].append(costs["lawson"] / costs[shaped])
+    ck.text(group, doc, "does what was expected of it: {}× fewer right-hand sides",
+            [span(ratios["free"], lambda x: f"{x:.2f}")], sec)
+    ck.text(group, doc, "In a tapping flight the plain ETD flights gain {}×:",
+            [span(ratios["plain"], lambda x: f"{x:.2f}")], sec)
+    steps = [r["steps"] for r in report["regimes"]["tapping_12nm"]["runs"][shaped] if r["rtol"] >= 1e-8]
+    ck.text(group, doc, "The shaped flight takes {} steps a flight at rtol\n1e-5 … 1e-8 and {}× fewer right-hand sides",
+            [span(steps, lambda x: f"{x:.1f}"), span(ratios["shaped"], lambda x: f"{x:.2f}")], sec)
+    regimes = report["regimes"]
+
+    def run(regime, method, rtol):
+        return next(r for r in regimes[regime]["runs"][method] if r["rtol"] == rtol)
+
+    ck.text(group, doc, "a few steps a period ({} at Z = 25 nm and rtol 1e-7, Gauss 6) where the\n"
+            "Lawson flight takes {}",
+            [f"{run('free_25nm', 'etd_gauss6_reach1.0', 1e-7)['steps']:.1f}",
+             f"{run('free_25nm', 'lawson', 1e-7)['steps']:.1f}"], sec)
+    loose = run("tapping_12nm", "etd_gauss6_reach1.0", 1e-5)
+    ck.text(group, doc, "the ETD flight (Gauss 6, reach 1) takes {}\nsteps a flight, {} of them at gaps below 5 nm, "
+            "and the Lawson flight {}",
+            [f"{loose['steps']:.1f}", f"{loose['near_steps']:.2f}",
+             f"{run('tapping_12nm', 'lawson', 1e-5)['steps']:.1f}"], sec)
+    share = report["curve_share"]
+    ck.text(group, doc, "at rtol {} the Lawson flight takes {} of its {}\nflight steps at the {} points with contacts, "
+            "{} at the {} without",
+            [sci(share["rtol"], 1), f"{share['tapping_flight_steps']:,}",
+             f"{share['tapping_flight_steps'] + share['free_flight_steps']:,}", 40 - share["free_points"],
+             f"{share['free_flight_steps']:,}", share["free_points"]], sec)
+    ck.text(group, doc, "8 tapping flights at Z = {} nm", [f"{regimes['tapping_12nm']['z_nm']:.0f}"], sec)
+    to_dmt = [e["ratio_to_dmt_flight_exact"] for e in load(result_path("longrange_flight.json"))["at_error"].values()]
+    ck.text(group, doc, "the vdW curve to fall from {}× its DMT twin", [span(to_dmt, lambda x: f"{x:.2f}")], sec)
 
 
 def check_continuation(ck, group="continuation"):

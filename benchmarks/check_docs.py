@@ -678,6 +678,7 @@ def check_performance(ck, group="performance"):
     check_fuzz_campaign(ck)
     _off_cost_rows(ck, group, "off_cost_capillary.json")
     _off_cost_rows(ck, group, "off_cost_window.json")
+    _off_cost_rows(ck, group, "off_cost_thermal.json")
     check_compose_cost(ck, group)
     check_longrange(ck, group)
     check_etd_flight(ck, group)

@@ -146,6 +146,9 @@ contains
       if (ierr /= ok) return
       if (at('solver') /= 0) call read_solver(place('solver'), doc%groups(at('solver')), config, ierr, errmsg)
       if (ierr /= ok) return
+      ! The thermal energy acts only with the noise on: a &physical scene without it has none, so
+      ! that its scene, written as &scene, reads back as the same noiseless input.
+      if (config%from_physical .and. config%solver%thermal_noise /= 1) config%scene%thermal_energy = 0
       if (at('output') /= 0) call read_output(place('output'), doc%groups(at('output')), config, ierr, errmsg)
       if (ierr /= ok) return
       call check_derived(source_label, doc, at('physical'), config, ierr, errmsg)

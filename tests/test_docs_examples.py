@@ -322,9 +322,23 @@ def _check_fm_approach(ns, seen, out):
     assert np.allclose(ns["fm"].df.values, [-0.648, -1.67, -9.57], rtol=2e-3, atol=0)
 
 
+def _check_scan_line(ns, seen, out):
+    # docs/instrument.md, AM imaging: the Dataset's layout and units, and the 5 nm step: on the
+    # trace the last pixel (x > 375 nm, the softer material) is about 5 nm above the first.
+    ds = ns["ds"]
+    assert ds["height"].dims == ("direction", "x") and list(ds["direction"].values) == ["trace", "retrace"]
+    for name, unit in (("height", "nm"), ("amplitude_error", "nm"), ("phase", "deg"), ("peak_force", "nN")):
+        assert ds[name].attrs["units"] == unit, name
+    assert 4.5 < float(ds["height"].values[0, -1] - ds["height"].values[0, 0]) < 5.5
+    assert Path("scan.png").stat().st_size > 10_000
+
+
 BLOCKS = {
     ("docs/instrument.md", "from tmafm.instrument import fm_approach"): Block(check=_check_fm_approach),
     ("docs/instrument.md", "import numpy as np, tmafm"): Block(check=_check_z_schedule),
+    ("docs/instrument.md", "import tmafm.instrument"): Block(
+        setup="import matplotlib; matplotlib.use('Agg')",
+        subs=(("pixels=256, line_rate=2.0", "pixels=4, line_rate=50.0"),), check=_check_scan_line),
     ("docs/model.md", "import numpy as np, tmafm"): Block(check=_check_thermal),
     ("docs/continuation.md", "import tmafm"): Block(check=_check_continuation),
     ("docs/continuation.md", 'base = tmafm.Config("tapping_polystyrene", physical={"drive_frequency": '

@@ -177,10 +177,12 @@ def test_bad_inputs_are_refused_in_one_line(bad, message):
 @pytest.mark.parametrize("overrides", [
     {"model": {"contact_law": "dmt_vdw"}, "physical": FAST},
     {"physical": {**FAST, "sample_relaxation_time": 1e-6, "sample_modulus_relaxed": 0.2e9}},
-], ids=["dmt_vdw", "sls"])
+    {"physical": {**FAST, "drive_frequency_2": 1.8e6, "free_amplitude_2": 0.5e-9}},
+], ids=["dmt_vdw", "sls", "two_tones"])
 def test_a_scan_composes_with_other_physics(overrides):
-    # A sphere over two materials with another contact law or a viscoelastic sample: the scan
-    # runs, and the height over the flat first material is the engaged one (it started there).
+    # A sphere over two materials with another contact law, a viscoelastic sample or a second
+    # drive tone (at 6 f0, so that a drive period holds whole periods of both): the scan runs,
+    # and the height over the flat first material is the engaged one (it started there).
     ds = scan_line("tapping_polystyrene", scan_length=60e-9, pixels=3, line_rate=line_rate(3, 150, False),
                    retrace=False, topography="sphere", sphere_radius=5e-9, sphere_position=30e-9,
                    material_b=SOFT, material_boundary=40e-9, **LOOP, **overrides)

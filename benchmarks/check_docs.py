@@ -1208,7 +1208,8 @@ def check_fm(ck, group="fm"):
             [f"{rel[near[0]]:.1e}", f"{-sum(rel3[i] for i in far) / len(far) * 100:.2f}"], sec)
     ck.text(group, doc, "Δf rises to {} Hz ({}% of f0)",
             [f"{max(one['df_Hz']):.0f}", f"{max(one['df_Hz']) / one['f0_Hz'] * 100:.1f}"], sec)
-    ck.text(group, doc, "differs from the integral by up to {}% (one mode)", [f"{max(rel[i] for i in contact) * 100:.1f}"], sec)
+    ck.text(group, doc, "differs from the integral by up to {}% (one mode)",
+            [f"{max(rel[i] for i in contact) * 100:.1f}"], sec)
     ck.text(group, doc, "Δf still moves by up to\n  {} Hz over the average window",
             [f"{max(one['df_spread_Hz']):.1f}"], sec)
     ck.text(group, doc, "reads up to {} aJ on this", [f"{max(one['dissipation_aJ']):.3f}"], sec)

@@ -1260,6 +1260,38 @@ def check_scan(ck, group="scan"):
 
 
 # ----------------------------------------------------------------------------- main
+def check_fm(ck, group="fm"):
+    """docs/instrument.md's FM approach against benchmarks/results/fm_approach.json
+    (`python benchmarks/fm_approach.py`)."""
+    fm = load(result_path("fm_approach.json"))
+    doc, sec = "docs/instrument.md", "FM-AFM"
+    z = fm["z_nm"]
+    one, three = fm["curves"]["1"], fm["curves"]["3"]
+    rel = [abs(a / b - 1) for a, b in zip(one["df_Hz"], one["sader_jarvis_Hz"])]
+    rel3 = [a / b - 1 for a, b in zip(three["df_Hz"], three["sader_jarvis_Hz"])]
+    far = [i for i, v in enumerate(z) if v >= 6 - 1e-9]
+    near = [i for i, v in enumerate(z) if abs(v - 5.5) < 1e-9]
+    contact = [i for i, v in enumerate(z) if v <= 4.5 + 1e-9]
+    ck.text(group, doc, "the integral's within {} down to Z = 6 nm (1 nm above",
+            [f"{max(rel[i] for i in far):.1e}"], sec)
+    ck.text(group, doc, "the sample) and {} at 5.5 nm; three modes sit {}% below it throughout",
+            [f"{rel[near[0]]:.1e}", f"{-sum(rel3[i] for i in far) / len(far) * 100:.2f}"], sec)
+    ck.text(group, doc, "Δf rises to {} Hz ({}% of f0)",
+            [f"{max(one['df_Hz']):.0f}", f"{max(one['df_Hz']) / one['f0_Hz'] * 100:.1f}"], sec)
+    ck.text(group, doc, "differs from the integral by up to {}% (one mode)",
+            [f"{max(rel[i] for i in contact) * 100:.1f}"], sec)
+    ck.text(group, doc, "Δf still moves by up to\n  {} Hz over the average window",
+            [f"{max(one['df_spread_Hz']):.1f}"], sec)
+    ck.text(group, doc, "reads up to {} aJ on this", [f"{max(one['dissipation_aJ']):.3f}"], sec)
+    ck.text(group, doc, "cost: {} s of CPU for the one-mode curve ({} periods, {} µs per period) against",
+            [f"{one['cpu_s']:.1f}", one["periods"], f"{one['us_per_period']:.0f}"], sec)
+    ck.text(group, doc, "{} µs per period for tmafm.observe at one fixed Z in the same run ({} times:",
+            [f"{one['plain_observe_us_per_period']:.0f}",
+             f"{one['us_per_period'] / one['plain_observe_us_per_period']:.2f}"], sec)
+    ck.text(group, doc, "{} against {} µs for three modes",
+            [f"{three['us_per_period']:.0f}", f"{three['plain_observe_us_per_period']:.0f}"], sec)
+
+
 GROUPS = {
     "figures": lambda ck: check_figures(ck, load(SUMMARY)),
     "period_search": check_period_search,
@@ -1270,6 +1302,7 @@ GROUPS = {
     "am_afm": check_am_afm,
     "continuation": check_continuation,
     "scan": check_scan,
+    "fm": check_fm,
 }
 
 

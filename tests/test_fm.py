@@ -158,12 +158,12 @@ def test_a_liquid_low_q_composes():
 
 @pytest.mark.parametrize("keywords, message", [
     ({"amplitude": 0.0}, "amplitude = 0.0"),
-    ({"amplitude": 2e-6}, "&fm amplitude = 2.0E-006: must be > 0 and <= 1e-6"),
-    ({"pll_bandwidth": 40e3}, "&fm pll_bandwidth = 4.0E+004: must be > 0 and <= f0/10"),
-    ({"amplitude_bandwidth": -1.0}, "&fm amplitude_bandwidth = -1.0"),
-    ({"settle_periods": -1}, "&fm settle_periods = -1"),
-    ({"average_periods": 0}, "&fm average_periods = 0"),
-    ({"free_distance": float("nan")}, "&fm free_distance = nan"),
+    ({"amplitude": 2e-6}, "fm amplitude = 2.0E-006: must be > 0 and <= 1e-6"),
+    ({"pll_bandwidth": 40e3}, "fm pll_bandwidth = 4.0E+004: must be > 0 and <= f0/10"),
+    ({"amplitude_bandwidth": -1.0}, "fm amplitude_bandwidth = -1.0"),
+    ({"settle_periods": -1}, "fm settle_periods = -1"),
+    ({"average_periods": 0}, "fm average_periods = 0"),
+    ({"free_distance": float("nan")}, "fm free_distance = nan"),
     ({"z": [float("inf")]}, "z[0] = inf"),
 ])
 def test_bad_inputs_are_refused_in_one_line(vdw_config, keywords, message):

@@ -1,7 +1,8 @@
 !> What an FM-AFM measurement asks for (docs/instrument.md, "FM-AFM"): the amplitude the
 !> amplitude controller holds, the bandwidths of the phase-locked loop and of the amplitude
 !> controller, how many drive periods each Z point settles and averages, and where the free
-!> cantilever's reference is taken.  The namelist group &fm fills it; tmafm_fm runs it.
+!> cantilever's reference is taken.  tmafm_fm runs it (Python: tmafm.instrument.fm_approach's
+!> keywords; a namelist group for the executable is not there yet).
 module tmafm_fm_settings
    use tmafm_kinds, only: dp
    implicit none

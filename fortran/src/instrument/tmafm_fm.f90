@@ -21,7 +21,7 @@
 !> Δf, the drive and its rise over the free one, the period's energies and lock-in values.
 module tmafm_fm
    use tmafm_kinds, only: dp
-   use tmafm_errors, only: ok, err_input
+   use tmafm_errors, only: ok, err_input, err_runtime
    use tmafm_text, only: real_text, int_text
    use tmafm_config, only: config_t
    use tmafm_fm_settings, only: fm_settings_t
@@ -82,7 +82,7 @@ module tmafm_fm
 
 contains
 
-   !> Refuse settings out of range, in one line naming the &fm key and its value; f0 (Hz) bounds
+   !> Refuse settings out of range, in one line naming the setting and its value; f0 (Hz) bounds
    !> the bandwidths (<= f0/10: a per-period update delays the loop by one period).
    subroutine check_fm_settings(settings, f0, ierr, errmsg)
       type(fm_settings_t), intent(in) :: settings
@@ -92,19 +92,19 @@ contains
 
       ierr = err_input
       if (.not. (settings%amplitude > 0 .and. settings%amplitude <= 1.0e-6_dp)) then
-         errmsg = '&fm amplitude = '//real_text(settings%amplitude)//': must be > 0 and <= 1e-6 (m)'
+         errmsg = 'fm amplitude = '//real_text(settings%amplitude)//': must be > 0 and <= 1e-6 (m)'
       else if (.not. (settings%pll_bandwidth > 0 .and. settings%pll_bandwidth <= f0/10)) then
-         errmsg = '&fm pll_bandwidth = '//real_text(settings%pll_bandwidth)//': must be > 0 and <= f0/10 = '// &
+         errmsg = 'fm pll_bandwidth = '//real_text(settings%pll_bandwidth)//': must be > 0 and <= f0/10 = '// &
                   real_text(f0/10)//' (Hz)'
       else if (.not. (settings%amplitude_bandwidth > 0 .and. settings%amplitude_bandwidth <= f0/10)) then
-         errmsg = '&fm amplitude_bandwidth = '//real_text(settings%amplitude_bandwidth)// &
+         errmsg = 'fm amplitude_bandwidth = '//real_text(settings%amplitude_bandwidth)// &
                   ': must be > 0 and <= f0/10 = '//real_text(f0/10)//' (Hz)'
       else if (settings%settle_periods < 0 .or. settings%settle_periods > 10000000) then
-         errmsg = '&fm settle_periods = '//int_text(settings%settle_periods)//': must be in 0..10000000'
+         errmsg = 'fm settle_periods = '//int_text(settings%settle_periods)//': must be in 0..10000000'
       else if (settings%average_periods < 1 .or. settings%average_periods > 10000000) then
-         errmsg = '&fm average_periods = '//int_text(settings%average_periods)//': must be in 1..10000000'
+         errmsg = 'fm average_periods = '//int_text(settings%average_periods)//': must be in 1..10000000'
       else if (.not. (settings%free_distance > 0 .and. settings%free_distance <= 1.0e-3_dp)) then
-         errmsg = '&fm free_distance = '//real_text(settings%free_distance)//': must be > 0 and <= 1e-3 (m)'
+         errmsg = 'fm free_distance = '//real_text(settings%free_distance)//': must be > 0 and <= 1e-3 (m)'
       else
          ierr = ok
          errmsg = ''
@@ -131,7 +131,7 @@ contains
       loop%settings = settings
       if (.not. config%from_physical) then
          ierr = err_input
-         errmsg = '&fm: the FM loop needs a scene in SI units (a &physical group)'
+         errmsg = 'fm: the FM loop needs a scene in SI units (a &physical group)'
          return
       end if
       if (config%physical%drive_amplitude_2 /= 0) then
@@ -262,7 +262,7 @@ contains
       values(fm_dissipated_tip_sample) = values(fm_dissipated) - values(fm_dissipated_beam)
       values(fm_df_spread) = df_high - df_low
       if (.not. all(ieee_is_finite(values))) then
-         ierr = err_input
+         ierr = err_runtime
          errmsg = 'fm: the loop''s values are not finite at z = '//real_text(z)
       end if
    end subroutine fm_point

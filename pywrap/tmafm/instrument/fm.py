@@ -44,14 +44,14 @@ _TRACE = (("df", "Hz"), ("drive", "nm"), ("amplitude", "nm"), ("phase", "deg"))
 
 def _count(name, value, low):
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not value >= low:
-        raise InputError(f"&fm {name} = {value!r}: must be an integer >= {low}")
+        raise InputError(f"fm {name} = {value!r}: must be an integer >= {low}")
     return int(value)
 
 
 def _positive(name, value):
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
             or not np.isfinite(value) or not value > 0:
-        raise InputError(f"&fm {name} = {value!r}: must be a finite number > 0")
+        raise InputError(f"fm {name} = {value!r}: must be a finite number > 0")
     return float(value)
 
 
@@ -85,7 +85,7 @@ def fm_approach(base, z, amplitude, *, pll_bandwidth=1000.0, amplitude_bandwidth
     config = base if isinstance(base, Config) and not overrides else Config(base, **overrides)
     per_point = settle_periods + average_periods
     if z.size * per_point > 50_000_000:
-        raise InputError(f"&fm settle_periods + average_periods = {per_point}: {z.size} points of it "
+        raise InputError(f"fm settle_periods + average_periods = {per_point}: {z.size} points of it "
                          f"are over 50000000 periods (the trace would not fit in memory)")
     values = np.zeros((z.size, len(FM_COLUMNS)), order="F")
     trace = np.zeros((z.size * per_point, len(_TRACE)), order="F")

@@ -29,17 +29,24 @@ class ZSchedule:
     units: dict
 
 
-def z_schedule(base, z, **overrides) -> ZSchedule:
-    """Run ``base`` (an input with a &physical scene; ``overrides`` patch it) for one drive period
-    per entry of ``z`` (m): period k at the tip-sample distance z[k], from the state period k - 1
-    ended in (the first from &initial).  The model is rebuilt at each new Z and the state carried
-    over in metres (docs/instrument.md, "The period stepper")."""
+def distances(z) -> np.ndarray:
+    """``z`` as a contiguous 1-D float array of tip-sample distances (m), or a one-line
+    InputError naming the first bad entry."""
     z = np.ascontiguousarray(z, dtype=float)
     if z.ndim != 1 or z.size == 0:
         raise InputError(f"z: must be a non-empty 1-D array of distances (m), got shape {z.shape}")
     bad = np.flatnonzero(~np.isfinite(z))
     if bad.size:
         raise InputError(f"z[{bad[0]}] = {float(z[bad[0]])}: must be finite")
+    return z
+
+
+def z_schedule(base, z, **overrides) -> ZSchedule:
+    """Run ``base`` (an input with a &physical scene; ``overrides`` patch it) for one drive period
+    per entry of ``z`` (m): period k at the tip-sample distance z[k], from the state period k - 1
+    ended in (the first from &initial).  The model is rebuilt at each new Z and the state carried
+    over in metres (docs/instrument.md, "The period stepper")."""
+    z = distances(z)
     config = base if isinstance(base, Config) and not overrides else Config(base, **overrides)
     values = np.zeros((z.size, _N_OBSERVABLES), order="F")
     ends = np.zeros(z.size)

@@ -14,6 +14,7 @@ from .._extras import require
 from .._run import Config
 from .._safefile import save_figure
 from ..errors import InputError, raise_for
+from ._schedule import distances
 
 __all__ = ["FM_COLUMNS", "fm_approach", "plot_fm_approach"]
 
@@ -70,12 +71,7 @@ def fm_approach(base, z, amplitude, *, pll_bandwidth=1000.0, amplitude_bandwidth
     (nm) and drive work (aJ), the loops' response time (s) and settings.  Needs the 'sweep'
     extra (xarray)."""
     xr = require("xarray", "tmafm.instrument.fm_approach")
-    z = np.ascontiguousarray(z, dtype=float)
-    if z.ndim != 1 or z.size == 0:
-        raise InputError(f"z: must be a non-empty 1-D array of distances (m), got shape {z.shape}")
-    bad = np.flatnonzero(~np.isfinite(z))
-    if bad.size:
-        raise InputError(f"z[{bad[0]}] = {float(z[bad[0]])}: must be finite")
+    z = distances(z)
     amplitude = _positive("amplitude", amplitude)
     pll_bandwidth = _positive("pll_bandwidth", pll_bandwidth)
     amplitude_bandwidth = _positive("amplitude_bandwidth", amplitude_bandwidth)

@@ -156,22 +156,29 @@ contains
       if (ierr /= ok) return
       call check_derived(source_label, doc, at('physical'), config, ierr, errmsg)
       if (ierr /= ok) return
-      ! The instrument (docs/instrument.md): one of &scan and &fm, on a scene in SI units.
-      if (at('scan') /= 0 .or. at('fm') /= 0) then
+      ! The instrument (docs/instrument.md): each key of &scan and &fm, then one of them, on a
+      ! scene in SI units, and the scan's rules across keys and against the drive period.
+      if (at('scan') /= 0) call read_scan(place('scan'), doc%groups(at('scan')), config, ierr, errmsg)
+      if (ierr /= ok) return
+      if (at('fm') /= 0) call read_fm(place('fm'), doc%groups(at('fm')), config, ierr, errmsg)
+      if (ierr /= ok) return
+      if (config%has_scan .or. config%has_fm) then
          ierr = err_input
-         if (at('scan') /= 0 .and. at('fm') /= 0) then
+         if (config%has_scan .and. config%has_fm) then
             errmsg = source_label//': give either &scan or &fm, not both (one measurement a run)'
             return
          else if (.not. config%from_physical) then
-            errmsg = source_label//': &'//trim(merge('scan', 'fm  ', at('scan') /= 0))// &
+            errmsg = source_label//': &'//trim(merge('scan', 'fm  ', config%has_scan))// &
                      ' needs the scene in SI units (&physical), not &scene'
             return
          end if
          ierr = ok
       end if
-      if (at('scan') /= 0) call read_scan(place('scan'), doc%groups(at('scan')), config, ierr, errmsg)
-      if (ierr /= ok) return
-      if (at('fm') /= 0) call read_fm(place('fm'), doc%groups(at('fm')), config, ierr, errmsg)
+      if (config%has_scan) then
+         call check_scan_settings(config%scan, 2*acos(-1.0_dp)/config%physical%drive_angular_frequency, &
+                                  ierr, errmsg)
+         if (ierr /= ok) errmsg = source_label//': &'//trim(errmsg)
+      end if
    contains
       !> The position in doc of group `group`, 0 if absent.
       pure integer function at(group)
@@ -805,8 +812,8 @@ contains
       config%solver%last_periods = int(last_periods)
    end subroutine read_output
 
-   !> &scan: the scan line (tmafm_scan_settings); each key's range from its row, then the rules
-   !> across keys and against the drive period by check_scan_settings.
+   !> &scan: the scan line (tmafm_scan_settings); each key's range from its row (the rules
+   !> across keys and against the drive period: check_scan_settings, in read_config_document).
    subroutine read_scan(p, g, config, ierr, errmsg)
       type(place_t), intent(in) :: p
       type(nml_group_t), intent(in) :: g
@@ -819,7 +826,6 @@ contains
       real(dp) :: values_b(n_material_keys)
       logical :: given_b(n_material_keys)
       integer :: k, row, j
-      real(dp), parameter :: two_pi = 2*acos(-1.0_dp)
 
       s = config%scan
       pixels = s%pixels
@@ -885,12 +891,6 @@ contains
       if (s%material_boundary > 0 .and. .not. s%two_materials) then
          call key_error(p, entry_or_default(g, 'material_boundary', 0.0_dp), &
                         'needs the second material: give its b_ keys', ierr, errmsg)
-         return
-      end if
-      ! The rules across keys and the drive period: the check the scan itself makes.
-      call check_scan_settings(s, two_pi/config%physical%drive_angular_frequency, ierr, errmsg)
-      if (ierr /= ok) then
-         errmsg = p%label//': &'//trim(errmsg)
          return
       end if
       config%scan = s

@@ -31,7 +31,7 @@ module tmafm_namelist
       key_choices_text, key_is_word, group_keys_text, key_value_text, range_text, physical_key_given, &
       n_material_keys, material_key_index
    use tmafm_nml_syntax, only: nml_document_t, nml_group_t, nml_entry_t, nml_value_t, &
-      parse_namelist, value_integer, value_real, value_logical, value_string, value_word, &
+      patch_document, parse_namelist, value_integer, value_real, value_logical, value_string, value_word, &
       value_kind_name, value_other
    use tmafm_input_file, only: read_text_file
    use tmafm_calibration, only: calibrate_cantilever, drive_for_free_amplitude, physical_derived, &
@@ -89,7 +89,7 @@ contains
    !> Type-check and validate a parsed namelist `doc` into `config` (read_config_text after
    !> the syntax; tmafm_api gives it a base document patched by overrides, whose entries say
    !> where they came from: a line of the base, or an override).
-   subroutine read_config_document(doc, source_label, config, ierr, errmsg)
+   recursive subroutine read_config_document(doc, source_label, config, ierr, errmsg)
       type(nml_document_t), intent(in) :: doc
       character(len=*), intent(in) :: source_label
       type(config_t), intent(out) :: config
@@ -178,8 +178,45 @@ contains
          call check_scan_settings(config%scan, 2*acos(-1.0_dp)/config%physical%drive_angular_frequency, &
                                   ierr, errmsg)
          if (ierr /= ok) errmsg = source_label//': &'//trim(errmsg)
+         if (ierr == ok .and. config%scan%two_materials) call read_material_b()
       end if
    contains
+      !> The second material's scene: the input without &scan, its &physical patched by the
+      !> b_ keys (as Python's scan_line patches it by material_b), read and checked as any.
+      recursive subroutine read_material_b()
+         type(nml_document_t) :: base, over, merged
+         type(config_t) :: config_b
+         integer :: j, n
+         base%from_output_file = doc%from_output_file
+         allocate (base%groups(doc%n_groups))
+         do j = 1, doc%n_groups
+            if (doc%groups(j)%name == 'scan') cycle
+            base%n_groups = base%n_groups + 1
+            base%groups(base%n_groups) = doc%groups(j)
+         end do
+         allocate (over%groups(1))
+         over%n_groups = 1
+         over%groups(1)%name = 'physical'
+         associate (scan_group => doc%groups(at('scan')))
+            allocate (over%groups(1)%entries(scan_group%n_entries))
+            n = 0
+            do j = 1, scan_group%n_entries
+               if (scan_group%entries(j)%key(1:min(2, len(scan_group%entries(j)%key))) /= 'b_') cycle
+               n = n + 1
+               over%groups(1)%entries(n) = scan_group%entries(j)
+               over%groups(1)%entries(n)%key = scan_group%entries(j)%key(3:)
+            end do
+         end associate
+         over%groups(1)%n_entries = n
+         call patch_document(base, over, merged)
+         call read_config_document(merged, source_label, config_b, ierr, errmsg)
+         if (ierr /= ok) then
+            ! Its message names the source first: the second material goes after it.
+            n = len(source_label) + 2
+            if (errmsg(1:min(n, len(errmsg))) == source_label//': ') errmsg = errmsg(n + 1:)
+            errmsg = source_label//': the second material (&scan b_ keys): '//trim(errmsg)
+         end if
+      end subroutine read_material_b
       !> The position in doc of group `group`, 0 if absent.
       pure integer function at(group)
          character(len=*), intent(in) :: group

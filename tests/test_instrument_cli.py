@@ -111,7 +111,7 @@ CASES = {
     "scan_b_out_of_range": ({"scan": {"b_poisson_ratio_sample": 0.7}}, AM_SCAN,
                             ["b_poisson_ratio_sample = 0.7", "<= 5.0E-001"]),
     "scan_b_rule_across_keys": ({"scan": {"b_sample_modulus_relaxed": 2e9}}, AM_SCAN,
-                                ["the second material (&scan b_ keys)", "sample_modulus_relaxed = 2e9"]),
+                                ["the second material (&scan b_ keys)", "sample_modulus_relaxed = 2000000000.0"]),
     "scan_step_past_line": ({"scan": {"step_position": 50e-9}}, AM_SCAN,
                             ["step_position = 5.0E-008", "scan_length"]),
     "fm_amplitude_negative": ({"fm": {"amplitude": -5e-9}}, FM_APPROACH, ["&fm amplitude = -5e-09"]),

@@ -12,6 +12,10 @@ program tmafm_main
       tmafm_version_string, ok, errmsg_len, path_len, output_sink_t, prepare_output, &
       check_output_size, begin_output, write_output, discard_output, sample_count, target_file, &
       target_device, printable_text, commit_output, write_text, error_text, int_text
+   ! The instrument (&scan, &fm: docs/instrument.md), whose output is a table.
+   use tmafm, only: dp, real_text, run_am_scan, n_scan_columns, scan_column_names, scan_column_units, &
+      n_scan_info, scan_info_names, scan_info_units, n_record_columns, material_b_physical, fm_loop_t, &
+      init_fm_loop, fm_point, n_fm_columns, fm_column_names, fm_column_units, fm_z_points, write_table
    implicit none
 
    interface
@@ -39,6 +43,11 @@ program tmafm_main
    logical :: quiet, have_input, have_output, timings
    real :: cpu(3)
    integer(i8) :: clock(3), clock_rate
+   ! An instrument run's table: its columns' names and units, rows, and the notes for its header.
+   logical :: instrument
+   character(len=32), allocatable :: names(:), units(:)
+   real(dp), allocatable :: table(:, :)
+   character(len=:), allocatable :: notes
 
    call tmafm_signals_install()
    have_input = .false.
@@ -112,14 +121,19 @@ program tmafm_main
    if (ierr /= ok) call fail(ierr, errmsg)
 
    call mark(1)
-   if (quiet) then
+   instrument = config%has_scan .or. config%has_fm
+   if (config%has_scan) then
+      call scan_table(ierr, errmsg)
+   else if (config%has_fm) then
+      call fm_table(ierr, errmsg)
+   else if (quiet) then
       call choose_mode_count(config, ierr, errmsg)
    else
       call choose_mode_count(config, ierr, errmsg, progress_unit=error_unit)
    end if
-   if (ierr == ok) call check_output_size(sink, int(sample_count(config%solver), i8), config%n_modes, &
-                                          ierr, errmsg, config%from_physical)
-   if (ierr == ok) then
+   if (ierr == ok .and. .not. instrument) call check_output_size(sink, int(sample_count(config%solver), i8), &
+                                                                 config%n_modes, ierr, errmsg, config%from_physical)
+   if (ierr == ok .and. .not. instrument) then
       if (quiet) then
          call simulate(config, traj, ierr, errmsg)
       else
@@ -143,7 +157,11 @@ program tmafm_main
          call tmafm_signals_release()
       end if
    end if
-   if (ierr == ok) call write_output(sink, input_path, config, traj, ierr, errmsg, commit=.false.)
+   if (ierr == ok .and. instrument) then
+      call write_table(sink, input_path, config, notes, names, units, table, ierr, errmsg, commit=.false.)
+   else if (ierr == ok) then
+      call write_output(sink, input_path, config, traj, ierr, errmsg, commit=.false.)
+   end if
    if (ierr == ok) then
       ! Signals wait across the rename: once the complete file is in place, the run has
       ! succeeded, and a signal that came meanwhile or comes later ends it with status 0
@@ -158,10 +176,86 @@ program tmafm_main
    if (timings) write (error_unit, '(a)') 'tmafm: timings: run '//seconds(cpu(2) - cpu(1))//' s CPU, write '// &
       seconds(cpu(3) - cpu(2))//' s CPU ('//seconds(real(clock(3) - clock(2))/real(clock_rate))//' s wall)'
    ! The summary goes to stdout, unless stdout holds the data.
-   if (.not. quiet .and. sink%path /= '-') call print_stdout('tmafm: wrote '//int_text(size(traj%tau))// &
-      ' samples to '//trim(config%output_file)//new_line('a'), 'the summary')
+   if (.not. quiet .and. sink%path /= '-') then
+      if (instrument) then
+         call print_stdout('tmafm: wrote '//int_text(size(table, 1))//' rows to '//trim(config%output_file)// &
+                           new_line('a'), 'the summary')
+      else
+         call print_stdout('tmafm: wrote '//int_text(size(traj%tau))//' samples to '//trim(config%output_file)// &
+                           new_line('a'), 'the summary')
+      end if
+   end if
 
 contains
+
+   !> &scan: one scan line (run_am_scan); the table has one row per pixel and pass: direction
+   !> (0 trace, 1 retrace), x (nm, the pixel's centre), the pixel means; the notes what the
+   !> engage measured.
+   subroutine scan_table(ierr, errmsg)
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      real(dp), allocatable :: pixels(:, :, :), record(:, :)
+      real(dp) :: info(n_scan_info)
+      integer :: passes, n, p, j, k
+
+      n = config%scan%pixels
+      passes = merge(2, 1, config%scan%retrace)
+      allocate (pixels(n, n_scan_columns, passes), record(0, n_record_columns))
+      if (.not. quiet) write (error_unit, '(a)') 'tmafm: scan: '//int_text(n)//' pixels, '// &
+         trim(merge('trace and retrace', 'trace            ', passes == 2))//', engage first'
+      call run_am_scan(config, material_b_physical(config), config%scan, pixels, info, record, ierr, errmsg)
+      if (ierr /= ok) return
+      names = [character(len=32) :: 'direction', 'x', scan_column_names]
+      units = [character(len=32) :: '1', 'nm', scan_column_units]
+      allocate (table(n*passes, 2 + n_scan_columns))
+      do p = 1, passes
+         do j = 1, n
+            k = (p - 1)*n + j
+            table(k, 1) = p - 1
+            table(k, 2) = (j - 0.5_dp)*config%scan%scan_length/n*1.0e9_dp
+            table(k, 3:) = pixels(j, :, p)
+         end do
+      end do
+      notes = 'scan: one row per pixel and pass: direction 0 the trace, 1 the retrace; x the pixel''s '// &
+              'centre; the rest the means over the pixel''s drive periods'//new_line('a')
+      do k = 1, n_scan_info
+         notes = notes//'engage: '//trim(scan_info_names(k))//' = '//real_text(info(k))//' '// &
+                 trim(scan_info_units(k))//new_line('a')
+      end do
+   end subroutine scan_table
+
+   !> &fm: the FM approach, Z point after Z point from the last one's loop state (init_fm_loop,
+   !> fm_point); the table has one row per point (the columns of tmafm_fm), the notes the free
+   !> reference.
+   subroutine fm_table(ierr, errmsg)
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      type(fm_loop_t) :: loop
+      real(dp), allocatable :: z(:)
+      integer :: k
+
+      z = fm_z_points(config)
+      call init_fm_loop(loop, config, config%fm, ierr, errmsg)
+      if (ierr /= ok) return
+      allocate (table(size(z), n_fm_columns))
+      do k = 1, size(z)
+         call fm_point(loop, z(k), table(k, :), ierr, errmsg)
+         if (ierr /= ok) then
+            errmsg = 'fm: Z point '//int_text(k)//' (z = '//real_text(z(k))//' m): '//trim(errmsg)
+            return
+         end if
+         if (.not. quiet) write (error_unit, '(a)') 'tmafm: fm: Z point '//int_text(k)//' of '// &
+            int_text(size(z))//': z = '//real_text(table(k, 1))//' nm, df = '//real_text(table(k, 2))//' Hz'
+      end do
+      names = [character(len=32) :: fm_column_names]
+      units = [character(len=32) :: fm_column_units]
+      notes = 'fm: one row per Z point, each the average over average_periods after settle_periods'// &
+              new_line('a')//'reference: f0 = '//real_text(loop%free_frequency)//' Hz'//new_line('a')// &
+              'reference: phase_setpoint = '//real_text(loop%phase_setpoint)//' deg'//new_line('a')// &
+              'reference: free_drive = '//real_text(loop%free_drive*1.0e9_dp)//' nm'//new_line('a')// &
+              'reference: free_drive_work = '//real_text(loop%free_work)//' aJ'//new_line('a')// &
+              'reference: response_time = '//real_text(loop%response_time)//' s'//new_line('a')
+   end subroutine fm_table
 
    !> Note the CPU time and the wall clock at point k (for --timings).
    subroutine mark(k)
@@ -249,7 +343,8 @@ contains
          'device or FIFO is written directly.  &output format = ''npy'' writes a .npz archive', &
          '(the name must end in .npz) for numpy.load.', &
          '', &
-         'Groups: &model &scene (or &physical, SI units) &initial &solver &output.', &
+         'Groups: &model &scene (or &physical, SI units) &initial &solver &output; with', &
+         '&physical, &scan (an AM scan line) or &fm (an FM approach) writes their table.', &
          'Exit status: 0 ok, 1 usage, 2 bad input, 3 file error, 4 blow-up, 5 run failure.']
       integer :: k
       text = ''

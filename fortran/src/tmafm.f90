@@ -40,7 +40,8 @@ module tmafm
    use tmafm_nml_syntax, only: patch_document
    use tmafm_output, only: commit_output
    use tmafm_config, only: config_t, path_len
-   use tmafm_namelist, only: read_config, read_config_text, write_config, config_text, config_errata
+   use tmafm_namelist, only: read_config, read_config_text, write_config, config_text, config_errata, &
+      material_b_physical, fm_z_points
    use tmafm_text, only: real_text, int_text, lower, printable_text
    use tmafm_posix, only: write_text, error_text
    use tmafm_nml_syntax, only: nml_document_t, parse_namelist, entry_text
@@ -52,9 +53,10 @@ module tmafm
       scan_column_units, scan_column_meanings, n_scan_info, scan_info_names, scan_info_units, &
       n_record_columns, record_column_names, record_column_units
    use tmafm_fm_settings, only: fm_settings_t
-   use tmafm_fm, only: fm_loop_t, init_fm_loop, fm_point, check_fm_settings, n_fm_columns, n_fm_trace
+   use tmafm_fm, only: fm_loop_t, init_fm_loop, fm_point, check_fm_settings, n_fm_columns, n_fm_trace, &
+      fm_column_names, fm_column_units
    use tmafm_output, only: write_trajectory_file, output_sink_t, prepare_output, check_output_size, &
-      begin_output, write_output, discard_output, target_file, target_device, target_stdout
+      begin_output, write_output, discard_output, target_file, target_device, target_stdout, write_table
    implicit none
    private
 
@@ -87,5 +89,7 @@ module tmafm
              scan_column_names, scan_column_units, scan_column_meanings, n_scan_info, scan_info_names, &
              scan_info_units, n_record_columns, record_column_names, record_column_units
    public :: fm_settings_t, fm_loop_t, init_fm_loop, fm_point, check_fm_settings, n_fm_columns, n_fm_trace
+   ! The instrument in the executable (&scan, &fm): its inputs and its table.
+   public :: fm_column_names, fm_column_units, material_b_physical, fm_z_points, write_table
 
 end module tmafm

@@ -5,6 +5,8 @@ module tmafm_config
    use tmafm_modes, only: max_modes
    use tmafm_scene, only: scene_t, physical_t
    use tmafm_settings, only: run_settings_t
+   use tmafm_scan_settings, only: scan_settings_t
+   use tmafm_fm_settings, only: fm_settings_t
    implicit none
    private
 
@@ -13,7 +15,8 @@ module tmafm_config
    !> Longest file path tmafm accepts.
    integer, parameter :: path_len = 1024
 
-   !> One run's input: &model, &scene or &physical, &initial, &solver and &output.
+   !> One run's input: &model, &scene or &physical, &initial, &solver and &output, and for the
+   !> instrument (docs/instrument.md) &scan or &fm.
    type :: config_t
       !> &model n_modes: number of Galerkin modes, 1 to max_modes (the chosen N when automatic).
       integer :: n_modes = 4
@@ -53,6 +56,23 @@ module tmafm_config
       character(len=path_len) :: output_file = 'tmafm_output.dat'
       !> &output format: 'text' (default) or 'npy'.
       character(len=16) :: output_format = 'text'
+      !> .true. when the input has &scan: the executable scans a line (AM imaging).
+      logical :: has_scan = .false.
+      !> &scan: the scan line's settings.
+      type(scan_settings_t) :: scan
+      !> &scan b_<key>: the second material's &physical sample keys (tmafm_keys material_key_index)
+      !> and which of them were given (the rest are the first material's).
+      real(dp) :: material_b(8) = 0
+      logical :: material_b_given(8) = .false.
+      !> .true. when the input has &fm: the executable runs an FM approach.
+      logical :: has_fm = .false.
+      !> &fm: the FM loops' settings.
+      type(fm_settings_t) :: fm
+      !> &fm z_start, z_end (m) and z_points: the approach's Z points, evenly spaced from
+      !> z_start to z_end (z_start alone for one point).
+      real(dp) :: fm_z_start = 0
+      real(dp) :: fm_z_end = 0
+      integer :: fm_z_points = 1
    end type config_t
 
 end module tmafm_config

@@ -17,13 +17,14 @@ module tmafm_keys
    use tmafm_scene, only: physical_t, scene_names, physical_names, scene_values, physical_values
    use tmafm_settings, only: method_names, max_max_steps
    use tmafm_config, only: config_t
+   use tmafm_scan_settings, only: topography_flat, topography_step, topography_sphere
    implicit none
    private
 
    public :: key_t, keys, n_keys, key_groups
    public :: key_row, group_index, key_in_range, key_range_text, key_choices_text, key_is_word
    public :: group_keys_text, key_value_text, describe_key, range_text
-   public :: max_mode_horizon, physical_key_given
+   public :: max_mode_horizon, physical_key_given, n_material_keys, material_key_index
 
    !> Value types: an integer, a real (an integer or real literal), a quoted string, a list of
    !> reals (r*value repeats allowed).
@@ -33,8 +34,8 @@ module tmafm_keys
       'list of reals']
 
    !> The namelist groups, in the order of the resolved text.
-   character(len=*), parameter :: key_groups(6) = [character(len=8) :: 'model', 'scene', 'physical', &
-      'initial', 'solver', 'output']
+   character(len=*), parameter :: key_groups(8) = [character(len=8) :: 'model', 'scene', 'physical', &
+      'initial', 'solver', 'output', 'scan', 'fm']
 
    !> Largest &model mode_horizon: the automatic-N search may run max_modes comparison runs of
    !> this length, and a Python call cannot be interrupted (README, Running; docs/reliability.md).
@@ -46,12 +47,20 @@ module tmafm_keys
    character(len=*), parameter :: conventions(*) = [character(len=10) :: 'paper', 'consistent']
    !> The values &output format accepts: 'text' (columns after '#' header lines) or 'npy'.
    character(len=*), parameter :: output_formats(*) = [character(len=8) :: 'text', 'npy']
+   !> The topographies &scan topography knows (tmafm_scan_settings).
+   character(len=*), parameter :: topographies(*) = [character(len=8) :: topography_flat, topography_step, &
+      topography_sphere]
    !> Every allowed word, the sets one after the other (key_t%first_word, last_word).
    character(len=*), parameter :: words(*) = [character(len=16) :: contact_laws, conventions, &
-      method_names, output_formats]
+      method_names, output_formats, topographies]
    integer, parameter :: law_words = 1, convention_words = law_words + size(contact_laws)
    integer, parameter :: method_words = convention_words + size(conventions)
    integer, parameter :: format_words = method_words + size(method_names)
+   integer, parameter :: topography_words = format_words + size(output_formats)
+   !> The &physical keys a second material of &scan may set, each as &scan b_<key> (Python's
+   !> tmafm.instrument MATERIAL_KEYS), and their positions in physical_names.
+   integer, parameter :: n_material_keys = 8
+   integer, parameter :: material_key_index(n_material_keys) = [7, 8, 10, 18, 30, 31, 32, 33]
 
    !> One key.
    type :: key_t
@@ -339,7 +348,7 @@ module tmafm_keys
             meaning="output file (the executable's -o overrides it)"), &
       key_t('output', 'sample_dtau', key_real, 0, 0, .false., upper_key='tau_end', unit='tau', &
             meaning='output interval: samples at tau = k sample_dtau, k = 0, 1, ...'), &
-      key_t('output', 'format', key_string, first_word=format_words, last_word=size(words), unit='-', &
+      key_t('output', 'format', key_string, first_word=format_words, last_word=topography_words - 1, unit='-', &
             meaning="'text' (columns after # header lines) or 'npy' (a .npz archive)"), &
       key_t('output', 'sample_from', key_real, 0, 0, upper_key='tau_end', unit='tau', omit_default=.true., &
             rule='keeps at least one sample; not with last_periods', &
@@ -350,10 +359,102 @@ module tmafm_keys
             meaning='output window: keep only the samples of the last this many drive periods, '// &
             'tau >= tau_end - last_periods 2 pi/Omega')]
 
+   !> &scan: one AM-AFM scan line (docs/instrument.md, "AM imaging"); the ranges of every key
+   !> alone, the rules across keys (and the drive period) checked by check_scan_settings.
+   type(key_t), parameter :: scan_rows(*) = [ &
+      key_t('scan', 'scan_length', key_real, 0, 1.0e-3_dp, .false., unit='m', &
+            meaning='the line length L, scanned from x = 0 to x = L'), &
+      key_t('scan', 'pixels', key_integer, 1, 100000, unit='1', &
+            meaning='pixels along the line, each the mean over its drive periods'), &
+      key_t('scan', 'line_rate', key_real, 0, 1.0e12_dp, .false., unit='Hz', &
+            rule='at least one drive period per pixel', &
+            meaning='line rate: trace and retrace take 1/line_rate together (the trace alone with retrace = 0)'), &
+      key_t('scan', 'retrace', key_integer, 0, 1, unit='1', meaning='1: trace and retrace; 0: the trace only'), &
+      key_t('scan', 'setpoint', key_real, 0, 1, unit='m', rule='exactly one of setpoint, setpoint_ratio > 0', &
+            meaning='the amplitude setpoint A_set (0: given as setpoint_ratio)'), &
+      key_t('scan', 'setpoint_ratio', key_real, 0, 1, upper_open=.true., unit='1', &
+            meaning='the setpoint as A_set/A0, A0 the free amplitude the engage measures (0: given as setpoint)'), &
+      key_t('scan', 'lockin_bandwidth', key_real, 0, 1.0e12_dp, .false., unit='Hz', &
+            rule='<= half the drive frequency', meaning="the lock-in's output filter bandwidth (first order, -3 dB)"), &
+      key_t('scan', 'feedback_bandwidth', key_real, 0, 1.0e12_dp, unit='Hz', &
+            rule='<= lockin_bandwidth/2; exactly one of feedback_bandwidth, integral_gain > 0', &
+            meaning="the Z feedback's designed closed-loop bandwidth (0: the gains are given)"), &
+      key_t('scan', 'proportional_gain', key_real, 0, 1.0e12_dp, unit='1', rule='0 with feedback_bandwidth', &
+            meaning="the PI's proportional gain K_p (m of Z per m of amplitude error)"), &
+      key_t('scan', 'integral_gain', key_real, 0, 1.0e12_dp, unit='1/s', &
+            meaning="the PI's integral gain K_i (m of Z per s and m of amplitude error)"), &
+      key_t('scan', 'topography', key_string, first_word=topography_words, last_word=size(words), unit='-', &
+            meaning='the topography h(x) under the tip'), &
+      key_t('scan', 'step_height', key_real, -1.0e-6_dp, 1.0e-6_dp, unit='m', &
+            meaning="'step': its height H (may be negative), h = H for x >= step_position"), &
+      key_t('scan', 'step_position', key_real, 0, 1.0e-3_dp, unit='m', rule='<= scan_length', &
+            meaning="'step': where it is"), &
+      key_t('scan', 'sphere_radius', key_real, 0, 1.0e-6_dp, unit='m', rule="> 0 with topography = 'sphere'", &
+            meaning="'sphere': its radius R_s (resting on the plane)"), &
+      key_t('scan', 'sphere_position', key_real, 0, 1.0e-3_dp, unit='m', rule='<= scan_length', &
+            meaning="'sphere': its centre's x"), &
+      key_t('scan', 'material_boundary', key_real, 0, 1.0e-3_dp, unit='m', &
+            rule='<= scan_length; > 0 only with a b_ key', &
+            meaning='a second material (the b_ keys) lies at x >= material_boundary'), &
+      key_t('scan', 'b_'//physical_rows(7)%name, key_real, physical_rows(7)%lower, &
+            physical_rows(7)%upper, physical_rows(7)%lower_closed, physical_rows(7)%upper_open, &
+            unit=physical_rows(7)%unit, omit_default=.true., &
+            meaning='the second material: its '//physical_rows(7)%name), &
+      key_t('scan', 'b_'//physical_rows(8)%name, key_real, physical_rows(8)%lower, &
+            physical_rows(8)%upper, physical_rows(8)%lower_closed, physical_rows(8)%upper_open, &
+            unit=physical_rows(8)%unit, omit_default=.true., &
+            meaning='the second material: its '//physical_rows(8)%name), &
+      key_t('scan', 'b_'//physical_rows(10)%name, key_real, physical_rows(10)%lower, &
+            physical_rows(10)%upper, physical_rows(10)%lower_closed, physical_rows(10)%upper_open, &
+            unit=physical_rows(10)%unit, omit_default=.true., &
+            meaning='the second material: its '//physical_rows(10)%name), &
+      key_t('scan', 'b_'//physical_rows(18)%name, key_real, physical_rows(18)%lower, &
+            physical_rows(18)%upper, physical_rows(18)%lower_closed, physical_rows(18)%upper_open, &
+            unit=physical_rows(18)%unit, omit_default=.true., &
+            meaning='the second material: its '//physical_rows(18)%name), &
+      key_t('scan', 'b_'//physical_rows(30)%name, key_real, physical_rows(30)%lower, &
+            physical_rows(30)%upper, physical_rows(30)%lower_closed, physical_rows(30)%upper_open, &
+            unit=physical_rows(30)%unit, omit_default=.true., &
+            meaning='the second material: its '//physical_rows(30)%name), &
+      key_t('scan', 'b_'//physical_rows(31)%name, key_real, physical_rows(31)%lower, &
+            physical_rows(31)%upper, physical_rows(31)%lower_closed, physical_rows(31)%upper_open, &
+            unit=physical_rows(31)%unit, omit_default=.true., &
+            meaning='the second material: its '//physical_rows(31)%name), &
+      key_t('scan', 'b_'//physical_rows(32)%name, key_real, physical_rows(32)%lower, &
+            physical_rows(32)%upper, physical_rows(32)%lower_closed, physical_rows(32)%upper_open, &
+            unit=physical_rows(32)%unit, omit_default=.true., &
+            meaning='the second material: its '//physical_rows(32)%name), &
+      key_t('scan', 'b_'//physical_rows(33)%name, key_real, physical_rows(33)%lower, &
+            physical_rows(33)%upper, physical_rows(33)%lower_closed, physical_rows(33)%upper_open, &
+            unit=physical_rows(33)%unit, omit_default=.true., &
+            meaning='the second material: its '//physical_rows(33)%name)]
+
+   !> &fm: an FM-AFM approach (docs/instrument.md, "FM-AFM"); the bandwidths' bound f0/10 is
+   !> checked by check_fm_settings when the loop starts.
+   type(key_t), parameter :: fm_rows(*) = [ &
+      key_t('fm', 'amplitude', key_real, 0, 1.0e-6_dp, .false., unit='m', &
+            meaning="the amplitude setpoint A the amplitude controller holds"), &
+      key_t('fm', 'pll_bandwidth', key_real, 0, 1.0e12_dp, .false., unit='Hz', rule='<= f0/10', &
+            meaning="the phase-locked loop's closed-loop bandwidth"), &
+      key_t('fm', 'amplitude_bandwidth', key_real, 0, 1.0e12_dp, .false., unit='Hz', rule='<= f0/10', &
+            meaning="the amplitude controller's closed-loop bandwidth"), &
+      key_t('fm', 'settle_periods', key_integer, 0, 10000000, unit='1', &
+            meaning='drive periods each Z point runs before its average'), &
+      key_t('fm', 'average_periods', key_integer, 1, 10000000, unit='1', &
+            meaning='drive periods each Z point averages'), &
+      key_t('fm', 'free_distance', key_real, 0, 1.0e-3_dp, .false., unit='m', &
+            meaning="the tip-sample distance of the free cantilever's reference"), &
+      key_t('fm', 'z_start', key_real, -1.0e-3_dp, 1.0e-3_dp, unit='m', &
+            meaning="the approach's first tip-sample distance Z"), &
+      key_t('fm', 'z_end', key_real, -1.0e-3_dp, 1.0e-3_dp, unit='m', &
+            meaning="its last (with z_points > 1)"), &
+      key_t('fm', 'z_points', key_integer, 1, 100000, unit='1', &
+            meaning='Z points, evenly spaced from z_start to z_end, each settled from the last')]
+
    !> Every key, group by group in the order of key_groups, each group's keys in the order of
    !> the resolved text.
    type(key_t), parameter :: keys(*) = [model_rows, scene_rows, physical_rows, initial_rows, solver_rows, &
-      output_rows]
+      output_rows, scan_rows, fm_rows]
    !> Number of keys.
    integer, parameter :: n_keys = size(keys)
 
@@ -570,6 +671,14 @@ contains
          end associate
          return
       end select
+      select case (keys(row)%group)
+      case ('scan')
+         call scan_value_text(config, row, text)
+         return
+      case ('fm')
+         call fm_value_text(config, row, text)
+         return
+      end select
       select case (keys(row)%name)
       case ('n_modes')
          ! An automatic N keeps its request, so that the text reruns the choice.
@@ -634,6 +743,91 @@ contains
          if (config%auto_modes) modal_count = max(1, config%n_initial)
       end function modal_count
    end subroutine key_value_text
+
+   !> The value of &scan key `row` in `config` (key_value_text); a b_ key not given: 'none'.
+   subroutine scan_value_text(config, row, text)
+      type(config_t), intent(in) :: config
+      integer, intent(in) :: row
+      character(len=:), allocatable, intent(out) :: text
+      integer :: k
+      associate (s => config%scan)
+         select case (keys(row)%name)
+         case ('scan_length')
+            text = real_value(s%scan_length)
+         case ('pixels')
+            text = int_text(s%pixels)
+         case ('line_rate')
+            text = real_value(s%line_rate)
+         case ('retrace')
+            text = int_text(merge(1, 0, s%retrace))
+         case ('setpoint')
+            text = real_value(s%setpoint)
+         case ('setpoint_ratio')
+            text = real_value(s%setpoint_ratio)
+         case ('lockin_bandwidth')
+            text = real_value(s%lockin_bandwidth)
+         case ('feedback_bandwidth')
+            text = real_value(s%feedback_bandwidth)
+         case ('proportional_gain')
+            text = real_value(s%proportional_gain)
+         case ('integral_gain')
+            text = real_value(s%integral_gain)
+         case ('topography')
+            text = quoted(s%topography)
+         case ('step_height')
+            text = real_value(s%step_height)
+         case ('step_position')
+            text = real_value(s%step_position)
+         case ('sphere_radius')
+            text = real_value(s%sphere_radius)
+         case ('sphere_position')
+            text = real_value(s%sphere_position)
+         case ('material_boundary')
+            text = real_value(s%material_boundary)
+         case default
+            text = ''
+            do k = 1, n_material_keys
+               if (keys(row)%name /= 'b_'//physical_names(material_key_index(k))) cycle
+               if (config%material_b_given(k)) then
+                  text = real_value(config%material_b(k))
+               else
+                  text = 'none'
+               end if
+            end do
+         end select
+      end associate
+   end subroutine scan_value_text
+
+   !> The value of &fm key `row` in `config` (key_value_text).
+   subroutine fm_value_text(config, row, text)
+      type(config_t), intent(in) :: config
+      integer, intent(in) :: row
+      character(len=:), allocatable, intent(out) :: text
+      associate (f => config%fm)
+         select case (keys(row)%name)
+         case ('amplitude')
+            text = real_value(f%amplitude)
+         case ('pll_bandwidth')
+            text = real_value(f%pll_bandwidth)
+         case ('amplitude_bandwidth')
+            text = real_value(f%amplitude_bandwidth)
+         case ('settle_periods')
+            text = int_text(f%settle_periods)
+         case ('average_periods')
+            text = int_text(f%average_periods)
+         case ('free_distance')
+            text = real_value(f%free_distance)
+         case ('z_start')
+            text = real_value(config%fm_z_start)
+         case ('z_end')
+            text = real_value(config%fm_z_end)
+         case ('z_points')
+            text = int_text(config%fm_z_points)
+         case default
+            text = ''
+         end select
+      end associate
+   end subroutine fm_value_text
 
    !> Everything about row `row`, as text: its group, name, value type, range (key_range_text,
    !> and a real's rule across keys), default (key_value_text of a config_t given no input),

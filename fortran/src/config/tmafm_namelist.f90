@@ -1,5 +1,5 @@
 !> Namelist input: read, type-check and validate the groups &model, &scene, &physical,
-!> &initial, &solver and &output; write the resolved input back as namelist text.
+!> &initial, &solver, &output and the instrument's &scan or &fm; write the resolved input back as namelist text.
 !>
 !> No Fortran `read(nml=)`: the whole input is read into memory (tmafm_input_file), parsed
 !> by tmafm_nml_syntax, and every entry is taken here with its type and range checked against
@@ -25,10 +25,13 @@ module tmafm_namelist
    use tmafm_errata, only: errata_t, errata_for_convention, parse_errata, errata_label
    use tmafm_drive, only: drive_t, init_drive
    use tmafm_config, only: config_t
+   use tmafm_scan_settings, only: scan_settings_t, check_scan_settings
+   use tmafm_fm_settings, only: fm_settings_t
    use tmafm_keys, only: keys, key_groups, key_row, group_index, key_in_range, key_range_text, &
-      key_choices_text, key_is_word, group_keys_text, key_value_text, range_text, physical_key_given
+      key_choices_text, key_is_word, group_keys_text, key_value_text, range_text, physical_key_given, &
+      n_material_keys, material_key_index
    use tmafm_nml_syntax, only: nml_document_t, nml_group_t, nml_entry_t, nml_value_t, &
-      parse_namelist, value_integer, value_real, value_logical, value_string, value_word, &
+      patch_document, parse_namelist, value_integer, value_real, value_logical, value_string, value_word, &
       value_kind_name, value_other
    use tmafm_input_file, only: read_text_file
    use tmafm_calibration, only: calibrate_cantilever, drive_for_free_amplitude, physical_derived, &
@@ -38,7 +41,7 @@ module tmafm_namelist
    private
 
    public :: read_config, read_config_text, read_config_document, write_config, config_text, &
-             config_errata, real_text
+             config_errata, real_text, material_b_physical, fm_z_points
 
    !> The shortest nonzero &scene sls_relaxation_time: 1/T must be a normal number (read_scene);
    !> a &physical scene's derived value is held to it too (check_derived).
@@ -86,7 +89,7 @@ contains
    !> Type-check and validate a parsed namelist `doc` into `config` (read_config_text after
    !> the syntax; tmafm_api gives it a base document patched by overrides, whose entries say
    !> where they came from: a line of the base, or an override).
-   subroutine read_config_document(doc, source_label, config, ierr, errmsg)
+   recursive subroutine read_config_document(doc, source_label, config, ierr, errmsg)
       type(nml_document_t), intent(in) :: doc
       character(len=*), intent(in) :: source_label
       type(config_t), intent(out) :: config
@@ -152,7 +155,68 @@ contains
       if (at('output') /= 0) call read_output(place('output'), doc%groups(at('output')), config, ierr, errmsg)
       if (ierr /= ok) return
       call check_derived(source_label, doc, at('physical'), config, ierr, errmsg)
+      if (ierr /= ok) return
+      ! The instrument (docs/instrument.md): each key of &scan and &fm, then one of them, on a
+      ! scene in SI units, and the scan's rules across keys and against the drive period.
+      if (at('scan') /= 0) call read_scan(place('scan'), doc%groups(at('scan')), config, ierr, errmsg)
+      if (ierr /= ok) return
+      if (at('fm') /= 0) call read_fm(place('fm'), doc%groups(at('fm')), config, ierr, errmsg)
+      if (ierr /= ok) return
+      if (config%has_scan .or. config%has_fm) then
+         ierr = err_input
+         if (config%has_scan .and. config%has_fm) then
+            errmsg = source_label//': give either &scan or &fm, not both (one measurement a run)'
+            return
+         else if (.not. config%from_physical) then
+            errmsg = source_label//': &'//trim(merge('scan', 'fm  ', config%has_scan))// &
+                     ' needs the scene in SI units (&physical), not &scene'
+            return
+         end if
+         ierr = ok
+      end if
+      if (config%has_scan) then
+         call check_scan_settings(config%scan, 2*acos(-1.0_dp)/config%physical%drive_angular_frequency, &
+                                  ierr, errmsg)
+         if (ierr /= ok) errmsg = source_label//': &'//trim(errmsg)
+         if (ierr == ok .and. config%scan%two_materials) call read_material_b()
+      end if
    contains
+      !> The second material's scene: the input without &scan, its &physical patched by the
+      !> b_ keys (as Python's scan_line patches it by material_b), read and checked as any.
+      recursive subroutine read_material_b()
+         type(nml_document_t) :: base, over, merged
+         type(config_t) :: config_b
+         integer :: j, n
+         base%from_output_file = doc%from_output_file
+         allocate (base%groups(doc%n_groups))
+         do j = 1, doc%n_groups
+            if (doc%groups(j)%name == 'scan') cycle
+            base%n_groups = base%n_groups + 1
+            base%groups(base%n_groups) = doc%groups(j)
+         end do
+         allocate (over%groups(1))
+         over%n_groups = 1
+         over%groups(1)%name = 'physical'
+         associate (scan_group => doc%groups(at('scan')))
+            allocate (over%groups(1)%entries(scan_group%n_entries))
+            n = 0
+            do j = 1, scan_group%n_entries
+               if (scan_group%entries(j)%key(1:min(2, len(scan_group%entries(j)%key))) /= 'b_') cycle
+               n = n + 1
+               over%groups(1)%entries(n) = scan_group%entries(j)
+               over%groups(1)%entries(n)%key = scan_group%entries(j)%key(3:)
+            end do
+         end associate
+         over%groups(1)%n_entries = n
+         call patch_document(base, over, merged)
+         call read_config_document(merged, source_label, config_b, ierr, errmsg)
+         if (ierr /= ok) then
+            ! Its message names the source first: the second material goes after it.
+            n = len(source_label) + 2
+            if (errmsg(1:min(n, len(errmsg))) == source_label//': ') errmsg = errmsg(n + 1:)
+            errmsg = source_label//': the second material (&scan b_ keys): '//trim(errmsg)
+         end if
+      end subroutine read_material_b
       !> The position in doc of group `group`, 0 if absent.
       pure integer function at(group)
          character(len=*), intent(in) :: group
@@ -784,6 +848,225 @@ contains
       config%solver%sample_from = sample_from
       config%solver%last_periods = int(last_periods)
    end subroutine read_output
+
+   !> &scan: the scan line (tmafm_scan_settings); each key's range from its row (the rules
+   !> across keys and against the drive period: check_scan_settings, in read_config_document).
+   subroutine read_scan(p, g, config, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_group_t), intent(in) :: g
+      type(config_t), intent(inout) :: config
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      type(scan_settings_t) :: s
+      character(len=:), allocatable :: topography
+      integer(i8) :: pixels, retrace
+      real(dp) :: values_b(n_material_keys)
+      logical :: given_b(n_material_keys)
+      integer :: k, row, j
+
+      s = config%scan
+      pixels = s%pixels
+      retrace = merge(1, 0, s%retrace)
+      topography = trim(s%topography)
+      values_b = 0
+      given_b = .false.
+      ierr = ok
+      do k = 1, g%n_entries
+         if (ierr /= ok) return
+         associate (e => g%entries(k))
+            row = key_row(p%group, e%key)
+            select case (e%key)
+            case ('scan_length')
+               call take_real(p, e, row, s%scan_length, ierr, errmsg)
+            case ('pixels')
+               call take_integer(p, e, row, pixels, ierr, errmsg)
+            case ('line_rate')
+               call take_real(p, e, row, s%line_rate, ierr, errmsg)
+            case ('retrace')
+               call take_integer(p, e, row, retrace, ierr, errmsg)
+            case ('setpoint')
+               call take_real(p, e, row, s%setpoint, ierr, errmsg)
+            case ('setpoint_ratio')
+               call take_real(p, e, row, s%setpoint_ratio, ierr, errmsg)
+            case ('lockin_bandwidth')
+               call take_real(p, e, row, s%lockin_bandwidth, ierr, errmsg)
+            case ('feedback_bandwidth')
+               call take_real(p, e, row, s%feedback_bandwidth, ierr, errmsg)
+            case ('proportional_gain')
+               call take_real(p, e, row, s%proportional_gain, ierr, errmsg)
+            case ('integral_gain')
+               call take_real(p, e, row, s%integral_gain, ierr, errmsg)
+            case ('topography')
+               call take_word(p, e, row, len(s%topography), topography, ierr, errmsg)
+            case ('step_height')
+               call take_real(p, e, row, s%step_height, ierr, errmsg)
+            case ('step_position')
+               call take_real(p, e, row, s%step_position, ierr, errmsg)
+            case ('sphere_radius')
+               call take_real(p, e, row, s%sphere_radius, ierr, errmsg)
+            case ('sphere_position')
+               call take_real(p, e, row, s%sphere_position, ierr, errmsg)
+            case ('material_boundary')
+               call take_real(p, e, row, s%material_boundary, ierr, errmsg)
+            case default
+               j = material_key_of(e%key)
+               if (j > 0 .and. row > 0) then
+                  call take_real(p, e, row, values_b(j), ierr, errmsg)
+                  given_b(j) = .true.
+               else
+                  call unknown_key(p, e, row, ierr, errmsg)
+               end if
+            end select
+         end associate
+      end do
+      if (ierr == ok) call check_repeats(p, g, ierr, errmsg)
+      if (ierr /= ok) return
+      s%pixels = int(pixels)
+      s%retrace = retrace == 1
+      s%topography = topography
+      s%two_materials = any(given_b)
+      if (s%material_boundary > 0 .and. .not. s%two_materials) then
+         call key_error(p, entry_or_default(g, 'material_boundary', 0.0_dp), &
+                        'needs the second material: give its b_ keys', ierr, errmsg)
+         return
+      end if
+      config%scan = s
+      config%has_scan = .true.
+      config%material_b = values_b
+      config%material_b_given = given_b
+   contains
+      !> The position in material_key_index of b_ key `key`, 0 if it is none.
+      pure integer function material_key_of(key)
+         character(len=*), intent(in) :: key
+         do material_key_of = 1, n_material_keys
+            if (key == 'b_'//trim(physical_names(material_key_index(material_key_of)))) return
+         end do
+         material_key_of = 0
+      end function material_key_of
+   end subroutine read_scan
+
+   !> &fm: the FM loops' settings and the approach's Z points; each key's range from its row
+   !> (the bandwidths' bound f0/10 is checked when the loop starts: check_fm_settings).
+   subroutine read_fm(p, g, config, ierr, errmsg)
+      type(place_t), intent(in) :: p
+      type(nml_group_t), intent(in) :: g
+      type(config_t), intent(inout) :: config
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      type(fm_settings_t) :: f
+      integer(i8) :: settle, average, points
+      real(dp) :: z_start, z_end
+      logical :: has_start, has_end, has_amplitude
+      integer :: k, row
+
+      f = config%fm
+      settle = f%settle_periods
+      average = f%average_periods
+      points = config%fm_z_points
+      z_start = 0
+      z_end = 0
+      has_start = .false.
+      has_end = .false.
+      has_amplitude = .false.
+      ierr = ok
+      do k = 1, g%n_entries
+         if (ierr /= ok) return
+         associate (e => g%entries(k))
+            row = key_row(p%group, e%key)
+            select case (e%key)
+            case ('amplitude')
+               call take_real(p, e, row, f%amplitude, ierr, errmsg)
+               has_amplitude = .true.
+            case ('pll_bandwidth')
+               call take_real(p, e, row, f%pll_bandwidth, ierr, errmsg)
+            case ('amplitude_bandwidth')
+               call take_real(p, e, row, f%amplitude_bandwidth, ierr, errmsg)
+            case ('settle_periods')
+               call take_integer(p, e, row, settle, ierr, errmsg)
+            case ('average_periods')
+               call take_integer(p, e, row, average, ierr, errmsg)
+            case ('free_distance')
+               call take_real(p, e, row, f%free_distance, ierr, errmsg)
+            case ('z_start')
+               call take_real(p, e, row, z_start, ierr, errmsg)
+               has_start = .true.
+            case ('z_end')
+               call take_real(p, e, row, z_end, ierr, errmsg)
+               has_end = .true.
+            case ('z_points')
+               call take_integer(p, e, row, points, ierr, errmsg)
+            case default
+               call unknown_key(p, e, row, ierr, errmsg)
+            end select
+         end associate
+      end do
+      if (ierr == ok) call check_repeats(p, g, ierr, errmsg)
+      if (ierr /= ok) return
+      ierr = err_input
+      if (.not. has_amplitude) then
+         errmsg = p%label//': &fm needs amplitude (m), the amplitude setpoint'
+      else if (.not. has_start) then
+         errmsg = p%label//': &fm needs z_start (m), the first Z point'
+      else if (points > 1 .and. .not. has_end) then
+         errmsg = p%label//': &fm z_points = '//int_text(points)//' needs z_end (m), the last Z point'
+      else if (points == 1 .and. has_end .and. z_end /= z_start) then
+         call key_error(p, entry_or_default(g, 'z_end', z_end), 'differs from z_start with z_points = 1 '// &
+                        '(one point: give z_start alone)', ierr, errmsg)
+      else if (int(settle + average)*points > 50000000_i8) then
+         errmsg = p%label//': &fm (settle_periods + average_periods) z_points = '// &
+                  int_text(int(settle + average)*points)//' periods: more than 50000000'
+      else
+         ierr = ok
+      end if
+      if (ierr /= ok) return
+      if (points == 1) z_end = z_start
+      f%settle_periods = int(settle)
+      f%average_periods = int(average)
+      config%fm = f
+      config%fm_z_start = z_start
+      config%fm_z_end = z_end
+      config%fm_z_points = int(points)
+      config%has_fm = .true.
+   end subroutine read_fm
+
+   !> The &physical scene of the second material of &scan: the first's with the b_ keys given.
+   pure function material_b_physical(config) result(phys)
+      type(config_t), intent(in) :: config
+      type(physical_t) :: phys
+      real(dp) :: v(size(physical_names))
+      integer :: k
+      phys = config%physical
+      v = physical_values(phys)
+      do k = 1, n_material_keys
+         if (config%material_b_given(k)) v(material_key_index(k)) = config%material_b(k)
+      end do
+      phys%youngs_modulus_sample = v(7)
+      phys%poisson_ratio_sample = v(8)
+      phys%adhesion_energy = v(10)
+      phys%contact_damping = v(18)
+      phys%hamaker = v(30)
+      phys%intermolecular_distance = v(31)
+      phys%sample_relaxation_time = v(32)
+      phys%sample_modulus_relaxed = v(33)
+   end function material_b_physical
+
+   !> The Z points of &fm (m): z_points evenly spaced from z_start to z_end, the last z_end.
+   pure function fm_z_points(config) result(z)
+      type(config_t), intent(in) :: config
+      real(dp) :: z(config%fm_z_points)
+      real(dp) :: step
+      integer :: k
+      if (config%fm_z_points == 1) then
+         z = config%fm_z_start
+         return
+      end if
+      ! As numpy.linspace: start + k step, the last point exactly z_end.
+      step = (config%fm_z_end - config%fm_z_start)/(config%fm_z_points - 1)
+      do k = 1, config%fm_z_points
+         z(k) = config%fm_z_start + (k - 1)*step
+      end do
+      z(config%fm_z_points) = config%fm_z_end
+   end function fm_z_points
 
    !> contact_law = 'dmt_vdw' needs an attraction (vdw_adhesion > 0, from &physical hamaker > 0).
    !> Every method integrates its flight (flight_exact by the Lawson form, tmafm_lawson).
@@ -1596,6 +1879,8 @@ contains
       do g = 1, size(key_groups)
          group = trim(key_groups(g))
          if (group == 'physical') cycle
+         if (group == 'scan' .and. .not. config%has_scan) cycle
+         if (group == 'fm' .and. .not. config%has_fm) cycle
          if (group == 'scene' .and. config%from_physical) then
             ! &physical, then the scene it gives as comments, so the text stays a valid input.
             call put_group('physical')

@@ -37,7 +37,7 @@ module tmafm_fm
    private
 
    public :: fm_loop_t, init_fm_loop, fm_point, check_fm_settings
-   public :: n_fm_columns, n_fm_trace
+   public :: n_fm_columns, n_fm_trace, fm_column_names, fm_column_units
    public :: fm_z, fm_df, fm_drive, fm_drive_ratio, fm_dissipation, fm_drive_work, fm_dissipated, &
       fm_dissipated_beam, fm_dissipated_tip_sample, fm_amplitude, fm_phase, fm_phase_error, fm_peak_force, &
       fm_min_gap, fm_mean_deflection, fm_df_spread, fm_contact_normal_work
@@ -55,6 +55,13 @@ module tmafm_fm
       fm_drive_work = 6, fm_dissipated = 7, fm_dissipated_beam = 8, fm_dissipated_tip_sample = 9, &
       fm_amplitude = 10, fm_phase = 11, fm_phase_error = 12, fm_peak_force = 13, fm_min_gap = 14, &
       fm_mean_deflection = 15, fm_df_spread = 16, fm_contact_normal_work = 17
+   !> The columns' names and units (Python's tmafm.instrument FM_COLUMNS; the executable's &fm table).
+   character(len=*), parameter :: fm_column_names(n_fm_columns) = [character(len=21) :: 'z', 'df', 'drive', &
+      'drive_ratio', 'dissipation', 'drive_work', 'dissipated', 'dissipated_beam', 'dissipated_tip_sample', &
+      'amplitude', 'phase', 'phase_error', 'peak_force', 'min_gap', 'mean_deflection', 'df_spread', &
+      'contact_normal_work']
+   character(len=*), parameter :: fm_column_units(n_fm_columns) = [character(len=3) :: 'nm', 'Hz', 'nm', '1', &
+      'aJ', 'aJ', 'aJ', 'aJ', 'aJ', 'nm', 'deg', 'deg', 'nN', 'nm', 'nm', 'Hz', 'aJ']
    !> Number of values per period of the loop's trace: Δf (Hz), drive (nm), A (nm), phase (deg).
    integer, parameter :: n_fm_trace = 4
 

@@ -40,7 +40,7 @@ module tmafm_output
    private
 
    public :: output_sink_t, prepare_output, check_output_size, begin_output, write_output, &
-             commit_output, discard_output, write_trajectory_file, format_names
+             commit_output, discard_output, write_trajectory_file, format_names, write_table
    public :: target_file, target_device, target_stdout
 
    !> How the target is written: through a temporary and a rename, directly, or to stdout.
@@ -294,6 +294,18 @@ contains
       else
          call write_text_format(sink%fd, input_path, config, traj, resolved, series, status)
       end if
+      call finish_output(sink, rename_now, status, ierr, errmsg)
+   end subroutine write_output
+
+   !> After the bytes: for a file, sync, close and (with rename_now) rename the temporary over
+   !> the target; close a device.  A failed write (status /= 0) or any failure here is ierr =
+   !> err_file, and then, as on an earlier error (ierr /= ok), the output is discarded.
+   subroutine finish_output(sink, rename_now, status, ierr, errmsg)
+      type(output_sink_t), intent(inout) :: sink
+      logical, intent(in) :: rename_now
+      integer, intent(inout) :: status
+      integer, intent(inout) :: ierr
+      character(len=*), intent(inout) :: errmsg
       if (ierr == ok .and. status == 0 .and. sink%target == target_file) then
          status = sync_descriptor(sink%fd)
          if (status == 0) then
@@ -311,7 +323,84 @@ contains
          errmsg = 'writing output file '//shown(sink%path)//' failed: '//error_text(status)
       end if
       if (ierr /= ok) call discard_output(sink)
-   end subroutine write_output
+   end subroutine finish_output
+
+   !> Write a table of `config`'s instrument run (&scan, &fm: docs/output-format.md) in the
+   !> sink's format, then complete it as write_output does.  Text: the '#' header (version,
+   !> input, the resolved input, then `notes`' lines), '# columns:' and '# units:' lines, one
+   !> row of values(k, :) per line.  npy: one array '<name>.npy' per column, and the texts
+   !> 'resolved.npy', 'notes.npy' and 'version.npy'.
+   subroutine write_table(sink, input_path, config, notes, names, units, values, ierr, errmsg, commit)
+      type(output_sink_t), intent(inout) :: sink
+      character(len=*), intent(in) :: input_path
+      type(config_t), intent(in) :: config
+      !> Lines (each ended by new_line('a')) on what the run measured and how.
+      character(len=*), intent(in) :: notes
+      character(len=*), intent(in) :: names(:)
+      character(len=*), intent(in) :: units(:)
+      real(dp), intent(in) :: values(:, :)
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      !> Rename the temporary over the target here (.true., the default).
+      logical, intent(in), optional :: commit
+      character(len=:), allocatable :: resolved, text, version, h_vector, h_resolved, h_notes, h_version
+      type(npz_archive_t) :: archive
+      integer(i8) :: n
+      integer :: status, k, j, used
+      logical :: rename_now
+
+      ierr = ok
+      errmsg = ''
+      status = 0
+      rename_now = .true.
+      if (present(commit)) rename_now = commit
+      if (sink%fd < 0) then
+         ierr = err_file
+         errmsg = 'output file '//shown(sink%path)//' was not opened'
+         return
+      end if
+      call config_text(config, resolved)
+      version = 'tmafm '//tmafm_version_string
+      if (sink%binary) then
+         n = size(values, 1, kind=i8)
+         h_vector = npy_header(native_descr('f8'), .false., [n])
+         h_resolved = npy_header('|S'//int_text(int(len(resolved), i8)), .false., [integer(i8) ::])
+         h_notes = npy_header('|S'//int_text(int(len(notes), i8)), .false., [integer(i8) ::])
+         h_version = npy_header('|S'//int_text(int(len(version), i8)), .false., [integer(i8) ::])
+         call npz_begin(archive, sink%fd)
+         do j = 1, size(names)
+            if (status == 0) call npz_add(archive, trim(names(j))//'.npy', h_vector, values(:, j), 8*n, status)
+         end do
+         if (status == 0) call npz_add_text(archive, 'resolved.npy', h_resolved, resolved, status)
+         if (status == 0) call npz_add_text(archive, 'notes.npy', h_notes, notes, status)
+         if (status == 0) call npz_add_text(archive, 'version.npy', h_version, version, status)
+         if (status == 0) call npz_finish(archive, status)
+      else
+         text = '# '//version//new_line('a')//'# input: '//printable(trim(input_path))//new_line('a')// &
+                prefixed(resolved, '# ')//prefixed(notes, '# ')//'# columns:'
+         do j = 1, size(names)
+            text = text//' '//trim(names(j))
+         end do
+         text = text//new_line('a')//'# units:'
+         do j = 1, size(units)
+            text = text//' '//trim(units(j))
+         end do
+         status = write_text(sink%fd, text//new_line('a'))
+         deallocate (text)
+         allocate (character(len=size(values, 2)*es25_width + 1) :: text)
+         do k = 1, size(values, 1)
+            if (status /= 0) exit
+            used = 0
+            do j = 1, size(values, 2)
+               call put_es25(text, used + 1, values(k, j))
+               used = used + es25_width
+            end do
+            text(used + 1:used + 1) = new_line('a')
+            status = write_text(sink%fd, text(1:used + 1))
+         end do
+      end if
+      call finish_output(sink, rename_now, status, ierr, errmsg)
+   end subroutine write_table
 
    !> Put a file written by write_output(commit = .false.) in place: rename the temporary over
    !> the target (nothing to do for a device or standard output).  On failure the temporary is

@@ -176,3 +176,14 @@ def test_python_overrides_take_the_groups():
     assert "&fm" not in text
     with pytest.raises(tmafm.InputError, match="pixels = 0"):
         tmafm.Config("tapping_polystyrene", scan={**SCAN, "pixels": 0})
+
+
+@pytest.mark.parametrize("group", ["scan", "fm"])
+def test_a_run_or_observe_of_an_instrument_input_is_refused_not_silently_a_trajectory(group):
+    # An input with &scan or &fm asks for that measurement; tmafm.run and tmafm.observe would
+    # leave the group out, so they refuse it in one line naming the group.
+    config = tmafm.Config(f"{'am_scan' if group == 'scan' else 'fm_approach'}")
+    with pytest.raises(tmafm.InputError, match=rf"&{group}: .*not a trajectory"):
+        tmafm.run(config)
+    with pytest.raises(tmafm.InputError, match=rf"&{group}: .*not an observed run"):
+        tmafm.observe(config, max_periods=2)

@@ -15,7 +15,7 @@ module tmafm_batch
       method_flight_exact, check_run_size
    use tmafm_trajectory, only: trajectory_t, stop_poll
    use tmafm_driver, only: run_trajectory
-   use tmafm_simulation, only: prepare_model
+   use tmafm_simulation, only: prepare_model, refuse_instrument
    use tmafm_observers, only: observer_t, group_all
    use tmafm_steady_state, only: jitter_t, jitter_init, adaptive_factor, steady_harmonic
    use tmafm_units, only: scales_t, scales_from_physical
@@ -159,6 +159,8 @@ contains
       real(dp) :: period
 
       call check_options(options, ierr, errmsg)
+      if (ierr /= ok) return
+      call refuse_instrument(config, 'an observed run', ierr, errmsg)
       if (ierr /= ok) return
       select case (trim(config%solver%method))
       case (method_rk4_paper, method_dopri5, method_dop853, method_flight_exact)

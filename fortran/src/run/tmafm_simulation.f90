@@ -20,7 +20,7 @@ module tmafm_simulation
    implicit none
    private
 
-   public :: build_model, prepare_model, simulate, choose_mode_count, load_model
+   public :: build_model, prepare_model, simulate, choose_mode_count, load_model, refuse_instrument
 
 contains
 
@@ -100,6 +100,9 @@ contains
       fastest = drive%top_frequency
       trial = config
       trial%auto_modes = .false.
+      ! The comparison runs are trajectories of the cantilever, whatever the input measures.
+      trial%has_scan = .false.
+      trial%has_fm = .false.
       trial%solver%tau_end = config%mode_horizon
       ! The comparisons need every sample of their grid, not the output's window.
       trial%solver%first_sample = 0
@@ -279,6 +282,28 @@ contains
       call build_model(chosen, model, ierr, errmsg)
    end subroutine prepare_model
 
+   !> An input with an instrument group (&scan, &fm) asks for that measurement, which the
+   !> executable and tmafm.instrument run: a trajectory or observed run of it would silently
+   !> leave the group out, so it is refused in one line naming the group.
+   subroutine refuse_instrument(config, what, ierr, errmsg)
+      type(config_t), intent(in) :: config
+      !> What the caller would run instead (for the message): 'a trajectory', ...
+      character(len=*), intent(in) :: what
+      integer, intent(out) :: ierr
+      character(len=*), intent(out) :: errmsg
+      ierr = ok
+      errmsg = ''
+      if (config%has_scan) then
+         ierr = err_input
+         errmsg = '&scan: the input asks for a scan line (the executable or tmafm.instrument.scan_line runs it), '// &
+                  'not '//what//': remove &scan to run '//what
+      else if (config%has_fm) then
+         ierr = err_input
+         errmsg = '&fm: the input asks for an FM approach (the executable or tmafm.fm_approach runs it), '// &
+                  'not '//what//': remove &fm to run '//what
+      end if
+   end subroutine refuse_instrument
+
    !> Run a configuration; `traj` holds the samples when ierr == ok.
    recursive subroutine simulate(config, traj, ierr, errmsg, progress_unit, poll)
       type(config_t), intent(in) :: config
@@ -294,6 +319,8 @@ contains
       type(config_t) :: chosen
       integer :: n
 
+      call refuse_instrument(config, 'a trajectory', ierr, errmsg)
+      if (ierr /= ok) return
       call prepare_model(config, chosen, model, ierr, errmsg, poll)
       if (ierr /= ok) return
       n = chosen%n_modes

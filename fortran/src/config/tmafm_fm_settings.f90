@@ -1,8 +1,8 @@
 !> What an FM-AFM measurement asks for (docs/instrument.md, "FM-AFM"): the amplitude the
 !> amplitude controller holds, the bandwidths of the phase-locked loop and of the amplitude
 !> controller, how many drive periods each Z point settles and averages, and where the free
-!> cantilever's reference is taken.  tmafm_fm runs it (Python: tmafm.instrument.fm_approach's
-!> keywords; a namelist group for the executable is not there yet).
+!> cantilever's reference is taken.  tmafm_fm runs it; the executable's &fm group and Python's
+!> tmafm.instrument.fm_approach keywords fill it.
 module tmafm_fm_settings
    use tmafm_kinds, only: dp
    implicit none

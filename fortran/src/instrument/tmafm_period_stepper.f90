@@ -27,7 +27,8 @@ module tmafm_period_stepper
    use tmafm_errors, only: ok, err_input, err_runtime
    use tmafm_config, only: config_t
    use tmafm_model, only: model_t
-   use tmafm_scene, only: physical_t, scene_from_physical
+   use tmafm_scene, only: physical_t, scene_from_physical, physical_names, physical_values
+   use tmafm_keys, only: material_key_index
    use tmafm_settings, only: run_settings_t, method_rk4_paper, method_dopri5, method_dop853, &
       method_flight_exact
    use tmafm_simulation, only: prepare_model, build_model
@@ -144,6 +145,7 @@ contains
       integer, intent(out) :: ierr
       character(len=*), intent(out) :: errmsg
       real(dp) :: scale
+      real(dp) :: new_values(size(physical_names)), old_values(size(physical_names))
       integer :: n
       logical :: new_sample
 
@@ -157,11 +159,10 @@ contains
       end if
       n = self%config%n_modes
       scale = self%config%physical%gap/physical%gap
-      new_sample = physical%youngs_modulus_sample /= self%config%physical%youngs_modulus_sample .or. &
-                   physical%poisson_ratio_sample /= self%config%physical%poisson_ratio_sample .or. &
-                   physical%adhesion_energy /= self%config%physical%adhesion_energy .or. &
-                   physical%sample_relaxation_time /= self%config%physical%sample_relaxation_time .or. &
-                   physical%sample_modulus_relaxed /= self%config%physical%sample_modulus_relaxed
+      ! A new material: any of the sample's keys (those a scan's second material may set) differs.
+      new_values = physical_values(physical)
+      old_values = physical_values(self%config%physical)
+      new_sample = any(new_values(material_key_index) /= old_values(material_key_index))
       self%config%physical = physical
       self%config%scene = scene_from_physical(physical)
       call build_model(self%config, self%model, ierr, errmsg)

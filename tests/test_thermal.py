@@ -299,9 +299,9 @@ def test_an_ensemble_over_seeds_is_the_same_on_the_batch_and_on_dask():
 
 @pytest.mark.parametrize("groups, words", [
     ({"solver": {"thermal_noise": 1, "method": "rk4_paper"}, "scene": {"thermal_energy": 1e-8}},
-     "thermal_noise = 1: needs method 'dop853' or 'dopri5'"),
-    ({"solver": {"thermal_noise": 1, "method": "flight_exact"}, "scene": {"thermal_energy": 1e-8}},
-     "method = 'flight_exact'"),
+     "thermal_noise = 1: needs method 'dop853', 'dopri5' or 'flight_exact'"),
+    ({"solver": {"thermal_noise": 1, "method": "rk4_event"}, "scene": {"thermal_energy": 1e-8}},
+     "method = 'rk4_event'"),
     ({"solver": {"thermal_noise": 1, "method": "dop853"}}, "needs &scene thermal_energy > 0"),
     ({"scene": {"thermal_energy": 1e-8}}, "thermal_energy = 1.0E-008: acts only with &solver thermal_noise = 1"),
     ({"solver": {"noise_seed": 3}}, "noise_seed = 3: needs &solver thermal_noise = 1"),
@@ -330,7 +330,7 @@ def test_the_executable_refuses_noise_with_a_method_it_cannot_do(run_exe, tmp_pa
     (tmp_path / "in.nml").write_text("&scene thermal_energy = 1e-8 /\n&solver thermal_noise = 1 /\n")
     done = run_exe("in.nml")
     assert done.returncode != 0
-    assert "thermal_noise = 1: needs method 'dop853' or 'dopri5'" in done.stderr
+    assert "thermal_noise = 1: needs method 'dop853', 'dopri5' or 'flight_exact'" in done.stderr
 
 
 def test_the_holds_variance_deficit_is_the_one_the_docs_quote():

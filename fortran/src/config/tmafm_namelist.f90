@@ -1157,7 +1157,7 @@ contains
 
    !> Thermal noise (docs/model.md §21): &solver thermal_noise = 1 needs a thermal energy (from
    !> &physical temperature, or &scene thermal_energy > 0) and a method that integrates its
-   !> piecewise-constant force (dopri5, dop853); its keys and a &scene thermal_energy are refused
+   !> piecewise-constant force (dopri5, dop853, flight_exact); its keys and a &scene thermal_energy are refused
    !> without it (nothing is silently ignored).
    subroutine check_thermal(label, config, ierr, errmsg)
       character(len=*), intent(in) :: label
@@ -1183,10 +1183,10 @@ contains
             end if
             return
          end if
-         if (trim(s%method) /= 'dopri5' .and. trim(s%method) /= 'dop853') then
+         if (trim(s%method) /= 'dopri5' .and. trim(s%method) /= 'dop853' .and. trim(s%method) /= 'flight_exact') then
             ierr = err_input
-            errmsg = label//": &solver thermal_noise = 1: needs method 'dop853' or 'dopri5' (method = '"// &
-                     trim(s%method)//"' does not integrate the noise grid; docs/model.md section 21)"
+            errmsg = label//": &solver thermal_noise = 1: needs method 'dop853', 'dopri5' or 'flight_exact' "// &
+                     "(method = '"//trim(s%method)//"' does not integrate the noise grid; docs/model.md section 21)"
          else if (.not. (config%scene%thermal_energy > 0)) then
             ierr = err_input
             errmsg = label//': &solver thermal_noise = 1: needs &scene thermal_energy > 0 (the thermal energy '// &

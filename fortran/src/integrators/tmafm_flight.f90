@@ -78,6 +78,15 @@ module tmafm_flight
       real(dp) :: tone_tip_sin(max_tones) = 0, tone_tip_cos(max_tones) = 0, tone_frequency(max_tones) = 0
       !> Omega^4 times the amplitude of the particular V_T: its share of |d^4 V_T/ds^4|.
       real(dp) :: harmonic_bound = 0
+      !> A force held constant over the flights to come (thermal noise on its grid, docs/model.md
+      !> §21; `hold`): the flight's constant particular part y_c = (K^-1 xi, 0) and its share
+      !> p.K^-1 xi of V_T, added to every state, sample and V_T of the flight.
+      logical :: held = .false.
+      real(dp), allocatable :: held_state(:)
+      real(dp) :: held_tip = 0
+      !> (M^-1 K)^-1: the static response K^-1 xi = (M^-1 K)^-1 (M^-1 xi) (allocated for a model
+      !> with thermal noise only).
+      real(dp), allocatable :: static_response(:, :)
       !> Start of the flight under way.
       real(dp) :: tau0 = 0
       !> A viscoelastic sample's dashpot coordinate w at tau0 (tmafm_viscoelastic): in flight it
@@ -136,6 +145,8 @@ module tmafm_flight
    contains
       !> Decompose the free system of a model (once per run).
       procedure :: init => flight_init
+      !> Hold a constant force over the flights to come, given as M^-1 xi (model_t%noise_accel).
+      procedure :: hold => flight_hold
       !> Start a flight from state y at tau.
       procedure :: start => flight_start
       !> The state at tau0 + s.
@@ -360,6 +371,26 @@ contains
       end if
       self%term_size = 0
       call build_ladder(self, model%drive%fundamental)
+      self%held = .false.
+      self%held_tip = 0
+      allocate (self%held_state(m), source=0.0_dp)
+      if (model%thermal%on) then
+         ! (M^-1 K)^-1 by LU with the identity on the right: once per run, for `hold`.
+         allocate (self%static_response(n, n), source=0.0_dp)
+         do j = 1, n
+            self%static_response(j, j) = 1
+         end do
+         block
+            real(dp) :: factors(n, n)
+            factors = model%inv_mass_eigen
+            call dgesv(n, n, factors, n, ipiv, self%static_response, n, info)
+         end block
+         if (info /= 0 .or. .not. all(ieee_is_finite(self%static_response))) then
+            ierr = err_runtime
+            errmsg = 'flight_exact: the free beam has no static response (its stiffness is singular)'
+            return
+         end if
+      end if
 
    contains
 
@@ -447,6 +478,25 @@ contains
       end do
    end subroutine build_ladder
 
+   !> The flights to come feel the constant force xi, given as accel = M^-1 xi: their particular
+   !> solution gains y_c = (a_c, 0) with K a_c = xi (A y_c + (0, M^-1 xi) = 0), and V_T p.a_c.
+   !> Needs a model with thermal noise (static_response).
+   pure subroutine flight_hold(self, model, accel)
+      class(free_flight_t), intent(inout) :: self
+      type(model_t), intent(in) :: model
+      real(dp), intent(in) :: accel(:)
+      integer :: i, j, n
+      n = self%n_state/2
+      self%held = .true.
+      self%held_state = 0
+      do j = 1, n
+         do i = 1, n
+            self%held_state(i) = self%held_state(i) + self%static_response(i, j)*accel(j)
+         end do
+      end do
+      self%held_tip = dot_product(model%tip, self%held_state(1:n))
+   end subroutine flight_hold
+
    subroutine flight_start(self, model, tau, y)
       class(free_flight_t), intent(inout) :: self
       type(model_t), intent(in) :: model
@@ -469,11 +519,11 @@ contains
                rest = rest - self%tone_u(:, k)*sin_tone(k) - self%tone_v(:, k)*cos_tone(k)
             end do
             call modal_coefficients(self%n_state, self%n_terms, self%inverse, self%u, self%v, rest, &
-                                    sin_tone(1), cos_tone(1), self%z)
+                                    sin_tone(1), cos_tone(1), self%z, self%held_state)
          end block
       else
          call modal_coefficients(self%n_state, self%n_terms, self%inverse, self%u, self%v, y, sin_phase, &
-                                 cos_phase, self%z)
+                                 cos_phase, self%z, self%held_state)
       end if
       self%tip_weight = self%z*self%tip_of_vector
       self%term_size = self%multiplicity*abs(self%tip_weight)
@@ -483,17 +533,19 @@ contains
       self%since_anchor = anchor_every
    end subroutine flight_start
 
-   !> z = V^-1 (y - u sin - v cos) for the kept terms, column by column of V^-1 (explicit shapes).
-   pure subroutine modal_coefficients(m, n_terms, inverse, u, v, y, sin_phase, cos_phase, z)
+   !> z = V^-1 (y - held - u sin - v cos) for the kept terms, column by column of V^-1
+   !> (explicit shapes; held is the held force's y_c, zero without one).
+   pure subroutine modal_coefficients(m, n_terms, inverse, u, v, y, sin_phase, cos_phase, z, held)
       integer, intent(in) :: m, n_terms
       complex(dp), intent(in) :: inverse(n_terms, m)
       real(dp), intent(in) :: u(m), v(m), y(m), sin_phase, cos_phase
       complex(dp), intent(out) :: z(n_terms)
+      real(dp), intent(in) :: held(m)
       real(dp) :: h
       integer :: j, k
       z = 0
       do j = 1, m
-         h = y(j) - u(j)*sin_phase - v(j)*cos_phase
+         h = (y(j) - held(j)) - u(j)*sin_phase - v(j)*cos_phase
          do k = 1, n_terms
             z(k) = z(k) + inverse(k, j)*h
          end do
@@ -533,6 +585,7 @@ contains
                          self%rotor_im, self%sample_matrix, self%sample_weights, self%since_anchor, 1, 1, y(1:n), &
                          y(n + 1:2*n))
       end if
+      if (self%held) y(1:self%n_state) = y(1:self%n_state) + self%held_state
       self%s_last = s
    end subroutine flight_sample
 
@@ -564,8 +617,23 @@ contains
                          self%rotor_im, self%sample_matrix, self%sample_weights, self%since_anchor, rows, first, &
                          a, adot)
       end if
+      if (self%held) call add_held(self%n_state/2, self%held_state, count, rows, first, a, adot)
       self%s_last = tau(count) - self%tau0
    end subroutine flight_samples
+
+   !> The held force's constant part y_c added to rows first .. first + count - 1 of a and adot.
+   pure subroutine add_held(n, held, count, rows, first, a, adot)
+      integer, intent(in) :: n, count, rows, first
+      real(dp), intent(in) :: held(2*n)
+      real(dp), intent(inout) :: a(rows, n), adot(rows, n)
+      integer :: i, j
+      do j = 1, n
+         do i = first, first + count - 1
+            a(i, j) = a(i, j) + held(j)
+            adot(i, j) = adot(i, j) + held(n + j)
+         end do
+      end do
+   end subroutine add_held
 
    !> flight_samples for a general drive, a sample at a time: sample_run with tone 1's phase
    !> (u, v are tone 1's), then the other tones' particular parts added to the row.
@@ -775,6 +843,7 @@ contains
                                                 - aimag(self%vectors(i, k))*aimag(w))
          end do
       end do
+      if (self%held) y(1:self%n_state) = y(1:self%n_state) + self%held_state
       if (size(y) > self%n_state) then
          y(self%n_state + 1) = sls_free_relaxation(model%sls, self%dashpot0, s)
          y(self%n_state + 2:) = 0
@@ -854,12 +923,14 @@ contains
             vt = vt + (self%tone_tip_sin(k)*sin_tone(k) + self%tone_tip_cos(k)*cos_tone(k))
             vtdot = vtdot + self%tone_frequency(k)*(self%tone_tip_sin(k)*cos_tone(k) - self%tone_tip_cos(k)*sin_tone(k))
          end do
+         if (self%held) vt = vt + self%held_tip
          bound(1) = self%harmonic_bound
          bound(2) = 0
          size = self%drive_size
          return
       end if
       vt = self%tip_sin*sin_phase + self%tip_cos*cos_phase + model%scene%delta_hat
+      if (self%held) vt = vt + self%held_tip
       vtdot = model%scene%omega*(self%tip_sin*cos_phase - self%tip_cos*sin_phase)
       bound(1) = self%harmonic_bound
       bound(2) = 0

@@ -414,7 +414,7 @@ contains
                pb_next = pb*pb1
                k_next = segment(pa_next, pb_next, (m + 1)*i_omega, h)
             end if
-            x = 0.5_dp*(self%tip_part*k_next + conjg(self%tip_part)*k_prev) + self%delta_hat*k_now
+            x = 0.5_dp*(self%tip_part*k_next + conjg(self%tip_part)*k_prev) + (self%delta_hat + flight%held_tip)*k_now
             do k = 1, nt
                if (m == 1) then
                   jp = self%j_int(k, 1)
@@ -428,7 +428,7 @@ contains
             acc_cos(m) = acc_cos(m) + real(x, dp)
             acc_sin(m) = acc_sin(m) + aimag(x)
          end do
-         x = self%deflection_part*k1
+         x = self%deflection_part*k1 + flight%held_tip*h
          do k = 1, nt
             x = x + self%mult(k)*flight%tip_weight(k)*self%j_int(k, 0)
          end do
@@ -506,7 +506,7 @@ contains
             end do
          end if
          ! int p.a = int (V_T - Y - delta_hat).
-         x = 0
+         x = flight%held_tip*h
          do t = 1, self%n_tones
             x = x + (self%tone_tip(t) - self%tone_base(t))*k_int(self%tone_harmonic(t))
          end do
@@ -580,7 +580,7 @@ contains
       complex(dp) function lockin_sum(m)
          integer, intent(in) :: m
          integer :: tt, kk
-         lockin_sum = self%delta_hat*k_int(m)
+         lockin_sum = (self%delta_hat + flight%held_tip)*k_int(m)
          do tt = 1, self%n_tones
             lockin_sum = lockin_sum + 0.5_dp*(self%tone_tip(tt)*k_int(m + self%tone_harmonic(tt)) &
                                               + conjg(self%tone_tip(tt))*k_int(m - self%tone_harmonic(tt)))
@@ -604,11 +604,11 @@ contains
       if (channel == channel_gap) then
          self%coef = self%mult*flight%tip_weight
          self%c_part = self%tip_part
-         self%c_const = self%delta_hat
+         self%c_const = self%delta_hat + flight%held_tip
       else
          self%coef = self%mult*flight%z*flight%vectors(channel, :)
          self%c_part = cmplx(flight%v(channel), -flight%u(channel), dp)
-         self%c_const = 0
+         self%c_const = flight%held_state(channel)
       end if
       do k = 1, self%n_terms
          self%coef_size(k) = abs(self%coef(k))
@@ -732,7 +732,7 @@ contains
       end do
       do j = 1, self%n_modes
          ! |a_j| <= |Q_j| + sum_k mult_k |V_jk| |z_k| |e^{lambda_k s}|: most flights stop here.
-         envelope = self%particular_size(j)
+         envelope = self%particular_size(j) + abs(flight%held_state(j))
          do k = 1, self%n_terms
             envelope = envelope + self%vector_size(j, k)*self%z_size(k)
          end do

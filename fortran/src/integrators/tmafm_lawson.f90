@@ -156,6 +156,9 @@ contains
       self%map = map
       h = map%h
       self%tau0 = map%s0
+      ! Thermal noise: the grid interval's force is held over the step (steps end on the grid),
+      ! so it is part of the exact free flow, not of g.
+      if (model%thermal%on) call self%flight%hold(model, model%noise_accel)
       call self%flight%start(model, map%s0, y)
       self%z = self%flight%z
       if (size(y) > self%n_modal) self%dashpot0 = y(self%n_modal + 1)
@@ -307,6 +310,7 @@ contains
             call particular(m, f%u, f%v, sin_phase, cos_phase, y)
          end if
          call add_modes(m, f%n_terms, f%multiplicity, f%sample_matrix, f%sample_blocks, w, y)
+         if (f%held) y(1:m) = y(1:m) + f%held_state
       end associate
       if (size(y) > m) then
          y(m + 1) = sls_free_relaxation(self%sls, self%dashpot0, s)

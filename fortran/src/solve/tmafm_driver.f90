@@ -85,10 +85,11 @@ contains
          return
       end if
       if (settings%thermal_noise == 1 .and. .not. (trim(settings%method) == method_dopri5 &
-                                                     .or. trim(settings%method) == method_dop853)) then
+                                                     .or. trim(settings%method) == method_dop853 &
+                                                     .or. trim(settings%method) == method_flight_exact)) then
          ! The input check refuses this first (tmafm_namelist check_thermal).
          ierr = err_input
-         errmsg = "&solver thermal_noise = 1: needs method 'dop853' or 'dopri5' (method = '"// &
+         errmsg = "&solver thermal_noise = 1: needs method 'dop853', 'dopri5' or 'flight_exact' (method = '"// &
                   trim(settings%method)//"')"
          return
       end if

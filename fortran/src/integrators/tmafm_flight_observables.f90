@@ -42,6 +42,7 @@ module tmafm_flight_observables
    use tmafm_drive, only: max_tones
    use tmafm_events, only: hermite_minimum
    use tmafm_roots, only: bracketed_root_t
+   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
    implicit none
    private
 
@@ -56,6 +57,21 @@ module tmafm_flight_observables
    type :: scan_point_t
       real(dp) :: s = 0, f = 0, d1 = 0, d2 = 0, size = 0, decaying = 0, growing = 0
    end type scan_point_t
+
+   !> The channel-independent factors of a point s of a flight started at tau0: e^{Re lambda_k s},
+   !> e^{i Im lambda_k s}, and the drive's e^{i Omega (tau0 + s)} (a general drive: each tone's
+   !> e^{i h_k Omega_0 (tau0 + s)}).  An interval's ends are kept (keyed by tau0 and s), so that
+   !> the integrals and the 2 + 2N scans of one flight piece take their sines, cosines and
+   !> exponentials once.
+   type :: basis_t
+      !> Whether the key (tau0, s) names the factors held.
+      logical :: valid = .false.
+      real(dp) :: tau0 = 0, s = 0
+      real(dp), allocatable :: decay(:)
+      complex(dp), allocatable :: turn(:)
+      complex(dp) :: drive = 0
+      complex(dp) :: tone(max_tones) = 0
+   end type basis_t
 
    !> An interval of a scan still to classify, and how often it was halved.
    type :: scan_interval_t
@@ -103,6 +119,13 @@ module tmafm_flight_observables
       complex(dp), allocatable :: e_a(:), e_b(:), j_int(:, :)
       complex(dp), allocatable :: coef(:)
       real(dp), allocatable :: coef_size(:), z_size(:)
+      !> The factors of a scan's interior point (0) and of an interval's left (1) and right (2) end.
+      type(basis_t) :: ends(0:2)
+      !> |z_k| of the flight whose coefficients are z_seen (taken once per flight, not per channel),
+      !> |tip_of_vector_k| and |tip_part| (the sizes of V_T's terms but for |z_k|).
+      complex(dp), allocatable :: z_seen(:)
+      real(dp), allocatable :: z_abs(:), tip_vector_size(:)
+      real(dp) :: tip_part_size = 0
       !> The channel being scanned: its particular part c_p, its constant c_0, sigma, the size of
       !> its particular part and its share of the bound on |f''''|.
       complex(dp) :: c_part = 0
@@ -167,6 +190,17 @@ contains
       ! In a liquid C is diagonal, not alpha3 I: the sums of |a'|^2 carry C_jj, and beam = -sq.
       if (model%has_medium) self%alpha3 = 1
       self%scan_points = 0
+      if (allocated(self%z_seen)) deallocate (self%z_seen, self%z_abs, self%tip_vector_size)
+      allocate (self%z_seen(nt), self%z_abs(nt), self%tip_vector_size(nt))
+      ! NaN: no flight's z equals it, so the first set_channel takes |z_k|.
+      self%z_seen = cmplx(ieee_value(1.0_dp, ieee_quiet_nan), 0.0_dp, dp)
+      self%z_abs = 0
+      self%tip_vector_size = abs(flight%tip_of_vector)
+      do k = 0, 2
+         if (allocated(self%ends(k)%decay)) deallocate (self%ends(k)%decay, self%ends(k)%turn)
+         allocate (self%ends(k)%decay(nt), self%ends(k)%turn(nt))
+         self%ends(k)%valid = .false.
+      end do
       if (allocated(self%lambda)) deallocate (self%lambda, self%mult, self%decay_rate, self%rate4, self%mu, &
                                               self%inv_mu, self%mu_pair, self%inv_pair, self%mu_herm, &
                                               self%inv_herm, self%gram, self%herm, self%drive_plus, &
@@ -242,6 +276,7 @@ contains
          self%q_norm2 = sum(real(q, dp)**2 + aimag(q)**2)
       end if
       self%tip_part = cmplx(flight%tip_cos, -flight%tip_sin, dp)
+      self%tip_part_size = abs(self%tip_part)
       self%deflection_part = cmplx(flight%tip_cos, -(flight%tip_sin - self%alpha2), dp)
       self%particular_size = hypot(flight%u(1:n), flight%v(1:n))
       self%general = flight%general
@@ -599,22 +634,31 @@ contains
       integer, intent(in) :: channel
       real(dp), intent(in) :: sigma
       integer :: k, n
+      real(dp) :: c_part_size
       n = self%n_modes
       self%sigma = sigma
+      call take_z_sizes(self, flight)
+      ! |coef_k| as mult_k |z_k| |V(j, k)|: the product's size to a few ulps, which the scan's
+      ! bound allows for (its factor 1 + 16 eps), without a hypot per term and channel.
       if (channel == channel_gap) then
          self%coef = self%mult*flight%tip_weight
          self%c_part = self%tip_part
          self%c_const = self%delta_hat + flight%held_tip
+         c_part_size = self%tip_part_size
+         do k = 1, self%n_terms
+            self%coef_size(k) = self%mult(k)*self%z_abs(k)*self%tip_vector_size(k)
+         end do
       else
          self%coef = self%mult*flight%z*flight%vectors(channel, :)
          self%c_part = cmplx(flight%v(channel), -flight%u(channel), dp)
          self%c_const = flight%held_state(channel)
+         c_part_size = self%particular_size(channel)
+         do k = 1, self%n_terms
+            self%coef_size(k) = self%mult(k)*self%z_abs(k)*self%vector_size(channel, k)
+         end do
       end if
-      do k = 1, self%n_terms
-         self%coef_size(k) = abs(self%coef(k))
-      end do
-      self%part_size = abs(self%c_part) + abs(self%c_const)
-      self%part_bound = self%omega**4*abs(self%c_part)
+      self%part_size = c_part_size + abs(self%c_const)
+      self%part_bound = self%omega**4*c_part_size
       if (self%general) then
          self%part_size = abs(self%c_const)
          self%part_bound = 0
@@ -630,6 +674,61 @@ contains
       end if
    end subroutine set_channel
 
+   !> |z_k| of the flight under way, taken again only when its coefficients z changed.
+   subroutine take_z_sizes(self, flight)
+      type(flight_observables_t), intent(inout) :: self
+      type(free_flight_t), intent(in) :: flight
+      integer :: k
+      do k = 1, self%n_terms
+         if (.not. (flight%z(k) == self%z_seen(k))) exit
+      end do
+      if (k > self%n_terms) return
+      do k = 1, self%n_terms
+         self%z_seen(k) = flight%z(k)
+         self%z_abs(k) = abs(flight%z(k))
+      end do
+   end subroutine take_z_sizes
+
+   !> The factors of the point s of the flight under way (basis_t), keyed by tau0 and s.
+   pure subroutine fill_basis(self, flight, s, basis)
+      type(flight_observables_t), intent(in) :: self
+      type(free_flight_t), intent(in) :: flight
+      real(dp), intent(in) :: s
+      type(basis_t), intent(inout) :: basis
+      real(dp) :: phase, angle
+      integer :: k
+      basis%valid = .true.
+      basis%tau0 = flight%tau0
+      basis%s = s
+      if (self%general) then
+         do k = 1, self%n_tones
+            phase = self%tone_harmonic(k)*self%omega*(flight%tau0 + s)
+            basis%tone(k) = cmplx(cos(phase), sin(phase), dp)
+         end do
+      else
+         phase = self%omega*(flight%tau0 + s)
+         basis%drive = cmplx(cos(phase), sin(phase), dp)
+      end if
+      do k = 1, self%n_terms
+         basis%decay(k) = exp(self%decay_rate(k)*s)
+         angle = aimag(self%lambda(k))*s
+         basis%turn(k) = cmplx(cos(angle), sin(angle), dp)
+      end do
+   end subroutine fill_basis
+
+   !> The end `slot` (1 left, 2 right) of an interval at s: its factors, taken again only if
+   !> they are not those of (tau0, s) already.
+   subroutine take_end(self, flight, s, slot)
+      type(flight_observables_t), intent(inout) :: self
+      type(free_flight_t), intent(in) :: flight
+      real(dp), intent(in) :: s
+      integer, intent(in) :: slot
+      logical :: held
+      held = self%ends(slot)%valid
+      if (held) held = self%ends(slot)%tau0 == flight%tau0 .and. self%ends(slot)%s == s
+      if (.not. held) call fill_basis(self, flight, s, self%ends(slot))
+   end subroutine take_end
+
    !> The channel at s (time since the flight's start): sigma f, f', f'' (and f''' if asked),
    !> its size and the two parts of the bound on |f''''|.
    subroutine evaluate(self, flight, s, point, third)
@@ -638,8 +737,29 @@ contains
       real(dp), intent(in) :: s
       type(scan_point_t), intent(out) :: point
       real(dp), intent(out), optional :: third
+      call fill_basis(self, flight, s, self%ends(0))
+      call combine(self, self%ends(0), point, third)
+   end subroutine evaluate
+
+   !> evaluate at an interval's end (slot 1 left, 2 right), from its kept factors.
+   subroutine evaluate_end(self, flight, s, slot, point)
+      class(flight_observables_t), intent(inout) :: self
+      type(free_flight_t), intent(in) :: flight
+      real(dp), intent(in) :: s
+      integer, intent(in) :: slot
+      type(scan_point_t), intent(out) :: point
+      call take_end(self, flight, s, slot)
+      call combine(self, self%ends(slot), point)
+   end subroutine evaluate_end
+
+   !> The channel at the point whose factors are basis (evaluate).
+   subroutine combine(self, basis, point, third)
+      class(flight_observables_t), intent(inout) :: self
+      type(basis_t), intent(in) :: basis
+      type(scan_point_t), intent(out) :: point
+      real(dp), intent(out), optional :: third
       complex(dp) :: x, e, le, l2e
-      real(dp) :: phase, decay, angle, f, d1, d2, d3
+      real(dp) :: decay, f, d1, d2, d3
       integer :: k
       if (self%general) then
          f = self%c_const
@@ -648,8 +768,7 @@ contains
          d3 = 0
          do k = 1, self%n_tones
             associate (w => self%tone_frequency(k))
-               phase = self%tone_harmonic(k)*self%omega*(flight%tau0 + s)
-               x = self%c_tone(k)*cmplx(cos(phase), sin(phase), dp)
+               x = self%c_tone(k)*basis%tone(k)
                f = f + real(x, dp)
                d1 = d1 - w*aimag(x)
                d2 = d2 - w**2*real(x, dp)
@@ -657,21 +776,19 @@ contains
             end associate
          end do
       else
-         phase = self%omega*(flight%tau0 + s)
-         x = self%c_part*cmplx(cos(phase), sin(phase), dp)
+         x = self%c_part*basis%drive
          f = real(x, dp) + self%c_const
          d1 = -self%omega*aimag(x)
          d2 = -self%omega**2*real(x, dp)
          d3 = self%omega**3*aimag(x)
       end if
-      point%s = s
+      point%s = basis%s
       point%size = self%part_size
       point%decaying = self%part_bound
       point%growing = 0
       do k = 1, self%n_terms
-         decay = exp(self%decay_rate(k)*s)
-         angle = aimag(self%lambda(k))*s
-         e = self%coef(k)*(decay*cmplx(cos(angle), sin(angle), dp))
+         decay = basis%decay(k)
+         e = self%coef(k)*(decay*basis%turn(k))
          le = self%lambda(k)*e
          l2e = self%lambda(k)*le
          f = f + real(e, dp)
@@ -690,7 +807,7 @@ contains
       point%d2 = self%sigma*d2
       if (present(third)) third = abs(d3)
       self%scan_points = self%scan_points + 1
-   end subroutine evaluate
+   end subroutine combine
 
    subroutine observables_extremum(self, flight, channel, sigma, tau_a, tau_b, extreme)
       class(flight_observables_t), intent(inout) :: self
@@ -725,8 +842,9 @@ contains
       s_found = 0
       mode = 0
       value = 0
+      call take_z_sizes(self, flight)
       do k = 1, self%n_terms
-         self%z_size(k) = self%mult(k)*abs(flight%z(k))
+         self%z_size(k) = self%mult(k)*self%z_abs(k)
          ! A growing term (alpha3 < 0 only) is largest at the flight's end.
          if (self%decay_rate(k) > 0) self%z_size(k) = self%z_size(k)*exp(self%decay_rate(k)*s_max)
       end do
@@ -766,10 +884,10 @@ contains
       integer :: top, depth, first_points
 
       first_points = self%scan_points
-      call evaluate(self, flight, s_lo, a_point)
+      call evaluate_end(self, flight, s_lo, 1, a_point)
       call raise(a_point)
       if (.not. (s_hi > s_lo)) return
-      call evaluate(self, flight, s_hi, last)
+      call evaluate_end(self, flight, s_hi, 2, last)
       call raise(last)
       do while (a_point%s < s_hi)
          h = step(a_point)
@@ -854,17 +972,24 @@ contains
       !> The scan step from a point: the largest h whose Hermite error bound at mid-interval is
       !> half the headroom G = best - f (h^4 <= 192 G/B), or half its rise G' h t at t = 1/3
       !> (h^3 <= 81 G'/B), or, where G is convex and not falling (past a maximum), a quarter of
-      !> its curvature (h^2 <= 6 G''/B); at least the flight's smallest scan step.
+      !> its curvature (h^2 <= 6 G''/B); at least the flight's smallest scan step.  A step that
+      !> reaches s_hi anyway (the scan then takes the rest whole) is s_hi - s, found without the
+      !> cube root.
       real(dp) function step(point)
          type(scan_point_t), intent(in) :: point
-         real(dp) :: g, b
+         real(dp) :: g, b, rest
          b = point%decaying + point%growing
+         rest = s_hi - point%s
          if (.not. (b > 0)) then
-            step = s_hi - point%s
+            step = rest
             return
          end if
          g = max(best - point%f, 0.0_dp) + tolerance(point, point)
          step = sqrt(sqrt(192*g/b))
+         if (step >= rest .or. 81*abs(point%d1)/b >= rest**3) then
+            step = max(step, rest)
+            return
+         end if
          step = max(step, (81*abs(point%d1)/b)**(1.0_dp/3))
          if (-point%d1 >= 0 .and. -point%d2 > 0) step = max(step, sqrt(6*(-point%d2)/b))
          step = max(step, flight%min_step)

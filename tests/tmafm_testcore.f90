@@ -455,3 +455,70 @@ subroutine choose_with_budget(path, budget, n_modes, ierr, errmsg)
    if (ierr /= ok) return
    n_modes = config%n_modes
 end subroutine choose_with_budget
+
+!> The closed-form integrals (tmafm_flight_observables' integrate) of one free flight of a
+!> namelist's model from y0 at tau0, under the held modal force accel (zeros: none), over
+!> [tau0 + s_a, tau0 + s_b]: `whole` in one piece by a new observer, `split` as the sum over
+!> `pieces` equal pieces taken in turn by another (the integrals' cache of the first piece's
+!> length then serves the others, whose lengths differ from it by the rounding of their ends).
+!> Each is V_T's lock-in sums against sin and cos of harmonics 1..harmonics, int p.a, and the
+!> drive and beam-damping works.  For tests of the cache.
+subroutine flight_piece_sums(path, n_modes, harmonics, tau0, y0, accel, s_a, s_b, pieces, whole, split, ierr, &
+                             errmsg)
+   use tmafm, only: model_t, load_model, ok
+   use tmafm_kinds, only: dp, i8
+   use tmafm_flight, only: free_flight_t
+   use tmafm_flight_observables, only: flight_observables_t
+   implicit none
+   character(len=*), intent(in) :: path
+   integer, intent(in) :: n_modes
+   integer, intent(in) :: harmonics
+   real(dp), intent(in) :: tau0
+   real(dp), intent(in) :: y0(2*n_modes)
+   real(dp), intent(in) :: accel(n_modes)
+   real(dp), intent(in) :: s_a
+   real(dp), intent(in) :: s_b
+   integer, intent(in) :: pieces
+   real(dp), intent(out) :: whole(2*harmonics + 3)
+   real(dp), intent(out) :: split(2*harmonics + 3)
+   integer, intent(out) :: ierr
+   character(len=512), intent(out) :: errmsg
+   type(model_t) :: model
+   type(free_flight_t) :: flight
+   type(flight_observables_t) :: one, many
+   real(dp) :: acc_sin(harmonics), acc_cos(harmonics), deflection, drive, beam
+   integer :: j
+
+   whole = 0
+   split = 0
+   call load_model(path, n_modes, model, ierr, errmsg)
+   if (ierr /= ok) return
+   ! The noise on (any grid; the force is accel): the flight forms its static response for hold.
+   call model%set_thermal(1.0_dp, 1_i8)
+   call flight%init(model, ierr, errmsg)
+   if (ierr /= ok) return
+   call flight%hold(model, accel)
+   call flight%start(model, tau0, y0)
+   call one%init(model, flight, harmonics)
+   call many%init(model, flight, harmonics)
+   call clear()
+   call one%integrate(flight, tau0 + s_a, tau0 + s_b, .true., .true., acc_sin, acc_cos, deflection, drive, beam)
+   whole = [acc_sin, acc_cos, deflection, drive, beam]
+   call clear()
+   do j = 1, pieces
+      call many%integrate(flight, tau0 + (s_a + (s_b - s_a)*real(j - 1, dp)/pieces), &
+                          tau0 + (s_a + (s_b - s_a)*real(j, dp)/pieces), .true., .true., acc_sin, acc_cos, &
+                          deflection, drive, beam)
+   end do
+   split = [acc_sin, acc_cos, deflection, drive, beam]
+
+contains
+
+   subroutine clear()
+      acc_sin = 0
+      acc_cos = 0
+      deflection = 0
+      drive = 0
+      beam = 0
+   end subroutine clear
+end subroutine flight_piece_sums

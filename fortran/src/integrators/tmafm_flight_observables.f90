@@ -87,6 +87,9 @@ module tmafm_flight_observables
    real(dp), parameter :: series_below = 0.5_dp
    !> Terms of the series of phi1 (for |x| < 1/2 the next is below 2^-60).
    integer, parameter :: series_terms = 16
+   !> An interval within this fraction of the last one's length takes the last one's phi1(mu h)
+   !> (observables_integrate): the first-order correction leaves under 2^-55 of |f(a)| h.
+   real(dp), parameter :: reuse_within = 2.0_dp**(-27)
 
    !> The closed forms of one model's free flight, and their workspace.
    type :: flight_observables_t
@@ -119,6 +122,17 @@ module tmafm_flight_observables
       complex(dp), allocatable :: e_a(:), e_b(:), j_int(:, :)
       complex(dp), allocatable :: coef(:)
       real(dp), allocatable :: coef_size(:), z_size(:)
+      !> The integrals' cache: the interval length cached_h whose phi1(mu h) it holds (0: none),
+      !> for the groups and the harmonics it was taken for; per exponent whether segment takes
+      !> the series, and phi1: the lock-in exponents lambda_k + i m Omega (terms x -H..H), the
+      !> drive's i m Omega (1..H+1), the pairs lambda_k + lambda_l and lambda_k + conj(lambda_l).
+      real(dp) :: cached_h = 0
+      logical :: cached_lockin = .false., cached_energy = .false.
+      integer :: cached_top = -1
+      complex(dp), allocatable :: phi_lockin(:, :), phi_drive(:), phi_pair(:, :), phi_herm(:, :)
+      logical, allocatable :: series_lockin(:, :), series_drive(:), series_pair(:, :), series_herm(:, :)
+      !> 1/(i Omega) and 1/(2 i Omega).
+      complex(dp) :: inv_turn(2) = 0
       !> The factors of a scan's interior point (0) and of an interval's left (1) and right (2) end.
       type(basis_t) :: ends(0:2)
       !> |z_k| of the flight whose coefficients are z_seen (taken once per flight, not per channel),
@@ -196,6 +210,15 @@ contains
       self%z_seen = cmplx(ieee_value(1.0_dp, ieee_quiet_nan), 0.0_dp, dp)
       self%z_abs = 0
       self%tip_vector_size = abs(flight%tip_of_vector)
+      if (allocated(self%phi_lockin)) deallocate (self%phi_lockin, self%phi_drive, self%phi_pair, self%phi_herm, &
+                                                  self%series_lockin, self%series_drive, self%series_pair, &
+                                                  self%series_herm)
+      allocate (self%phi_lockin(nt, -self%harmonics:self%harmonics), self%phi_drive(self%harmonics + 1), &
+                self%phi_pair(nt, nt), self%phi_herm(nt, nt), source=(0.0_dp, 0.0_dp))
+      allocate (self%series_lockin(nt, -self%harmonics:self%harmonics), self%series_drive(self%harmonics + 1), &
+                self%series_pair(nt, nt), self%series_herm(nt, nt), source=.false.)
+      self%cached_h = 0
+      self%cached_top = -1
       do k = 0, 2
          if (allocated(self%ends(k)%decay)) deallocate (self%ends(k)%decay, self%ends(k)%turn)
          allocate (self%ends(k)%decay(nt), self%ends(k)%turn(nt))
@@ -218,6 +241,8 @@ contains
       self%decay_rate = real(flight%eigenvalue, dp)
       self%rate4 = abs(flight%eigenvalue)**4
       i_omega = cmplx(0, self%omega, dp)
+      self%inv_turn(1) = 1/i_omega
+      self%inv_turn(2) = 1/(2*i_omega)
       do m = -1, 1
          self%mu(:, m) = self%lambda + m*i_omega
          self%inv_mu(:, m) = reciprocal(self%mu(:, m))
@@ -365,8 +390,7 @@ contains
       complex(dp), intent(in) :: fa, fb, mu
       real(dp), intent(in) :: h
       complex(dp), intent(in), optional :: inv_mu
-      complex(dp) :: x, p
-      integer :: j
+      complex(dp) :: x
       x = mu*h
       if (abs(real(x, dp)) + abs(aimag(x)) >= series_below) then
          if (present(inv_mu)) then
@@ -375,14 +399,89 @@ contains
             segment = (fb - fa)/mu
          end if
       else
-         ! phi1(x) = sum_j x^j/(j+1)! = 1 + x/2 (1 + x/3 (1 + x/4 (...))).
-         p = 1
-         do j = series_terms + 1, 2, -1
-            p = 1 + x*p*(1.0_dp/j)
-         end do
-         segment = fa*h*p
+         segment = fa*h*phi1(x)
       end if
    end function segment
+
+   !> phi1(x) = (e^x - 1)/x by its series, for |Re x| + |Im x| < series_below.
+   pure complex(dp) function phi1(x)
+      complex(dp), intent(in) :: x
+      integer :: j
+      ! phi1(x) = sum_j x^j/(j+1)! = 1 + x/2 (1 + x/3 (1 + x/4 (...))).
+      phi1 = 1
+      do j = series_terms + 1, 2, -1
+         phi1 = 1 + x*phi1*(1.0_dp/j)
+      end do
+   end function phi1
+
+   !> Fill the integrals' cache for the interval length h: per exponent mu whether segment
+   !> takes the series for mu h, and phi1(mu h) where it does (the exponents as
+   !> observables_integrate forms them).
+   pure subroutine fill_cache(self, h, lockin, energy, top)
+      type(flight_observables_t), intent(inout) :: self
+      real(dp), intent(in) :: h
+      logical, intent(in) :: lockin, energy
+      integer, intent(in) :: top
+      complex(dp) :: i_omega
+      integer :: k, l, m
+      self%cached_h = h
+      self%cached_lockin = lockin
+      self%cached_energy = energy
+      self%cached_top = top
+      i_omega = cmplx(0, self%omega, dp)
+      do m = 1, max(top + 1, 2)
+         call take(m*i_omega, self%phi_drive(m), self%series_drive(m))
+      end do
+      do k = 1, self%n_terms
+         do m = -1, 1
+            call take(self%mu(k, m), self%phi_lockin(k, m), self%series_lockin(k, m))
+         end do
+         do m = 2, top
+            call take(self%lambda(k) + m*i_omega, self%phi_lockin(k, m), self%series_lockin(k, m))
+            call take(self%lambda(k) - m*i_omega, self%phi_lockin(k, -m), self%series_lockin(k, -m))
+         end do
+         if (.not. energy) cycle
+         do l = k, self%n_terms
+            call take(self%mu_pair(k, l), self%phi_pair(k, l), self%series_pair(k, l))
+            call take(self%mu_herm(k, l), self%phi_herm(k, l), self%series_herm(k, l))
+         end do
+      end do
+   contains
+      pure subroutine take(mu, phi, series)
+         complex(dp), intent(in) :: mu
+         complex(dp), intent(out) :: phi
+         logical, intent(out) :: series
+         complex(dp) :: x
+         x = mu*h
+         series = .not. (abs(real(x, dp)) + abs(aimag(x)) >= series_below)
+         phi = 0
+         if (series) phi = phi1(x)
+      end subroutine take
+   end subroutine fill_cache
+
+   !> segment over an interval hc + d from the integrals' cache of the length hc (fill_cache):
+   !> the difference form where segment takes it, else fa hc phi1(mu hc) (d = 0) or, to first
+   !> order in d, int_0^{hc+d} e^{mu s} ds = hc phi1 + d e^{mu hc}, e^{mu hc} = 1 + mu hc phi1:
+   !> the rest, d^2 |mu| e^{|Re mu h|}/2, is below 2^-55 of |fa| hc for |d| <= reuse_within hc
+   !> and |mu hc| < 1/2.
+   pure complex(dp) function cached_segment(fa, fb, mu, hc, d, phi, series, inv_mu)
+      complex(dp), intent(in) :: fa, fb, mu
+      real(dp), intent(in) :: hc, d
+      complex(dp), intent(in) :: phi
+      logical, intent(in) :: series
+      complex(dp), intent(in), optional :: inv_mu
+      if (.not. series) then
+         if (present(inv_mu)) then
+            cached_segment = (fb - fa)*inv_mu
+         else
+            cached_segment = (fb - fa)/mu
+         end if
+      else if (d == 0) then
+         cached_segment = fa*hc*phi
+      else
+         cached_segment = fa*(hc*phi + d*(1 + mu*hc*phi))
+      end if
+   end function cached_segment
 
    subroutine observables_integrate(self, flight, tau_a, tau_b, lockin, energy, acc_sin, acc_cos, deflection, &
                                     drive, beam, tone_sin, tone_cos)
@@ -397,7 +496,7 @@ contains
       !> A general drive: int V_T sin(psi_k) and cos(psi_k) per tone (and p.a less nothing: the
       !> deflection is p.a as above).
       real(dp), intent(inout), optional :: tone_sin(:), tone_cos(:)
-      real(dp) :: h, sa, sb, sq
+      real(dp) :: h, sa, sb, sq, hc, d
       complex(dp) :: x, zk, l_int, m_int, pa1, pb1, pa, pb, pa_next, pb_next, k_prev, k_now, k_next, k1, k2
       complex(dp) :: i_omega, jp, jm
       integer :: k, l, m, top, nt
@@ -412,28 +511,46 @@ contains
       h = tau_b - tau_a
       sa = tau_a - flight%tau0
       sb = tau_b - flight%tau0
+      top = 0
+      if (lockin) top = min(self%harmonics, size(acc_sin))
+      ! A piece as long as the last one (the noise grid's pieces, to their ends' rounding) takes
+      ! its phi1(mu h) from the cache (cached_segment); any other fills the cache (hc = h, d = 0).
+      d = h - self%cached_h
+      if (.not. (abs(d) <= reuse_within*h .and. (lockin .eqv. self%cached_lockin) .and. &
+                 (energy .eqv. self%cached_energy) .and. top == self%cached_top)) then
+         call fill_cache(self, h, lockin, energy, top)
+         d = 0
+      end if
+      hc = self%cached_h
       i_omega = cmplx(0, self%omega, dp)
-      ! e^{i m Omega tau} at the ends: m = 1, 2 here, the next ones by the same products.
-      pa1 = cmplx(cos(self%omega*tau_a), sin(self%omega*tau_a), dp)
-      pb1 = cmplx(cos(self%omega*tau_b), sin(self%omega*tau_b), dp)
+      ! e^{lambda_k s} and e^{i m Omega tau} at the ends (the scans of the piece take the same
+      ! factors): m = 1, 2 here, the next ones by the same products.
+      call take_end(self, flight, sa, 1)
+      call take_end(self, flight, sb, 2)
+      pa1 = self%ends(1)%drive
+      pb1 = self%ends(2)%drive
       pa_next = pa1*pa1
       pb_next = pb1*pb1
-      k1 = segment(pa1, pb1, i_omega, h, 1/i_omega)
-      k2 = segment(pa_next, pb_next, 2*i_omega, h, 1/(2*i_omega))
+      k1 = cached_segment(pa1, pb1, i_omega, hc, d, self%phi_drive(1), self%series_drive(1), self%inv_turn(1))
+      k2 = cached_segment(pa_next, pb_next, 2*i_omega, hc, d, self%phi_drive(2), self%series_drive(2), &
+                          self%inv_turn(2))
       do k = 1, nt
-         self%e_a(k) = exp(self%lambda(k)*sa)
-         self%e_b(k) = exp(self%lambda(k)*sb)
-         self%j_int(k, 1) = segment(self%e_a(k)*pa1, self%e_b(k)*pb1, self%mu(k, 1), h, self%inv_mu(k, 1))
-         self%j_int(k, -1) = segment(self%e_a(k)*conjg(pa1), self%e_b(k)*conjg(pb1), self%mu(k, -1), h, &
-                                     self%inv_mu(k, -1))
-         if (lockin) self%j_int(k, 0) = segment(self%e_a(k), self%e_b(k), self%mu(k, 0), h, self%inv_mu(k, 0))
+         self%e_a(k) = self%ends(1)%decay(k)*self%ends(1)%turn(k)
+         self%e_b(k) = self%ends(2)%decay(k)*self%ends(2)%turn(k)
+         self%j_int(k, 1) = cached_segment(self%e_a(k)*pa1, self%e_b(k)*pb1, self%mu(k, 1), hc, d, &
+                                           self%phi_lockin(k, 1), self%series_lockin(k, 1), self%inv_mu(k, 1))
+         self%j_int(k, -1) = cached_segment(self%e_a(k)*conjg(pa1), self%e_b(k)*conjg(pb1), self%mu(k, -1), hc, d, &
+                                            self%phi_lockin(k, -1), self%series_lockin(k, -1), &
+                                            self%inv_mu(k, -1))
+         if (lockin) self%j_int(k, 0) = cached_segment(self%e_a(k), self%e_b(k), self%mu(k, 0), hc, d, &
+                                                       self%phi_lockin(k, 0), self%series_lockin(k, 0), &
+                                                       self%inv_mu(k, 0))
       end do
 
       if (lockin) then
          ! V_T = Re(t e^{i Omega tau}) + delta_hat + sum_k mult_k Re(w_k e^{lambda_k s}); each
          ! Re(w e^{lambda s}) e^{i m Omega tau} integrates to (w J(k, m) + conj(w J(k, -m)))/2,
          ! and Re(t e^{i Omega tau}) e^{i m Omega tau} to (t K(m+1) + conj(t) K(m-1))/2.
-         top = min(self%harmonics, size(acc_sin))
          k_prev = h
          k_now = k1
          k_next = k2
@@ -447,7 +564,8 @@ contains
                pb = pb_next
                pa_next = pa*pa1
                pb_next = pb*pb1
-               k_next = segment(pa_next, pb_next, (m + 1)*i_omega, h)
+               k_next = cached_segment(pa_next, pb_next, (m + 1)*i_omega, hc, d, self%phi_drive(m + 1), &
+                                       self%series_drive(m + 1))
             end if
             x = 0.5_dp*(self%tip_part*k_next + conjg(self%tip_part)*k_prev) + (self%delta_hat + flight%held_tip)*k_now
             do k = 1, nt
@@ -455,8 +573,10 @@ contains
                   jp = self%j_int(k, 1)
                   jm = self%j_int(k, -1)
                else
-                  jp = segment(self%e_a(k)*pa, self%e_b(k)*pb, self%lambda(k) + m*i_omega, h)
-                  jm = segment(self%e_a(k)*conjg(pa), self%e_b(k)*conjg(pb), self%lambda(k) - m*i_omega, h)
+                  jp = cached_segment(self%e_a(k)*pa, self%e_b(k)*pb, self%lambda(k) + m*i_omega, hc, d, &
+                                      self%phi_lockin(k, m), self%series_lockin(k, m))
+                  jm = cached_segment(self%e_a(k)*conjg(pa), self%e_b(k)*conjg(pb), self%lambda(k) - m*i_omega, hc, &
+                                      d, self%phi_lockin(k, -m), self%series_lockin(k, -m))
                end if
                x = x + (0.5_dp*self%mult(k))*(flight%tip_weight(k)*jp + conjg(flight%tip_weight(k)*jm))
             end do
@@ -487,10 +607,11 @@ contains
             zk = flight%z(k)
             x = x + self%mult(k)*zk*(self%part_plus(k)*self%j_int(k, 1) + self%part_minus(k)*self%j_int(k, -1))
             do l = k, nt
-               l_int = segment(self%e_a(k)*self%e_a(l), self%e_b(k)*self%e_b(l), self%mu_pair(k, l), h, &
-                               self%inv_pair(k, l))
-               m_int = segment(self%e_a(k)*conjg(self%e_a(l)), self%e_b(k)*conjg(self%e_b(l)), &
-                               self%mu_herm(k, l), h, self%inv_herm(k, l))
+               l_int = cached_segment(self%e_a(k)*self%e_a(l), self%e_b(k)*self%e_b(l), self%mu_pair(k, l), hc, d, &
+                                      self%phi_pair(k, l), self%series_pair(k, l), self%inv_pair(k, l))
+               m_int = cached_segment(self%e_a(k)*conjg(self%e_a(l)), self%e_b(k)*conjg(self%e_b(l)), &
+                                      self%mu_herm(k, l), hc, d, self%phi_herm(k, l), self%series_herm(k, l), &
+                                      self%inv_herm(k, l))
                x = x + (merge(0.5_dp, 1.0_dp, l == k)*self%mult(k)*self%mult(l)) &
                    *(zk*flight%z(l)*self%gram(k, l)*l_int + zk*conjg(flight%z(l))*self%herm(k, l)*m_int)
             end do

@@ -122,14 +122,16 @@ module tmafm_flight_observables
       complex(dp), allocatable :: e_a(:), e_b(:), j_int(:, :)
       complex(dp), allocatable :: coef(:)
       real(dp), allocatable :: coef_size(:), z_size(:)
-      !> The integrals' cache: the interval length cached_h whose phi1(mu h) it holds (0: none),
-      !> for the groups and the harmonics it was taken for; per exponent whether segment takes
-      !> the series, and phi1: the lock-in exponents lambda_k + i m Omega (terms x -H..H), the
-      !> drive's i m Omega (1..H+1), the pairs lambda_k + lambda_l and lambda_k + conj(lambda_l).
+      !> The integrals' cache: the interval length cached_h it holds (0: none), for the groups and
+      !> the harmonics it was taken for; per exponent mu whether segment takes the series, and
+      !> then int_0^h e^{mu s} ds = h phi1(mu h) (int_*) and e^{mu h} (exp_*): the lock-in
+      !> exponents lambda_k + i m Omega (terms x -H..H), the drive's i m Omega (1..H+1), the pairs
+      !> lambda_k + lambda_l and lambda_k + conj(lambda_l).
       real(dp) :: cached_h = 0
       logical :: cached_lockin = .false., cached_energy = .false.
       integer :: cached_top = -1
-      complex(dp), allocatable :: phi_lockin(:, :), phi_drive(:), phi_pair(:, :), phi_herm(:, :)
+      complex(dp), allocatable :: int_lockin(:, :), int_drive(:), int_pair(:, :), int_herm(:, :)
+      complex(dp), allocatable :: exp_lockin(:, :), exp_drive(:), exp_pair(:, :), exp_herm(:, :)
       logical, allocatable :: series_lockin(:, :), series_drive(:), series_pair(:, :), series_herm(:, :)
       !> 1/(i Omega) and 1/(2 i Omega).
       complex(dp) :: inv_turn(2) = 0
@@ -210,11 +212,14 @@ contains
       self%z_seen = cmplx(ieee_value(1.0_dp, ieee_quiet_nan), 0.0_dp, dp)
       self%z_abs = 0
       self%tip_vector_size = abs(flight%tip_of_vector)
-      if (allocated(self%phi_lockin)) deallocate (self%phi_lockin, self%phi_drive, self%phi_pair, self%phi_herm, &
+      if (allocated(self%int_lockin)) deallocate (self%int_lockin, self%int_drive, self%int_pair, self%int_herm, &
+                                                  self%exp_lockin, self%exp_drive, self%exp_pair, self%exp_herm, &
                                                   self%series_lockin, self%series_drive, self%series_pair, &
                                                   self%series_herm)
-      allocate (self%phi_lockin(nt, -self%harmonics:self%harmonics), self%phi_drive(self%harmonics + 1), &
-                self%phi_pair(nt, nt), self%phi_herm(nt, nt), source=(0.0_dp, 0.0_dp))
+      allocate (self%int_lockin(nt, -self%harmonics:self%harmonics), self%int_drive(self%harmonics + 1), &
+                self%int_pair(nt, nt), self%int_herm(nt, nt), self%exp_lockin(nt, -self%harmonics:self%harmonics), &
+                self%exp_drive(self%harmonics + 1), self%exp_pair(nt, nt), self%exp_herm(nt, nt), &
+                source=(0.0_dp, 0.0_dp))
       allocate (self%series_lockin(nt, -self%harmonics:self%harmonics), self%series_drive(self%harmonics + 1), &
                 self%series_pair(nt, nt), self%series_herm(nt, nt), source=.false.)
       self%cached_h = 0
@@ -415,8 +420,8 @@ contains
    end function phi1
 
    !> Fill the integrals' cache for the interval length h: per exponent mu whether segment
-   !> takes the series for mu h, and phi1(mu h) where it does (the exponents as
-   !> observables_integrate forms them).
+   !> takes the series for mu h, and where it does h phi1(mu h) and e^{mu h} = 1 + mu h phi1(mu h)
+   !> (the exponents as observables_integrate forms them).
    pure subroutine fill_cache(self, h, lockin, energy, top)
       type(flight_observables_t), intent(inout) :: self
       real(dp), intent(in) :: h
@@ -430,44 +435,49 @@ contains
       self%cached_top = top
       i_omega = cmplx(0, self%omega, dp)
       do m = 1, max(top + 1, 2)
-         call take(m*i_omega, self%phi_drive(m), self%series_drive(m))
+         call take(m*i_omega, self%int_drive(m), self%exp_drive(m), self%series_drive(m))
       end do
       do k = 1, self%n_terms
          do m = -1, 1
-            call take(self%mu(k, m), self%phi_lockin(k, m), self%series_lockin(k, m))
+            call take(self%mu(k, m), self%int_lockin(k, m), self%exp_lockin(k, m), self%series_lockin(k, m))
          end do
          do m = 2, top
-            call take(self%lambda(k) + m*i_omega, self%phi_lockin(k, m), self%series_lockin(k, m))
-            call take(self%lambda(k) - m*i_omega, self%phi_lockin(k, -m), self%series_lockin(k, -m))
+            call take(self%lambda(k) + m*i_omega, self%int_lockin(k, m), self%exp_lockin(k, m), &
+                      self%series_lockin(k, m))
+            call take(self%lambda(k) - m*i_omega, self%int_lockin(k, -m), self%exp_lockin(k, -m), &
+                      self%series_lockin(k, -m))
          end do
          if (.not. energy) cycle
          do l = k, self%n_terms
-            call take(self%mu_pair(k, l), self%phi_pair(k, l), self%series_pair(k, l))
-            call take(self%mu_herm(k, l), self%phi_herm(k, l), self%series_herm(k, l))
+            call take(self%mu_pair(k, l), self%int_pair(k, l), self%exp_pair(k, l), self%series_pair(k, l))
+            call take(self%mu_herm(k, l), self%int_herm(k, l), self%exp_herm(k, l), self%series_herm(k, l))
          end do
       end do
    contains
-      pure subroutine take(mu, phi, series)
+      pure subroutine take(mu, unit_integral, growth, series)
          complex(dp), intent(in) :: mu
-         complex(dp), intent(out) :: phi
+         complex(dp), intent(out) :: unit_integral, growth
          logical, intent(out) :: series
-         complex(dp) :: x
+         complex(dp) :: x, p
          x = mu*h
          series = .not. (abs(real(x, dp)) + abs(aimag(x)) >= series_below)
-         phi = 0
-         if (series) phi = phi1(x)
+         unit_integral = 0
+         growth = 0
+         if (.not. series) return
+         p = phi1(x)
+         unit_integral = h*p
+         growth = 1 + x*p
       end subroutine take
    end subroutine fill_cache
 
    !> segment over an interval hc + d from the integrals' cache of the length hc (fill_cache):
-   !> the difference form where segment takes it, else fa hc phi1(mu hc) (d = 0) or, to first
-   !> order in d, int_0^{hc+d} e^{mu s} ds = hc phi1 + d e^{mu hc}, e^{mu hc} = 1 + mu hc phi1:
-   !> the rest, d^2 |mu| e^{|Re mu h|}/2, is below 2^-55 of |fa| hc for |d| <= reuse_within hc
-   !> and |mu hc| < 1/2.
-   pure complex(dp) function cached_segment(fa, fb, mu, hc, d, phi, series, inv_mu)
+   !> the difference form where segment takes it, else fa int_0^hc e^{mu s} ds (d = 0) or, to
+   !> first order in d, fa (int_0^hc e^{mu s} ds + d e^{mu hc}): the rest, d^2 |mu|
+   !> e^{|Re mu h|}/2, is below 2^-55 of |fa| hc for |d| <= reuse_within hc and |mu hc| < 1/2.
+   pure complex(dp) function cached_segment(fa, fb, mu, d, unit_integral, growth, series, inv_mu)
       complex(dp), intent(in) :: fa, fb, mu
-      real(dp), intent(in) :: hc, d
-      complex(dp), intent(in) :: phi
+      real(dp), intent(in) :: d
+      complex(dp), intent(in) :: unit_integral, growth
       logical, intent(in) :: series
       complex(dp), intent(in), optional :: inv_mu
       if (.not. series) then
@@ -477,9 +487,9 @@ contains
             cached_segment = (fb - fa)/mu
          end if
       else if (d == 0) then
-         cached_segment = fa*hc*phi
+         cached_segment = fa*unit_integral
       else
-         cached_segment = fa*(hc*phi + d*(1 + mu*hc*phi))
+         cached_segment = fa*(unit_integral + d*growth)
       end if
    end function cached_segment
 
@@ -496,7 +506,7 @@ contains
       !> A general drive: int V_T sin(psi_k) and cos(psi_k) per tone (and p.a less nothing: the
       !> deflection is p.a as above).
       real(dp), intent(inout), optional :: tone_sin(:), tone_cos(:)
-      real(dp) :: h, sa, sb, sq, hc, d
+      real(dp) :: h, sa, sb, sq, d
       complex(dp) :: x, zk, l_int, m_int, pa1, pb1, pa, pb, pa_next, pb_next, k_prev, k_now, k_next, k1, k2
       complex(dp) :: i_omega, jp, jm
       integer :: k, l, m, top, nt
@@ -521,7 +531,6 @@ contains
          call fill_cache(self, h, lockin, energy, top)
          d = 0
       end if
-      hc = self%cached_h
       i_omega = cmplx(0, self%omega, dp)
       ! e^{lambda_k s} and e^{i m Omega tau} at the ends (the scans of the piece take the same
       ! factors): m = 1, 2 here, the next ones by the same products.
@@ -531,20 +540,22 @@ contains
       pb1 = self%ends(2)%drive
       pa_next = pa1*pa1
       pb_next = pb1*pb1
-      k1 = cached_segment(pa1, pb1, i_omega, hc, d, self%phi_drive(1), self%series_drive(1), self%inv_turn(1))
-      k2 = cached_segment(pa_next, pb_next, 2*i_omega, hc, d, self%phi_drive(2), self%series_drive(2), &
+      k1 = cached_segment(pa1, pb1, i_omega, d, self%int_drive(1), self%exp_drive(1), self%series_drive(1), &
+                          self%inv_turn(1))
+      k2 = cached_segment(pa_next, pb_next, 2*i_omega, d, self%int_drive(2), self%exp_drive(2), self%series_drive(2), &
                           self%inv_turn(2))
       do k = 1, nt
          self%e_a(k) = self%ends(1)%decay(k)*self%ends(1)%turn(k)
          self%e_b(k) = self%ends(2)%decay(k)*self%ends(2)%turn(k)
-         self%j_int(k, 1) = cached_segment(self%e_a(k)*pa1, self%e_b(k)*pb1, self%mu(k, 1), hc, d, &
-                                           self%phi_lockin(k, 1), self%series_lockin(k, 1), self%inv_mu(k, 1))
-         self%j_int(k, -1) = cached_segment(self%e_a(k)*conjg(pa1), self%e_b(k)*conjg(pb1), self%mu(k, -1), hc, d, &
-                                            self%phi_lockin(k, -1), self%series_lockin(k, -1), &
+         self%j_int(k, 1) = cached_segment(self%e_a(k)*pa1, self%e_b(k)*pb1, self%mu(k, 1), d, &
+                                           self%int_lockin(k, 1), self%exp_lockin(k, 1), self%series_lockin(k, 1), &
+                                           self%inv_mu(k, 1))
+         self%j_int(k, -1) = cached_segment(self%e_a(k)*conjg(pa1), self%e_b(k)*conjg(pb1), self%mu(k, -1), d, &
+                                            self%int_lockin(k, -1), self%exp_lockin(k, -1), self%series_lockin(k, -1), &
                                             self%inv_mu(k, -1))
-         if (lockin) self%j_int(k, 0) = cached_segment(self%e_a(k), self%e_b(k), self%mu(k, 0), hc, d, &
-                                                       self%phi_lockin(k, 0), self%series_lockin(k, 0), &
-                                                       self%inv_mu(k, 0))
+         if (lockin) self%j_int(k, 0) = cached_segment(self%e_a(k), self%e_b(k), self%mu(k, 0), d, &
+                                                       self%int_lockin(k, 0), self%exp_lockin(k, 0), &
+                                                       self%series_lockin(k, 0), self%inv_mu(k, 0))
       end do
 
       if (lockin) then
@@ -564,8 +575,8 @@ contains
                pb = pb_next
                pa_next = pa*pa1
                pb_next = pb*pb1
-               k_next = cached_segment(pa_next, pb_next, (m + 1)*i_omega, hc, d, self%phi_drive(m + 1), &
-                                       self%series_drive(m + 1))
+               k_next = cached_segment(pa_next, pb_next, (m + 1)*i_omega, d, self%int_drive(m + 1), &
+                                       self%exp_drive(m + 1), self%series_drive(m + 1))
             end if
             x = 0.5_dp*(self%tip_part*k_next + conjg(self%tip_part)*k_prev) + (self%delta_hat + flight%held_tip)*k_now
             do k = 1, nt
@@ -573,10 +584,10 @@ contains
                   jp = self%j_int(k, 1)
                   jm = self%j_int(k, -1)
                else
-                  jp = cached_segment(self%e_a(k)*pa, self%e_b(k)*pb, self%lambda(k) + m*i_omega, hc, d, &
-                                      self%phi_lockin(k, m), self%series_lockin(k, m))
-                  jm = cached_segment(self%e_a(k)*conjg(pa), self%e_b(k)*conjg(pb), self%lambda(k) - m*i_omega, hc, &
-                                      d, self%phi_lockin(k, -m), self%series_lockin(k, -m))
+                  jp = cached_segment(self%e_a(k)*pa, self%e_b(k)*pb, self%lambda(k) + m*i_omega, d, &
+                                      self%int_lockin(k, m), self%exp_lockin(k, m), self%series_lockin(k, m))
+                  jm = cached_segment(self%e_a(k)*conjg(pa), self%e_b(k)*conjg(pb), self%lambda(k) - m*i_omega, d, &
+                                      self%int_lockin(k, -m), self%exp_lockin(k, -m), self%series_lockin(k, -m))
                end if
                x = x + (0.5_dp*self%mult(k))*(flight%tip_weight(k)*jp + conjg(flight%tip_weight(k)*jm))
             end do
@@ -607,11 +618,12 @@ contains
             zk = flight%z(k)
             x = x + self%mult(k)*zk*(self%part_plus(k)*self%j_int(k, 1) + self%part_minus(k)*self%j_int(k, -1))
             do l = k, nt
-               l_int = cached_segment(self%e_a(k)*self%e_a(l), self%e_b(k)*self%e_b(l), self%mu_pair(k, l), hc, d, &
-                                      self%phi_pair(k, l), self%series_pair(k, l), self%inv_pair(k, l))
+               l_int = cached_segment(self%e_a(k)*self%e_a(l), self%e_b(k)*self%e_b(l), self%mu_pair(k, l), d, &
+                                      self%int_pair(k, l), self%exp_pair(k, l), self%series_pair(k, l), &
+                                      self%inv_pair(k, l))
                m_int = cached_segment(self%e_a(k)*conjg(self%e_a(l)), self%e_b(k)*conjg(self%e_b(l)), &
-                                      self%mu_herm(k, l), hc, d, self%phi_herm(k, l), self%series_herm(k, l), &
-                                      self%inv_herm(k, l))
+                                      self%mu_herm(k, l), d, self%int_herm(k, l), self%exp_herm(k, l), &
+                                      self%series_herm(k, l), self%inv_herm(k, l))
                x = x + (merge(0.5_dp, 1.0_dp, l == k)*self%mult(k)*self%mult(l)) &
                    *(zk*flight%z(l)*self%gram(k, l)*l_int + zk*conjg(flight%z(l))*self%herm(k, l)*m_int)
             end do
@@ -882,6 +894,8 @@ contains
       complex(dp) :: x, e, le, l2e
       real(dp) :: decay, f, d1, d2, d3
       integer :: k
+      logical :: with_third
+      with_third = present(third)
       if (self%general) then
          f = self%c_const
          d1 = 0
@@ -915,7 +929,7 @@ contains
          f = f + real(e, dp)
          d1 = d1 + real(le, dp)
          d2 = d2 + real(l2e, dp)
-         d3 = d3 + real(self%lambda(k)*l2e, dp)
+         if (with_third) d3 = d3 + real(self%lambda(k)*l2e, dp)
          point%size = point%size + self%coef_size(k)*decay
          if (self%decay_rate(k) <= 0) then
             point%decaying = point%decaying + self%coef_size(k)*self%rate4(k)*decay
@@ -1094,8 +1108,8 @@ contains
       !> half the headroom G = best - f (h^4 <= 192 G/B), or half its rise G' h t at t = 1/3
       !> (h^3 <= 81 G'/B), or, where G is convex and not falling (past a maximum), a quarter of
       !> its curvature (h^2 <= 6 G''/B); at least the flight's smallest scan step.  A step that
-      !> reaches s_hi anyway (the scan then takes the rest whole) is s_hi - s, found without the
-      !> cube root.
+      !> reaches s_hi anyway (the scan then takes the rest whole) is s_hi - s, found without a
+      !> root.
       real(dp) function step(point)
          type(scan_point_t), intent(in) :: point
          real(dp) :: g, b, rest
@@ -1106,11 +1120,11 @@ contains
             return
          end if
          g = max(best - point%f, 0.0_dp) + tolerance(point, point)
-         step = sqrt(sqrt(192*g/b))
-         if (step >= rest .or. 81*abs(point%d1)/b >= rest**3) then
-            step = max(step, rest)
+         if (192*g >= b*rest**4 .or. 81*abs(point%d1) >= b*rest**3) then
+            step = rest
             return
          end if
+         step = sqrt(sqrt(192*g/b))
          step = max(step, (81*abs(point%d1)/b)**(1.0_dp/3))
          if (-point%d1 >= 0 .and. -point%d2 > 0) step = max(step, sqrt(6*(-point%d2)/b))
          step = max(step, flight%min_step)

@@ -286,6 +286,35 @@ def test_flight_exact_integrates_the_same_noise_as_dop853(scene):
     assert np.abs(exact.vt - ref.vt).max() < 1e-7 * np.abs(ref.vt).max()
 
 
+#: The physics a study combines with noise: (input, overrides); Q lowered where the ring-up
+#: would outlast the run.
+COMPOSED = {
+    "jkr": ("tapping_polystyrene", {"model": {"contact_law": "jkr"},
+                                    "physical": {"tip_sample_distance": 12e-9, "quality_factor": 30.0}}),
+    "meniscus": ("humid_air", {"physical": {"tip_sample_distance": 12e-9, "quality_factor": 30.0}}),
+    "viscoelastic": ("sls_polystyrene", {}),
+    "two_tones": ("bimodal/tapping", {"scene": {"thermal_energy": 1e-9}}),
+    "water": ("thermal_water", {"physical": {"drive_amplitude": 2e-9, "tip_sample_distance": 8e-9}}),
+    "double_layer": ("dlvo_water", {}),
+}
+
+
+@pytest.mark.parametrize("case", sorted(COMPOSED))
+def test_flight_exact_with_noise_composes_with_the_physics(case):
+    """JKR's neck, a meniscus, a viscoelastic sample, two tones, a liquid, a double layer: with
+    noise, flight_exact (its flights cut on the grid, the switches above the surface by its pair)
+    and dop853 integrate one realisation, to their tolerances, over 60 drive periods."""
+    name, overrides = COMPOSED[case]
+    config = tmafm.Config(name, **_merge(overrides, solver={"thermal_noise": 1, "noise_seed": 4,
+                                                             "rtol": 1e-11, "atol": 1e-16}))
+    period = 2 * np.pi / config.scene["omega"]
+    runs = {m: tmafm.run(config, solver={"method": m, "tau_end": 60 * period}, output={"sample_dtau": period / 50})
+            for m in ("dop853", "flight_exact")}
+    ref, got = runs["dop853"], runs["flight_exact"]
+    assert ref.contact.sum() > 60 and np.array_equal(ref.contact, got.contact)
+    assert np.abs(got.a - ref.a).max() < 1e-7 * np.abs(ref.a).max()
+
+
 def test_noisy_observables_are_the_same_on_flight_exact_and_dop853():
     """tmafm.observe with noise: flight_exact's closed-form lock-in, energies and located extrema
     under the held forces equal dop853's dense-output ones, period by period, in a tapping run

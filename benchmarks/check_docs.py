@@ -679,6 +679,7 @@ def check_performance(ck, group="performance"):
     _off_cost_rows(ck, group, "off_cost_capillary.json")
     _off_cost_rows(ck, group, "off_cost_window.json")
     _off_cost_rows(ck, group, "off_cost_thermal.json")
+    _off_cost_rows(ck, group, "off_cost_noise_flight.json")
     check_compose_cost(ck, group)
     check_longrange(ck, group)
     check_etd_flight(ck, group)

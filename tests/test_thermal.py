@@ -183,7 +183,8 @@ def test_the_deflection_spectrum_is_the_damped_oscillators_lorentzian(base, peri
 
 # --- the flight step in distribution ----------------------------------------------------------
 
-def test_the_flight_transition_has_the_closed_form_mean_and_covariance():
+@pytest.mark.parametrize("method", ["dop853", "flight_exact"])
+def test_the_flight_transition_has_the_closed_form_mean_and_covariance(method):
     """Over s = 16 noise intervals the state's transition y(t) -> y(t + s) is Gaussian with mean
     Phi(s) y(t) and the zero-order hold's covariance (a sum over its intervals), which is the
     Ornstein-Uhlenbeck closed form Sigma_inf - Phi Sigma_inf Phi^T to O(Delta^2).  Residuals of
@@ -192,7 +193,7 @@ def test_the_flight_transition_has_the_closed_form_mean_and_covariance():
     s = 16 * step
     config = tmafm.Config(_merge(FREE, model={"n_modes": 1},
                                  solver={"tau_end": windows * s, "noise_step": step, "rtol": 1e-10,
-                                         "atol": 1e-16},
+                                         "atol": 1e-16, "method": method},
                                  output={"sample_dtau": s}, initial={"a0": [1e-4]}))
     mass, damping, stiffness, _ = _free_matrices(config)
     f, g = _system(mass, damping, stiffness)
@@ -218,6 +219,139 @@ def test_the_flight_transition_has_the_closed_form_mean_and_covariance():
         assert abs(cov[i, i] / zoh[i, i] - 1) < 4 * np.sqrt(2 / m)
     corr, corr_expected = cov[0, 1] / np.sqrt(cov[0, 0] * cov[1, 1]), zoh[0, 1] / np.sqrt(zoh[0, 0] * zoh[1, 1])
     assert abs(corr - corr_expected) < 4 * (1 - corr_expected**2) / np.sqrt(m)
+
+
+def test_flight_exact_steps_the_held_process_exactly():
+    """flight_exact's flight is the closed form under each interval's held force, so between two
+    grid points the state moves by the hold's exact transition, y_{k+1} = A y_k + B xi_k
+    (A = e^{F Delta}, B = int_0^Delta e^{Fu} du G, from scipy): with two modes the 2N = 4
+    components of y_{k+1} - A y_k are fixed by the N = 2 forces xi_k, and what is left off the
+    range of B is round-off.  dop853 leaves its truncation error there.  The forces xi_k so
+    recovered are independent N(0, 2 theta C/Delta), the fluctuation-dissipation amplitude."""
+    theta, step, intervals = 1e-8, 0.125, 4000
+    config = tmafm.Config(_merge(FREE, model={"n_modes": 2}, scene={"alpha3": 0.5},
+                                 solver={"method": "flight_exact", "tau_end": intervals * step,
+                                         "noise_step": step, "rtol": 1e-6, "atol": 1e-12},
+                                 output={"sample_dtau": step}, initial={"a0": [1e-4, 0.0]}))
+    mass, damping, stiffness, _ = _free_matrices(config)
+    f, g = _system(mass, damping, stiffness)
+    a, b = _zoh_step(f, g, step)
+    exact = config.run()
+    loose = tmafm.run(config, solver={"method": "dop853"})
+
+    def split(run):
+        y = np.column_stack([run.a, run.adot])
+        jump = y[1:] - y[:-1] @ a.T
+        xi, *_ = np.linalg.lstsq(b, jump.T, rcond=None)
+        off = jump - (b @ xi).T
+        return xi.T, np.abs(off).max() / np.abs(jump).max()
+
+    xi, off = split(exact)
+    _, off_loose = split(loose)
+    # Round-off of a flight (a few ulps of the state, and of expm in A, B) against the pair's
+    # truncation error at rtol 1e-6.
+    assert off < 1e-11 and off_loose > 1e3 * off, (off, off_loose)
+    variance = 2 * theta * np.diag(damping) / step
+    m = xi.shape[0]
+    for j in range(2):
+        assert abs(np.mean(xi[:, j] ** 2) / variance[j] - 1) < 4 * np.sqrt(2 / m)
+        lag = np.mean(xi[1:, j] * xi[:-1, j]) / variance[j]
+        assert abs(lag) < 4 / np.sqrt(m)
+    assert abs(np.mean(xi[:, 0] * xi[:, 1]) / np.sqrt(variance.prod())) < 4 / np.sqrt(m)
+
+
+@pytest.mark.parametrize("scene", ["free", "tapping", "vdw"])
+def test_flight_exact_integrates_the_same_noise_as_dop853(scene):
+    """One seed, one realisation: flight_exact (exact flights, the contacts by its dop853 pair;
+    with vdW the Lawson flight) and dop853 differ by their tolerances alone, here rtol 1e-11."""
+    groups = {
+        "free": _merge(FREE, model={"n_modes": 2}, solver={"tau_end": 40.0}),
+        "tapping": {"model": {"n_modes": 2, "contact_law": "dmt", "convention": "consistent"},
+                    "scene": {"delta_hat": 5e-4, "thermal_energy": 1e-11},
+                    "solver": {"tau_end": 30.0, "thermal_noise": 1, "noise_seed": 5}},
+        "vdw": _merge(AIR, model={"contact_law": "dmt_vdw"},
+                      physical={"hamaker": 1e-19, "intermolecular_distance": 0.165e-9,
+                                "tip_sample_distance": 2e-9, "drive_amplitude": 0.3e-9,
+                                "youngs_modulus_sample": 1.2e9, "poisson_ratio_sample": 0.3},
+                      solver={"tau_end": 60.0}),
+    }[scene]
+    tight = {"rtol": 1e-11, "atol": 1e-16}
+    base = _merge(groups, solver=tight, output={"sample_dtau": 0.05})
+    ref = tmafm.run(base, solver={"method": "dop853"})
+    exact = tmafm.run(base, solver={"method": "flight_exact"})
+    if scene != "free":
+        assert ref.contact.any() and np.array_equal(ref.contact, exact.contact)
+    size = np.abs(ref.a).max(axis=0)
+    assert np.all(np.abs(exact.a - ref.a).max(axis=0) < 1e-7 * size)
+    assert np.abs(exact.vt - ref.vt).max() < 1e-7 * np.abs(ref.vt).max()
+
+
+#: The physics a study combines with noise: (input, overrides); Q lowered where the ring-up
+#: would outlast the run.
+COMPOSED = {
+    "jkr": ("tapping_polystyrene", {"model": {"contact_law": "jkr"},
+                                    "physical": {"tip_sample_distance": 12e-9, "quality_factor": 30.0}}),
+    "meniscus": ("humid_air", {"physical": {"tip_sample_distance": 12e-9, "quality_factor": 30.0}}),
+    "viscoelastic": ("sls_polystyrene", {}),
+    "two_tones": ("bimodal/tapping", {"scene": {"thermal_energy": 1e-9}}),
+    "water": ("thermal_water", {"physical": {"drive_amplitude": 2e-9, "tip_sample_distance": 8e-9}}),
+    "double_layer": ("dlvo_water", {}),
+}
+
+
+@pytest.mark.parametrize("case", sorted(COMPOSED))
+def test_flight_exact_with_noise_composes_with_the_physics(case):
+    """JKR's neck, a meniscus, a viscoelastic sample, two tones, a liquid, a double layer: with
+    noise, flight_exact (its flights cut on the grid, the switches above the surface by its pair)
+    and dop853 integrate one realisation, to their tolerances, over 60 drive periods."""
+    name, overrides = COMPOSED[case]
+    config = tmafm.Config(name, **_merge(overrides, solver={"thermal_noise": 1, "noise_seed": 4,
+                                                             "rtol": 1e-11, "atol": 1e-16}))
+    period = 2 * np.pi / config.scene["omega"]
+    runs = {m: tmafm.run(config, solver={"method": m, "tau_end": 60 * period}, output={"sample_dtau": period / 50})
+            for m in ("dop853", "flight_exact")}
+    ref, got = runs["dop853"], runs["flight_exact"]
+    assert ref.contact.sum() > 60 and np.array_equal(ref.contact, got.contact)
+    assert np.abs(got.a - ref.a).max() < 1e-7 * np.abs(ref.a).max()
+
+
+def test_noisy_observables_are_the_same_on_flight_exact_and_dop853():
+    """tmafm.observe with noise: flight_exact's closed-form lock-in, energies and located extrema
+    under the held forces equal dop853's dense-output ones, period by period, in a tapping run
+    (three modes, the DMT law with the paper's contact damping)."""
+    base = {"model": {"n_modes": 3, "contact_law": "dmt", "convention": "consistent"},
+            "scene": {"delta_hat": 5e-4, "thermal_energy": 1e-11, "alpha4": 1e-3},
+            "solver": {"thermal_noise": 1, "noise_seed": 7, "rtol": 1e-11, "atol": 1e-16}}
+    obs = {m: tmafm.observe(base, solver={"method": m}, max_periods=12, stop_at_steady=False)
+           for m in ("dop853", "flight_exact")}
+    quiet = tmafm.observe({"model": base["model"], "scene": {"delta_hat": 5e-4, "alpha4": 1e-3},
+                           "solver": {"rtol": 1e-11, "atol": 1e-16}}, max_periods=12, stop_at_steady=False)
+    assert obs["dop853"].per_period["peak_force"].min() > 0
+    # The noise moves each column by far more than the tolerance below (1e-3 of its scale and up).
+    for key in ("amplitude", "min_gap", "modal_max_free"):
+        ref = obs["dop853"].per_period[key]
+        assert np.abs(quiet.per_period[key] - ref).max() > 1e-4 * np.abs(ref).max()
+    for key in ("amplitude", "phase", "mean_deflection", "min_gap", "max_gap", "peak_force",
+                "dissipated_energy", "dissipated_contact_damping", "drive_work", "contact_time",
+                "harmonic_amplitude", "modal_min_free", "modal_max_free"):
+        ref = np.asarray(obs["dop853"].per_period[key], dtype=float)
+        got = np.asarray(obs["flight_exact"].per_period[key], dtype=float)
+        # rtol 1e-11 over 12 periods: a global error well below 1e-8 of the scale.
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-8 * np.abs(ref).max(), err_msg=key)
+
+
+def test_the_period_stepper_steps_the_noise_of_flight_exact():
+    """A Z schedule with noise: each period its own seed, the same realisation on flight_exact and
+    dop853 (equal to tolerance), and not the noiseless schedule."""
+    base = _merge(_input("tapping_polystyrene"), solver={"thermal_noise": 1, "noise_seed": 11,
+                                                         "rtol": 1e-11, "atol": 1e-16})
+    z = np.linspace(22e-9, 14e-9, 30)
+    runs = {m: tmafm.instrument.z_schedule(base, z, solver={"method": m}) for m in ("dop853", "flight_exact")}
+    quiet = tmafm.instrument.z_schedule(_merge(_input("tapping_polystyrene"),
+                                               solver={"rtol": 1e-11, "atol": 1e-16}), z)
+    ref, got = runs["dop853"].values["amplitude"], runs["flight_exact"].values["amplitude"]
+    np.testing.assert_allclose(got, ref, rtol=1e-6, atol=0)
+    assert np.abs(got - quiet.values["amplitude"]).max() > 1e-4
 
 
 # --- the realisation ------------------------------------------------------------------------------

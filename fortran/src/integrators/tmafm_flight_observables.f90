@@ -16,9 +16,14 @@
 !> conj lambda_k with a small damping) cost no accuracy.  The exponents mu and 1/mu, the Gram sums V'_k.V'_l and
 !> V'_k.conj(V'_l) of the velocity rows, and their products with the drive and the particular
 !> solution depend only on the model: they are formed once per run, in init (the exponents of
-!> the harmonics past the first as they are needed: O(n_terms) memory for any harmonics).  An
-!> interval costs 2 n_terms complex exp, (2 harmonics + 1) n_terms exponential integrals for
-!> the lock-in sums (2 without them) and 2 n_terms^2 for |a'|^2.
+!> the harmonics past the first as they are needed).  h phi1(mu h) and e^{mu h} of every
+!> exponent that takes the series are kept for the last interval length h (O(n_terms H +
+!> n_terms^2) numbers): a flight cut at the noise grid (docs/model.md, section 21) is pieces of
+!> one length to the rounding of their ends, and a piece within 2^-27 of it takes them, to first
+!> order in the difference (cached_segment), so a piece's integral is two complex products, not
+!> 16 series terms.  An interval costs one exp and sincos per term and end (shared with the
+!> scans), (2 harmonics + 1) n_terms exponential integrals for the lock-in sums (2 without them)
+!> and n_terms (n_terms + 1) for |a'|^2.
 !>
 !> The extrema: a channel f (mode j's a_j, or V_T) is Re(c_p e^{i Omega tau}) + c_0 + sum_k
 !> Re(c_k e^{lambda_k s}), with f', f'', f''' in closed form and |f''''| <= Omega^4 |c_p| +
@@ -32,7 +37,9 @@
 !> the maximum is never below the value of f at any point of the interval, to round-off.  The
 !> scan step is the largest for which the error bound is half the headroom below the running
 !> maximum (or the rise of the headroom, or its curvature), so points far below it are passed in
-!> large steps.  The same scan started at a limit finds where some |a_j| of a flight exceeds it
+!> large steps.  The factors of an interval's ends (e^{lambda_k s}, e^{i Omega tau}) are taken
+!> once for its integrals and all its 2 + 2N scans (basis_t, keyed by the flight's start and s).
+!> The same scan started at a limit finds where some |a_j| of a flight exceeds it
 !> (exceeds: &solver blowup_limit), after an envelope sum_k |c_k| + |c_p| that clears most
 !> flights at once.
 module tmafm_flight_observables
@@ -474,22 +481,24 @@ contains
    !> the difference form where segment takes it, else fa int_0^hc e^{mu s} ds (d = 0) or, to
    !> first order in d, fa (int_0^hc e^{mu s} ds + d e^{mu hc}): the rest, d^2 |mu|
    !> e^{|Re mu h|}/2, is below 2^-55 of |fa| hc for |d| <= reuse_within hc and |mu hc| < 1/2.
-   pure complex(dp) function cached_segment(fa, fb, mu, d, unit_integral, growth, series, inv_mu)
-      complex(dp), intent(in) :: fa, fb, mu
+   pure complex(dp) function cached_segment(ea, pa, eb, pb, mu, d, unit_integral, growth, series, inv_mu)
+      !> fa = ea pa and fb = eb pb (fb only for the difference form).
+      complex(dp), intent(in) :: ea, pa, eb, pb
+      complex(dp), intent(in) :: mu
       real(dp), intent(in) :: d
       complex(dp), intent(in) :: unit_integral, growth
       logical, intent(in) :: series
       complex(dp), intent(in), optional :: inv_mu
       if (.not. series) then
          if (present(inv_mu)) then
-            cached_segment = (fb - fa)*inv_mu
+            cached_segment = (eb*pb - ea*pa)*inv_mu
          else
-            cached_segment = (fb - fa)/mu
+            cached_segment = (eb*pb - ea*pa)/mu
          end if
       else if (d == 0) then
-         cached_segment = fa*unit_integral
+         cached_segment = (ea*pa)*unit_integral
       else
-         cached_segment = fa*(unit_integral + d*growth)
+         cached_segment = (ea*pa)*(unit_integral + d*growth)
       end if
    end function cached_segment
 
@@ -509,6 +518,7 @@ contains
       real(dp) :: h, sa, sb, sq, d
       complex(dp) :: x, zk, l_int, m_int, pa1, pb1, pa, pb, pa_next, pb_next, k_prev, k_now, k_next, k1, k2
       complex(dp) :: i_omega, jp, jm
+      complex(dp), parameter :: one = (1.0_dp, 0.0_dp)
       integer :: k, l, m, top, nt
 
       if (.not. (lockin .or. energy)) return
@@ -540,20 +550,20 @@ contains
       pb1 = self%ends(2)%drive
       pa_next = pa1*pa1
       pb_next = pb1*pb1
-      k1 = cached_segment(pa1, pb1, i_omega, d, self%int_drive(1), self%exp_drive(1), self%series_drive(1), &
+      k1 = cached_segment(one, pa1, one, pb1, i_omega, d, self%int_drive(1), self%exp_drive(1), self%series_drive(1), &
                           self%inv_turn(1))
-      k2 = cached_segment(pa_next, pb_next, 2*i_omega, d, self%int_drive(2), self%exp_drive(2), self%series_drive(2), &
-                          self%inv_turn(2))
+      k2 = cached_segment(one, pa_next, one, pb_next, 2*i_omega, d, self%int_drive(2), self%exp_drive(2), &
+                          self%series_drive(2), self%inv_turn(2))
       do k = 1, nt
          self%e_a(k) = self%ends(1)%decay(k)*self%ends(1)%turn(k)
          self%e_b(k) = self%ends(2)%decay(k)*self%ends(2)%turn(k)
-         self%j_int(k, 1) = cached_segment(self%e_a(k)*pa1, self%e_b(k)*pb1, self%mu(k, 1), d, &
+         self%j_int(k, 1) = cached_segment(self%e_a(k), pa1, self%e_b(k), pb1, self%mu(k, 1), d, &
                                            self%int_lockin(k, 1), self%exp_lockin(k, 1), self%series_lockin(k, 1), &
                                            self%inv_mu(k, 1))
-         self%j_int(k, -1) = cached_segment(self%e_a(k)*conjg(pa1), self%e_b(k)*conjg(pb1), self%mu(k, -1), d, &
+         self%j_int(k, -1) = cached_segment(self%e_a(k), conjg(pa1), self%e_b(k), conjg(pb1), self%mu(k, -1), d, &
                                             self%int_lockin(k, -1), self%exp_lockin(k, -1), self%series_lockin(k, -1), &
                                             self%inv_mu(k, -1))
-         if (lockin) self%j_int(k, 0) = cached_segment(self%e_a(k), self%e_b(k), self%mu(k, 0), d, &
+         if (lockin) self%j_int(k, 0) = cached_segment(self%e_a(k), one, self%e_b(k), one, self%mu(k, 0), d, &
                                                        self%int_lockin(k, 0), self%exp_lockin(k, 0), &
                                                        self%series_lockin(k, 0), self%inv_mu(k, 0))
       end do
@@ -575,7 +585,7 @@ contains
                pb = pb_next
                pa_next = pa*pa1
                pb_next = pb*pb1
-               k_next = cached_segment(pa_next, pb_next, (m + 1)*i_omega, d, self%int_drive(m + 1), &
+               k_next = cached_segment(one, pa_next, one, pb_next, (m + 1)*i_omega, d, self%int_drive(m + 1), &
                                        self%exp_drive(m + 1), self%series_drive(m + 1))
             end if
             x = 0.5_dp*(self%tip_part*k_next + conjg(self%tip_part)*k_prev) + (self%delta_hat + flight%held_tip)*k_now
@@ -584,9 +594,9 @@ contains
                   jp = self%j_int(k, 1)
                   jm = self%j_int(k, -1)
                else
-                  jp = cached_segment(self%e_a(k)*pa, self%e_b(k)*pb, self%lambda(k) + m*i_omega, d, &
+                  jp = cached_segment(self%e_a(k), pa, self%e_b(k), pb, self%lambda(k) + m*i_omega, d, &
                                       self%int_lockin(k, m), self%exp_lockin(k, m), self%series_lockin(k, m))
-                  jm = cached_segment(self%e_a(k)*conjg(pa), self%e_b(k)*conjg(pb), self%lambda(k) - m*i_omega, d, &
+                  jm = cached_segment(self%e_a(k), conjg(pa), self%e_b(k), conjg(pb), self%lambda(k) - m*i_omega, d, &
                                       self%int_lockin(k, -m), self%exp_lockin(k, -m), self%series_lockin(k, -m))
                end if
                x = x + (0.5_dp*self%mult(k))*(flight%tip_weight(k)*jp + conjg(flight%tip_weight(k)*jm))
@@ -618,10 +628,10 @@ contains
             zk = flight%z(k)
             x = x + self%mult(k)*zk*(self%part_plus(k)*self%j_int(k, 1) + self%part_minus(k)*self%j_int(k, -1))
             do l = k, nt
-               l_int = cached_segment(self%e_a(k)*self%e_a(l), self%e_b(k)*self%e_b(l), self%mu_pair(k, l), d, &
+               l_int = cached_segment(self%e_a(k), self%e_a(l), self%e_b(k), self%e_b(l), self%mu_pair(k, l), d, &
                                       self%int_pair(k, l), self%exp_pair(k, l), self%series_pair(k, l), &
                                       self%inv_pair(k, l))
-               m_int = cached_segment(self%e_a(k)*conjg(self%e_a(l)), self%e_b(k)*conjg(self%e_b(l)), &
+               m_int = cached_segment(self%e_a(k), conjg(self%e_a(l)), self%e_b(k), conjg(self%e_b(l)), &
                                       self%mu_herm(k, l), d, self%int_herm(k, l), self%exp_herm(k, l), &
                                       self%series_herm(k, l), self%inv_herm(k, l))
                x = x + (merge(0.5_dp, 1.0_dp, l == k)*self%mult(k)*self%mult(l)) &
@@ -1017,6 +1027,8 @@ contains
       type(bracketed_root_t) :: root
       real(dp) :: h, bound, radius, third, x, width
       integer :: top, depth, first_points
+      ! The interval on top of the stack was tested already (and not cleared).
+      logical :: tested
 
       first_points = self%scan_points
       call evaluate_end(self, flight, s_lo, 1, a_point)
@@ -1032,9 +1044,21 @@ contains
             call evaluate(self, flight, a_point%s + h, b_point)
             call raise(b_point)
          end if
-         ! Classify [a_point, b_point], and the parts it splits into, until none is left.
+         ! The stack's first test, without the stack (a short piece's interval is mostly cleared).
+         width = b_point%s - a_point%s
+         if (.not. (width > 0)) then
+            a_point = b_point
+            cycle
+         end if
+         bound = (a_point%decaying + b_point%growing)*(1 + 16*epsilon(1.0_dp))
+         if (cleared(a_point, b_point, width, bound, best + tolerance(a_point, b_point))) then
+            a_point = b_point
+            cycle
+         end if
+         ! Classify [a_point, b_point] (not cleared), and the parts it splits into, until none is left.
          top = 1
          self%stack(1) = scan_interval_t(a_point, b_point, 0)
+         tested = .true.
          do while (top > 0)
             left = self%stack(top)%left
             right = self%stack(top)%right
@@ -1043,7 +1067,11 @@ contains
             width = right%s - left%s
             if (.not. (width > 0)) cycle
             bound = (left%decaying + right%growing)*(1 + 16*epsilon(1.0_dp))
-            if (cleared(left, right, width, bound, best + tolerance(left, right))) cycle
+            if (tested) then
+               tested = .false.
+            else if (cleared(left, right, width, bound, best + tolerance(left, right))) then
+               cycle
+            end if
             if (depth >= max_depth .or. top + 2 > stack_size .or. &
                 self%scan_points - first_points > max_scan_points .or. &
                 width <= 4*epsilon(1.0_dp)*(abs(flight%tau0) + abs(right%s))) then

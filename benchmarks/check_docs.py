@@ -683,6 +683,7 @@ def check_performance(ck, group="performance"):
     check_compose_cost(ck, group)
     check_longrange(ck, group)
     check_etd_flight(ck, group)
+    check_observer_pieces(ck, group)
     _inventory(ck, group, doc)
 
 
@@ -1211,6 +1212,34 @@ def check_etd_flight(ck, group="performance"):
     ck.text(group, doc, "8 tapping flights at Z = {} nm", [f"{regimes['tapping_12nm']['z_nm']:.0f}"], sec)
     to_dmt = [e["ratio_to_dmt_flight_exact"] for e in load(result_path("longrange_flight.json"))["at_error"].values()]
     ck.text(group, doc, "the vdW curve to fall from {}× its DMT twin", [span(to_dmt, lambda x: f"{x:.2f}")], sec)
+
+
+def check_observer_pieces(ck, group="performance"):
+    """docs/performance.md's observer on the noise grid's flight pieces against
+    benchmarks/results/observer_pieces.json (`python benchmarks/observer_pieces.py --base 4e74856
+    --head 009680e --instructions`): the table's instructions, changes and CPU ratios, and the
+    ratios of flight_exact's noisy observe to dop853's."""
+    doc, sec = "docs/performance.md", "Observed flights on the noise grid"
+    report = load(result_path("observer_pieces.json"))
+    cases = report["cases"]
+    for name, label in (("noisy_flight_exact", "noisy, `flight_exact`, 400 periods"),
+                        ("noisy_dop853", "noisy, `dop853`, 400 periods"),
+                        ("quiet_polystyrene", "no noise, `flight_exact`, 4000 periods"),
+                        ("quiet_fig2_n3", "`fig2_n3`, `flight_exact`, 1000 periods")):
+        row = cases[name]
+        change = 100 * (row["instructions_head_over_base"] - 1)
+        sign = "+" if change >= 0 else "\u2212"
+        ck.text(group, doc, f"| {label} | {{}} | {{}} | {sign}{{}} % | {{}} |",
+                [f"{row['base']['instructions']:,}", f"{row['head']['instructions']:,}", f"{abs(change):.2f}",
+                 f"{row['cpu_head_over_base']:.2f}"], sec)
+    cpu = report["flight_exact_over_dop853_noisy"]
+
+    def ins(build):
+        return cases["noisy_flight_exact"][build]["instructions"] / cases["noisy_dop853"][build]["instructions"]
+
+    ck.text(group, doc, "took {}× `dop853`'s CPU time on main and takes {}× now ({}× and {}× its instructions)",
+            [f"{cpu['base']:.2f}", f"{cpu['head']:.2f}", f"{ins('base'):.2f}", f"{ins('head'):.2f}"], sec)
+    ck.text(group, doc, "the least of {} interleaved runs", [report["repeats"]], sec)
 
 
 def check_continuation(ck, group="continuation"):

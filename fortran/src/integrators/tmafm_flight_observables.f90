@@ -130,7 +130,7 @@ module tmafm_flight_observables
       complex(dp), allocatable :: coef(:)
       real(dp), allocatable :: coef_size(:), z_size(:)
       !> The integrals' cache: the interval length cached_h it holds (0: none), for the groups and
-      !> the harmonics it was taken for; per exponent mu whether segment takes the series, and
+      !> the harmonics it was taken for; per exponent mu whether the integral takes the series, and
       !> then int_0^h e^{mu s} ds = h phi1(mu h) (int_*) and e^{mu h} (exp_*): the lock-in
       !> exponents lambda_k + i m Omega (terms x -H..H), the drive's i m Omega (1..H+1), the pairs
       !> lambda_k + lambda_l and lambda_k + conj(lambda_l).
@@ -142,6 +142,11 @@ module tmafm_flight_observables
       logical, allocatable :: series_lockin(:, :), series_drive(:), series_pair(:, :), series_herm(:, :)
       !> 1/(i Omega) and 1/(2 i Omega).
       complex(dp) :: inv_turn(2) = 0
+      !> The largest |j| of the exponents i j Omega (the drive's, 1..H+1; a general drive's,
+      !> -span..span: the harmonics m and each tone's h_k, and their sums and differences) and
+      !> lambda_k + i j Omega the cache holds; e^{i j Omega_0 tau} at an interval's ends (general).
+      integer :: span = 0
+      complex(dp), allocatable :: turn_a(:), turn_b(:)
       !> The factors of a scan's interior point (0) and of an interval's left (1) and right (2) end.
       type(basis_t) :: ends(0:2)
       !> |z_k| of the flight whose coefficients are z_seen (taken once per flight, not per channel),
@@ -219,16 +224,23 @@ contains
       self%z_seen = cmplx(ieee_value(1.0_dp, ieee_quiet_nan), 0.0_dp, dp)
       self%z_abs = 0
       self%tip_vector_size = abs(flight%tip_of_vector)
-      if (allocated(self%int_lockin)) deallocate (self%int_lockin, self%int_drive, self%int_pair, self%int_herm, &
-                                                  self%exp_lockin, self%exp_drive, self%exp_pair, self%exp_herm, &
-                                                  self%series_lockin, self%series_drive, self%series_pair, &
-                                                  self%series_herm)
-      allocate (self%int_lockin(nt, -self%harmonics:self%harmonics), self%int_drive(self%harmonics + 1), &
-                self%int_pair(nt, nt), self%int_herm(nt, nt), self%exp_lockin(nt, -self%harmonics:self%harmonics), &
-                self%exp_drive(self%harmonics + 1), self%exp_pair(nt, nt), self%exp_herm(nt, nt), &
-                source=(0.0_dp, 0.0_dp))
-      allocate (self%series_lockin(nt, -self%harmonics:self%harmonics), self%series_drive(self%harmonics + 1), &
-                self%series_pair(nt, nt), self%series_herm(nt, nt), source=.false.)
+      self%span = self%harmonics + 1
+      if (flight%general) then
+         associate (top_tone => maxval(model%drive%harmonic(1:model%drive%n_tones)))
+            self%span = max(self%harmonics, top_tone) + top_tone
+         end associate
+      end if
+      associate (j => self%span)
+         if (allocated(self%int_lockin)) deallocate (self%int_lockin, self%int_drive, self%int_pair, self%int_herm, &
+                                                     self%exp_lockin, self%exp_drive, self%exp_pair, self%exp_herm, &
+                                                     self%series_lockin, self%series_drive, self%series_pair, &
+                                                     self%series_herm, self%turn_a, self%turn_b)
+         allocate (self%int_lockin(nt, -j:j), self%int_drive(-j:j), self%int_pair(nt, nt), self%int_herm(nt, nt), &
+                   self%exp_lockin(nt, -j:j), self%exp_drive(-j:j), self%exp_pair(nt, nt), self%exp_herm(nt, nt), &
+                   self%turn_a(-j:j), self%turn_b(-j:j), source=(0.0_dp, 0.0_dp))
+         allocate (self%series_lockin(nt, -j:j), self%series_drive(-j:j), self%series_pair(nt, nt), &
+                   self%series_herm(nt, nt), source=.false.)
+      end associate
       self%cached_h = 0
       self%cached_top = -1
       do k = 0, 2
@@ -395,26 +407,6 @@ contains
       end if
    end function reciprocal
 
-   !> int over an interval of length h of e^{mu s}, from its values fa, fb at the ends:
-   !> (fb - fa)/mu (times inv_mu = 1/mu when given), or fa h phi1(mu h) (series) where |mu h| is
-   !> small.
-   pure complex(dp) function segment(fa, fb, mu, h, inv_mu)
-      complex(dp), intent(in) :: fa, fb, mu
-      real(dp), intent(in) :: h
-      complex(dp), intent(in), optional :: inv_mu
-      complex(dp) :: x
-      x = mu*h
-      if (abs(real(x, dp)) + abs(aimag(x)) >= series_below) then
-         if (present(inv_mu)) then
-            segment = (fb - fa)*inv_mu
-         else
-            segment = (fb - fa)/mu
-         end if
-      else
-         segment = fa*h*phi1(x)
-      end if
-   end function segment
-
    !> phi1(x) = (e^x - 1)/x by its series, for |Re x| + |Im x| < series_below.
    pure complex(dp) function phi1(x)
       complex(dp), intent(in) :: x
@@ -426,7 +418,7 @@ contains
       end do
    end function phi1
 
-   !> Fill the integrals' cache for the interval length h: per exponent mu whether segment
+   !> Fill the integrals' cache for the interval length h: per exponent mu whether the integral
    !> takes the series for mu h, and where it does h phi1(mu h) and e^{mu h} = 1 + mu h phi1(mu h)
    !> (the exponents as observables_integrate forms them).
    pure subroutine fill_cache(self, h, lockin, energy, top)
@@ -441,20 +433,33 @@ contains
       self%cached_energy = energy
       self%cached_top = top
       i_omega = cmplx(0, self%omega, dp)
-      do m = 1, max(top + 1, 2)
-         call take(m*i_omega, self%int_drive(m), self%exp_drive(m), self%series_drive(m))
-      end do
+      if (self%general) then
+         ! The exponents as integrate_general's k_int and j_of form them, every j of the span.
+         do m = -self%span, self%span
+            call take(cmplx(0.0_dp, m*self%omega, dp), self%int_drive(m), self%exp_drive(m), self%series_drive(m))
+            do k = 1, self%n_terms
+               call take(self%lambda(k) + cmplx(0.0_dp, m*self%omega, dp), self%int_lockin(k, m), &
+                         self%exp_lockin(k, m), self%series_lockin(k, m))
+            end do
+         end do
+      else
+         do m = 1, max(top + 1, 2)
+            call take(m*i_omega, self%int_drive(m), self%exp_drive(m), self%series_drive(m))
+         end do
+         do k = 1, self%n_terms
+            do m = -1, 1
+               call take(self%mu(k, m), self%int_lockin(k, m), self%exp_lockin(k, m), self%series_lockin(k, m))
+            end do
+            do m = 2, top
+               call take(self%lambda(k) + m*i_omega, self%int_lockin(k, m), self%exp_lockin(k, m), &
+                         self%series_lockin(k, m))
+               call take(self%lambda(k) - m*i_omega, self%int_lockin(k, -m), self%exp_lockin(k, -m), &
+                         self%series_lockin(k, -m))
+            end do
+         end do
+      end if
+      if (.not. energy) return
       do k = 1, self%n_terms
-         do m = -1, 1
-            call take(self%mu(k, m), self%int_lockin(k, m), self%exp_lockin(k, m), self%series_lockin(k, m))
-         end do
-         do m = 2, top
-            call take(self%lambda(k) + m*i_omega, self%int_lockin(k, m), self%exp_lockin(k, m), &
-                      self%series_lockin(k, m))
-            call take(self%lambda(k) - m*i_omega, self%int_lockin(k, -m), self%exp_lockin(k, -m), &
-                      self%series_lockin(k, -m))
-         end do
-         if (.not. energy) cycle
          do l = k, self%n_terms
             call take(self%mu_pair(k, l), self%int_pair(k, l), self%exp_pair(k, l), self%series_pair(k, l))
             call take(self%mu_herm(k, l), self%int_herm(k, l), self%exp_herm(k, l), self%series_herm(k, l))
@@ -477,8 +482,9 @@ contains
       end subroutine take
    end subroutine fill_cache
 
-   !> segment over an interval hc + d from the integrals' cache of the length hc (fill_cache):
-   !> the difference form where segment takes it, else fa int_0^hc e^{mu s} ds (d = 0) or, to
+   !> int over an interval hc + d of e^{mu s} from its values fa, fb at the ends, by the
+   !> integrals' cache of the length hc (fill_cache): (fb - fa)/mu (times inv_mu = 1/mu when
+   !> given) where |Re mu hc| + |Im mu hc| >= 1/2, else fa int_0^hc e^{mu s} ds (d = 0) or, to
    !> first order in d, fa (int_0^hc e^{mu s} ds + d e^{mu hc}): the rest, d^2 |mu|
    !> e^{|Re mu h|}/2, is below 2^-55 of |fa| hc for |d| <= reuse_within hc and |mu hc| < 1/2.
    pure complex(dp) function cached_segment(ea, pa, eb, pb, mu, d, unit_integral, growth, series, inv_mu)
@@ -647,7 +653,7 @@ contains
    !> observables_integrate for a general drive: the particular parts are one harmonic per tone
    !> (h_k Omega_0), so every integrand is still a short sum of e^{mu s}, with mu = lambda_k + i j
    !> Omega_0 for the integer j the products give (K(j) = int e^{i j Omega_0 tau} dtau, J(k, j) =
-   !> int e^{lambda_k s} e^{i j Omega_0 tau} dtau; segment's difference or series form).
+   !> int e^{lambda_k s} e^{i j Omega_0 tau} dtau; cached_segment).
    subroutine integrate_general(self, flight, tau_a, tau_b, lockin, energy, acc_sin, acc_cos, deflection, &
                                 drive, beam, tone_sin, tone_cos)
       type(flight_observables_t), intent(inout) :: self
@@ -656,20 +662,42 @@ contains
       logical, intent(in) :: lockin, energy
       real(dp), intent(inout) :: acc_sin(:), acc_cos(:), deflection, drive, beam
       real(dp), intent(inout), optional :: tone_sin(:), tone_cos(:)
-      real(dp) :: h, sa, sb, sq
-      complex(dp) :: x, w, zk, l_int, m_int
+      real(dp) :: h, sa, sb, sq, d
+      complex(dp) :: x, w, zk, l_int, m_int, base_a, base_b
+      complex(dp), parameter :: one = (1.0_dp, 0.0_dp)
       integer :: k, l, m, t, u, nt, top
 
       nt = self%n_terms
       h = tau_b - tau_a
       sa = tau_a - flight%tau0
       sb = tau_b - flight%tau0
+      top = 0
+      if (lockin) top = min(size(acc_sin), self%harmonics)
+      ! As observables_integrate: a piece as long as the last one takes the cache.
+      d = h - self%cached_h
+      if (.not. (abs(d) <= reuse_within*h .and. (lockin .eqv. self%cached_lockin) .and. &
+                 (energy .eqv. self%cached_energy) .and. top == self%cached_top)) then
+         call fill_cache(self, h, lockin, energy, top)
+         d = 0
+      end if
+      call take_end(self, flight, sa, 1)
+      call take_end(self, flight, sb, 2)
       do k = 1, nt
-         self%e_a(k) = exp(self%lambda(k)*sa)
-         self%e_b(k) = exp(self%lambda(k)*sb)
+         self%e_a(k) = self%ends(1)%decay(k)*self%ends(1)%turn(k)
+         self%e_b(k) = self%ends(2)%decay(k)*self%ends(2)%turn(k)
+      end do
+      ! e^{i j Omega_0 tau} at the ends for every j of the span, by products of j = 1.
+      base_a = cmplx(cos(self%omega*tau_a), sin(self%omega*tau_a), dp)
+      base_b = cmplx(cos(self%omega*tau_b), sin(self%omega*tau_b), dp)
+      self%turn_a(0) = one
+      self%turn_b(0) = one
+      do m = 1, self%span
+         self%turn_a(m) = self%turn_a(m - 1)*base_a
+         self%turn_b(m) = self%turn_b(m - 1)*base_b
+         self%turn_a(-m) = conjg(self%turn_a(m))
+         self%turn_b(-m) = conjg(self%turn_b(m))
       end do
       if (lockin) then
-         top = size(acc_sin)
          do m = 1, top
             x = lockin_sum(m)
             acc_cos(m) = acc_cos(m) + real(x, dp)
@@ -719,10 +747,12 @@ contains
                                         + self%tone_part_minus(k, t)*j_of(k, -self%tone_harmonic(t)))
             end do
             do l = k, nt
-               l_int = segment(self%e_a(k)*self%e_a(l), self%e_b(k)*self%e_b(l), self%mu_pair(k, l), h, &
-                               self%inv_pair(k, l))
-               m_int = segment(self%e_a(k)*conjg(self%e_a(l)), self%e_b(k)*conjg(self%e_b(l)), &
-                               self%mu_herm(k, l), h, self%inv_herm(k, l))
+               l_int = cached_segment(self%e_a(k), self%e_a(l), self%e_b(k), self%e_b(l), self%mu_pair(k, l), d, &
+                                      self%int_pair(k, l), self%exp_pair(k, l), self%series_pair(k, l), &
+                                      self%inv_pair(k, l))
+               m_int = cached_segment(self%e_a(k), conjg(self%e_a(l)), self%e_b(k), conjg(self%e_b(l)), &
+                                      self%mu_herm(k, l), d, self%int_herm(k, l), self%exp_herm(k, l), &
+                                      self%series_herm(k, l), self%inv_herm(k, l))
                x = x + (merge(0.5_dp, 1.0_dp, l == k)*self%mult(k)*self%mult(l)) &
                    *(zk*flight%z(l)*self%gram(k, l)*l_int + zk*conjg(flight%z(l))*self%herm(k, l)*m_int)
             end do
@@ -733,24 +763,19 @@ contains
 
    contains
 
-      !> e^{i j Omega_0 tau} at tau.
-      complex(dp) function turn_at(j, tau)
-         integer, intent(in) :: j
-         real(dp), intent(in) :: tau
-         turn_at = cmplx(cos(j*self%omega*tau), sin(j*self%omega*tau), dp)
-      end function turn_at
-
-      !> K(j) = int_a^b e^{i j Omega_0 tau} dtau.
+      !> K(j) = int_a^b e^{i j Omega_0 tau} dtau (|j| <= span).
       complex(dp) function k_int(j)
          integer, intent(in) :: j
-         k_int = segment(turn_at(j, tau_a), turn_at(j, tau_b), cmplx(0.0_dp, j*self%omega, dp), h)
+         k_int = cached_segment(one, self%turn_a(j), one, self%turn_b(j), cmplx(0.0_dp, j*self%omega, dp), d, &
+                                self%int_drive(j), self%exp_drive(j), self%series_drive(j))
       end function k_int
 
-      !> J(k, j) = int_a^b e^{lambda_k s} e^{i j Omega_0 tau} dtau.
+      !> J(k, j) = int_a^b e^{lambda_k s} e^{i j Omega_0 tau} dtau (|j| <= span).
       complex(dp) function j_of(k, j)
          integer, intent(in) :: k, j
-         j_of = segment(self%e_a(k)*turn_at(j, tau_a), self%e_b(k)*turn_at(j, tau_b), &
-                        self%lambda(k) + cmplx(0.0_dp, j*self%omega, dp), h)
+         j_of = cached_segment(self%e_a(k), self%turn_a(j), self%e_b(k), self%turn_b(j), &
+                               self%lambda(k) + cmplx(0.0_dp, j*self%omega, dp), d, self%int_lockin(k, j), &
+                               self%exp_lockin(k, j), self%series_lockin(k, j))
       end function j_of
 
       !> int V_T e^{i m Omega_0 tau} dtau: Re(c e^{i h Omega_0 tau}) e^{i m ..} integrates to

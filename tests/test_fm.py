@@ -3,6 +3,8 @@ amplitude controller on the period stepper, checked against independent computat
 force gradient in closed form, the Giessibl/Sader-Jarvis integral of the force law by
 quadrature, and the energies of the observers."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.integrate import quad
@@ -212,6 +214,8 @@ def test_thermal_frequency_noise_of_the_pll():
     # The per-period loop differs from the continuous one by its one-period delay, a phase lag
     # w T at the bandwidth (2%): twice it on top of four standard errors.
     assert df.std() == pytest.approx(expected, rel=4 * error + 2 * w / f0, abs=0)
+    text = " ".join((Path(__file__).resolve().parent.parent / "docs" / "instrument.md").read_text().split())
+    assert f"against the {expected:.2f} Hz of the formula" in text
     # The free reference (E_free, the dissipation channel's scale) is the noiseless one.
     quiet = fm_approach(tmafm.Config("tapping_polystyrene", model={"n_modes": 1}, solver={"method": "dop853"}),
                         z=[1e-6], amplitude=amplitude,

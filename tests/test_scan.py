@@ -3,6 +3,7 @@ line with the Z feedback over a topography and two materials, checked against ap
 the topography given, and the designed closed-loop time constant."""
 
 import math
+from pathlib import Path
 import warnings
 
 import numpy as np
@@ -266,6 +267,11 @@ def test_with_thermal_noise_the_height_is_the_amplitude_noise_through_the_loop(n
     assert low * (1 - error) < measured / predicted < 1 + error
     # Free air's amplitude noise (g = 1) would be 2 to 10 times this: the contact matters.
     assert measured < 0.5 * SIGMA / slope * math.sqrt(2 * TAU_C / p["per_pixel"])
+    # docs/instrument.md quotes this test's numbers.
+    text = " ".join((Path(__file__).resolve().parent.parent / "docs" / "instrument.md").read_text().split())
+    for quoted in (f"s = {slope:.3f}, g = {gain:.3f}", f"σ_h = {predicted:.5f} nm",
+                   f"seed {p['seed']} measures {measured:.5f} nm", f"{SIGMA:.4f} nm for k = 40 N/m"):
+        assert quoted in text, quoted
 
 
 def test_with_thermal_noise_the_height_follows_the_open_loop_noise_pathwise(noisy_line):

@@ -3,6 +3,8 @@ amplitude controller on the period stepper, checked against independent computat
 force gradient in closed form, the Giessibl/Sader-Jarvis integral of the force law by
 quadrature, and the energies of the observers."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.integrate import quad
@@ -181,3 +183,41 @@ def test_a_second_tone_and_a_dimensionless_scene_are_refused():
                     z=[5e-9], amplitude=1e-9)
     with pytest.raises(tmafm.InputError, match="&physical"):
         fm_approach(tmafm.Config("fig3"), z=[5e-9], amplitude=1e-9)
+
+
+def test_thermal_frequency_noise_of_the_pll():
+    # Far from the sample, with thermal noise on (&solver thermal_noise = 1), the PLL's Δf
+    # scatters by the thermal phase noise through the loop (docs/instrument.md, "With thermal
+    # noise").  The phase relaxes with tau_r = 2Q/omega0 and its thermal drive has the
+    # spectrum 2 sigma_phi^2 tau_r (sigma_phi = sqrt(k_B T/k)/A), the PLL's closed loop with both
+    # poles at -2 pi B passes it to Δf with the noise bandwidth
+    # B_n = ((2 tau w - 1)^2 + tau^2 w^2)/(8 tau^2 w), w = 2 pi B (5 pi B/4 for tau w >> 1):
+    # Δf_rms^2 = k_B T f0 B_n/(pi k A^2 Q), the standard result (Albrecht et al. 1991) with
+    # the loop's own noise bandwidth.  One mode, Q = 400, B = 1 kHz: 1.68 Hz at A = 5 nm.
+    k_b, temperature, k, f0, q, amplitude, bandwidth = 1.380649e-23, 298.15, 40.0, 300e3, 400.0, 5e-9, 1e3
+    config = tmafm.Config("tapping_polystyrene", model={"n_modes": 1},
+                          solver={"thermal_noise": 1, "noise_seed": 1, "method": "dop853"})
+    settle, average = 300, 10000
+    data = fm_approach(config, z=[1e-6], amplitude=amplitude, pll_bandwidth=bandwidth,
+                       amplitude_bandwidth=bandwidth, settle_periods=settle, average_periods=average)
+    tau = data.attrs["response_time_s"]
+    assert tau == pytest.approx(2 * q / (2 * np.pi * f0), rel=1e-6, abs=0)
+    w = 2 * np.pi * bandwidth
+    noise_bandwidth = ((2 * tau * w - 1) ** 2 + (tau * w) ** 2) / (8 * tau ** 2 * w)
+    expected = np.sqrt(k_b * temperature * f0 * noise_bandwidth / (np.pi * k * amplitude ** 2 * q))
+    df = data.trace_df.values[0, settle:]
+    # The standard error of the standard deviation of a correlated series (Bartlett):
+    # sqrt((1 + 2 sum rho_j^2)/(2 N)), rho the trace's autocorrelation (over 10/w's 480 periods).
+    x = df - df.mean()
+    rho = np.correlate(x, x, "full")[x.size - 1:x.size + 480] / (x @ x)
+    error = np.sqrt((1 + 2 * np.sum(rho[1:] ** 2)) / (2 * x.size))
+    # The per-period loop differs from the continuous one by its one-period delay, a phase lag
+    # w T at the bandwidth (2%): twice it on top of four standard errors.
+    assert df.std() == pytest.approx(expected, rel=4 * error + 2 * w / f0, abs=0)
+    text = " ".join((Path(__file__).resolve().parent.parent / "docs" / "instrument.md").read_text().split())
+    assert f"against the {expected:.2f} Hz of the formula" in text
+    # The free reference (E_free, the dissipation channel's scale) is the noiseless one.
+    quiet = fm_approach(tmafm.Config("tapping_polystyrene", model={"n_modes": 1}, solver={"method": "dop853"}),
+                        z=[1e-6], amplitude=amplitude,
+                        pll_bandwidth=bandwidth, amplitude_bandwidth=bandwidth, settle_periods=1, average_periods=1)
+    assert data.attrs["free_drive_work_aJ"] == quiet.attrs["free_drive_work_aJ"]

@@ -60,6 +60,27 @@ def test_am_scan_equals_scan_line(tmp_path, run_exe):
     assert table["material"][3] == 1 and not table["material"][:3].any()
 
 
+def test_a_noisy_am_scan_equals_scan_line(tmp_path, run_exe):
+    # &solver thermal_noise = 1 in the executable's &scan: the same seeded realisation as
+    # scan_line's (each period's seed from noise_seed), so the same table to the printed digits.
+    noise = {"thermal_noise": 1, "noise_seed": 11, "method": "dop853"}
+    path = write_nml(tmp_path / "noisy.nml", AM_SCAN, solver=noise, model={"n_modes": 1})
+    proc = run_exe(path, "-o", tmp_path / "scan.dat")
+    assert proc.returncode == 0, proc.stderr
+    table, _, header = read_table(tmp_path / "scan.dat")
+    ds = scan_line(AM_SCAN, solver=noise, model={"n_modes": 1}, scan_length=40e-9, pixels=4, line_rate=375.0,
+                   setpoint_ratio=0.8, lockin_bandwidth=10e3, feedback_bandwidth=1e3, topography="step",
+                   step_height=2e-9, step_position=20e-9, material_b={"youngs_modulus_sample": 0.3e9},
+                   material_boundary=30e-9)
+    for p, direction in enumerate(["trace", "retrace"]):
+        rows = table["direction"] == p
+        for name in ("height", "phase", "amplitude", "peak_force"):
+            np.testing.assert_array_equal(table[name][rows], ds[name].sel(direction=direction).values,
+                                          err_msg=name)
+    assert note(header, "engage", "free_amplitude") == ds.attrs["free_amplitude_nm"]
+    assert note(header, "engage", "ringup_periods") == ds.attrs["ringup_periods"]
+
+
 def test_fm_approach_equals_fm_approach(tmp_path, run_exe):
     proc = run_exe(FM_APPROACH, "-o", tmp_path / "fm.dat")
     assert proc.returncode == 0, proc.stderr

@@ -3,13 +3,14 @@ line with the Z feedback over a topography and two materials, checked against ap
 the topography given, and the designed closed-loop time constant."""
 
 import math
+from pathlib import Path
 import warnings
 
 import numpy as np
 import pytest
 
 import tmafm
-from tmafm.instrument import scan_line
+from tmafm.instrument import scan_line, z_schedule
 
 pytest.importorskip("xarray")
 
@@ -194,3 +195,177 @@ def test_a_scan_composes_with_other_physics(overrides):
     topo = float(ds["topography"].values[0, 1])
     assert 3 < topo < 10
     assert 0.5 * topo < height[1] - height[0] < 10
+
+
+# --- Thermal noise (&solver thermal_noise = 1, docs/model.md §21; docs/instrument.md "With thermal
+# noise").  One mode: the noise grid of three modes is 17 times finer, and mode 1 carries the
+# amplitude noise at the drive.
+ONE_MODE = {"n_modes": 1}
+K_B, TEMPERATURE, K, F0, Q = 1.380649e-23, 298.15, 40.0, 300e3, 50.0
+#: The thermal rms of the tip deflection, sqrt(k_B T/k) (nm): 0.0101 nm.
+SIGMA = math.sqrt(K_B * TEMPERATURE / K) * 1e9
+#: The free amplitude's decay time 2Q/omega0, in drive periods (15.9).
+TAU_C = 2 * Q / (2 * math.pi * F0) / PERIOD
+
+
+def noisy(seed, method="dop853"):
+    return {"thermal_noise": 1, "noise_seed": seed, "method": method}
+
+
+def steady_amplitude(z, free_amplitude=20e-9):
+    """The noiseless steady amplitude (nm) of the one-mode FAST cantilever at rest distance z (m)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", tmafm.UnsteadyWarning)
+        run = tmafm.observe(tmafm.Config("tapping_polystyrene", model=ONE_MODE,
+                                         physical={**FAST, "tip_sample_distance": z,
+                                                   "free_amplitude": free_amplitude}),
+                            max_periods=3000, steady_tol=1e-12)
+    return float(run.physical["amplitude"][-1])
+
+
+#: The noisy flat line: 64 pixels of 240 periods, a 2 kHz loop (tau_cl = 23.9 periods) behind a
+#: 20 kHz lock-in (tau_li = 2.4 periods).
+NOISY_LINE = dict(pixels=64, per_pixel=240, b_fb=2e3, b_li=20e3, seed=3)
+
+
+@pytest.fixture(scope="module")
+def noisy_line():
+    p = NOISY_LINE
+    return scan_line("tapping_polystyrene", physical=FAST, model=ONE_MODE, solver=noisy(p["seed"]),
+                     scan_length=100e-9, pixels=p["pixels"], line_rate=line_rate(p["pixels"], p["per_pixel"], False),
+                     retrace=False, setpoint_ratio=0.8, lockin_bandwidth=p["b_li"], feedback_bandwidth=p["b_fb"],
+                     record=True)
+
+
+def test_with_thermal_noise_the_height_is_the_amplitude_noise_through_the_loop(noisy_line):
+    # Over a flat sample the loop holds the filtered amplitude at A_set: below its bandwidth the
+    # height follows -n/s, n the thermal amplitude noise the cantilever has at fixed Z, s = dA/dZ.
+    # n's spectrum at low frequency (two-sided) is 2 g^2 sigma^2 tau_c: the thermal force's slow
+    # envelope in phase with the drive acts as a modulation of the drive, which moves the
+    # amplitude by g = (f/A0) dA/df times as much as in free air (where the amplitude is the
+    # Ornstein-Uhlenbeck process of variance sigma^2 and time tau_c: g = 1).  A pixel of D
+    # periods (D >> tau_cl) then scatters by sigma_h = (g sigma/s) sqrt(2 tau_c/D)
+    # (docs/instrument.md).  s and g are the noiseless steady amplitude's derivatives at the
+    # line's mean height (tmafm.observe, central differences).
+    ds = noisy_line
+    p = NOISY_LINE
+    height = ds["height"].sel(direction="trace").values
+    z = float(height.mean()) * 1e-9
+    dz, dr = 0.02e-9, 1e-3
+    slope = (steady_amplitude(z + dz) - steady_amplitude(z - dz)) / (2 * dz * 1e9)
+    gain = (steady_amplitude(z, 20e-9 * (1 + dr)) - steady_amplitude(z, 20e-9 * (1 - dr))) / (2 * dr * 20.0)
+    assert 0.1 < gain < 0.5  # the contact holds the amplitude: far from free air's 1
+    predicted = gain * SIGMA / slope * math.sqrt(2 * TAU_C / p["per_pixel"])
+    measured = height.std(ddof=1)
+    # The pixel's own averaging keeps what the loop, the lock-in and the amplitude's own lag
+    # (tau_c bounds it) low-pass: for a positively correlated process of correlation times
+    # summing to tau_sum, the variance of a D-mean is S(0)/D (1 - c), 0 <= c <= 2 tau_sum/D.
+    # The standard error of a standard deviation of N independent pixels is 1/sqrt(2(N - 1)).
+    tau_sum = F0 / (2 * math.pi * p["b_fb"]) + F0 / (2 * math.pi * p["b_li"]) + TAU_C
+    low = math.sqrt(1 - 2 * tau_sum / p["per_pixel"])
+    error = 4 / math.sqrt(2 * (p["pixels"] - 1))
+    assert low * (1 - error) < measured / predicted < 1 + error
+    # Free air's amplitude noise (g = 1) would be 2 to 10 times this: the contact matters.
+    assert measured < 0.5 * SIGMA / slope * math.sqrt(2 * TAU_C / p["per_pixel"])
+    # docs/instrument.md quotes this test's numbers.
+    text = " ".join((Path(__file__).resolve().parent.parent / "docs" / "instrument.md").read_text().split())
+    for quoted in (f"s = {slope:.3f}, g = {gain:.3f}", f"σ_h = {predicted:.5f} nm",
+                   f"seed {p['seed']} measures {measured:.5f} nm", f"{SIGMA:.4f} nm for k = 40 N/m"):
+        assert quoted in text, quoted
+
+
+def test_with_thermal_noise_the_height_follows_the_open_loop_noise_pathwise(noisy_line):
+    # The same realisation at fixed Z (each period k draws the seed of period k, whatever the
+    # setting: docs/instrument.md), the loop open: z_schedule holds the line's mean height for
+    # as many periods as the scan ran before its line, then for the line.  Pixel by pixel the
+    # closed loop's height is -n/s of that open-loop amplitude noise; what differs is the part
+    # the loop does not follow within a pixel, a variance fraction of about (tau_cl + tau_li)/D,
+    # so the correlation is at least sqrt(1 - 2 (tau_cl + tau_li)/D) = 0.88.
+    ds = noisy_line
+    p = NOISY_LINE
+    height = ds["height"].sel(direction="trace").values
+    z = float(height.mean()) * 1e-9
+    first = int(round(float(ds["period_time"].values[0]) / PERIOD)) - 1
+    ring = int(ds.attrs["ringup_periods"])
+    line = p["pixels"] * p["per_pixel"]
+    schedule = np.r_[np.full(ring, 25e-9), np.linspace(25e-9, z, first - ring), np.full(line, z)]
+    base = tmafm.Config("tapping_polystyrene", physical=FAST, model=ONE_MODE, solver=noisy(p["seed"]))
+    amplitude = z_schedule(base, schedule).values["amplitude"][first:]
+    n = amplitude.reshape(p["pixels"], p["per_pixel"]).mean(axis=1)
+    slope = ds.attrs["slope"]
+    follows = -(n - n.mean()) / slope
+    tau = F0 / (2 * math.pi * p["b_fb"]) + F0 / (2 * math.pi * p["b_li"])
+    assert np.corrcoef(follows, height - height.mean())[0, 1] > math.sqrt(1 - 2 * tau / p["per_pixel"])
+
+
+def test_with_thermal_noise_the_ringup_settles_to_the_thermal_scatter(noisy_line):
+    # The amplitude never settles to 1e-6 with noise: the ring-up lasts until the transient from
+    # rest, ~A0 exp(-t/tau_d) (tau_d = 2Q/omega0, mode 1's decay time), is below sigma/e:
+    # tau_d (1 + ln(A/sigma)) = 136.7 periods here, A the amplitude then.  A0 is the mean of
+    # the last tau_d: within the deficit sigma/e and 4 sigma (a mean's scatter is at most the
+    # amplitude's) of the noiseless 20 nm.
+    attrs = noisy_line.attrs
+    a0 = attrs["free_amplitude_nm"]
+    assert abs(attrs["ringup_periods"] - TAU_C * (1 + math.log(a0 / SIGMA))) <= 1
+    assert abs(a0 - 20.0) < (4 + 1 / math.e) * SIGMA
+    # The engage ended inside its band (4 sigma here: wider than 1e-3 A_set = 0.016 nm).
+    assert attrs["engage_periods"] < 2000
+
+
+def test_with_thermal_noise_a_scan_is_seeded_and_the_same_on_flight_exact_and_dop853():
+    # Each period draws its own seed from noise_seed (docs/instrument.md), and the realisation
+    # depends on the seed, the noise grid and N alone (docs/model.md §21): flight_exact and
+    # dop853 integrate the same forces, to their tolerance (rtol 1e-9: 1e-6 nm of 13 nm).
+    def run(seed, method):
+        return scan_line("tapping_polystyrene", physical=FAST, model=ONE_MODE, solver=noisy(seed, method),
+                         scan_length=20e-9, pixels=2, line_rate=line_rate(2, 60, False), retrace=False,
+                         setpoint_ratio=0.8, lockin_bandwidth=20e3, feedback_bandwidth=2e3)
+    dop = run(3, "dop853")
+    exact = run(3, "flight_exact")
+    again = run(3, "dop853")
+    other = run(4, "dop853")
+    for name in ("height", "amplitude", "phase", "peak_force"):
+        np.testing.assert_array_equal(again[name].values, dop[name].values)
+        np.testing.assert_allclose(exact[name].values, dop[name].values, rtol=0, atol=1e-6)
+    assert np.abs(other["height"].values - dop["height"].values).max() > 1e-4
+
+
+def test_the_pixel_phase_is_a_circular_mean():
+    # The pixel's phase is the angle of its periods' mean filtered lock-in output (X, Y): a phase
+    # that wraps across +-180 deg averages to 180, where the angles' arithmetic mean is 0.
+    api = tmafm._fortran._objects.tmafm_api_scan
+    angles = np.radians([179.0, -179.0, 178.0, -178.0])
+    assert abs(abs(api.am_scan_mean_phase(np.cos(angles), np.sin(angles))) - 180) < 1e-12
+    angles = np.radians([170.0, -176.0])        # mean 177 deg, across the wrap
+    assert api.am_scan_mean_phase(2 * np.cos(angles), 2 * np.sin(angles)) == pytest.approx(177.0, abs=1e-12)
+    angles = np.radians([-60.0, -80.0])          # amplitudes weigh: A = 1 and 3
+    x, y = np.array([1, 3]) * np.cos(angles), np.array([1, 3]) * np.sin(angles)
+    expected = math.degrees(math.atan2(y.sum(), x.sum()))
+    assert api.am_scan_mean_phase(x, y) == pytest.approx(expected, abs=1e-12)
+
+
+def test_the_scan_averages_its_phase_as_the_mean_lockin_output(noisy_line):
+    # The scan's pixel phase is that circular mean of the recorded filtered (A cos phi, A sin phi)
+    # of the pixel's periods (here, in tapping, near the arithmetic mean of the phases too).
+    ds = noisy_line
+    p = NOISY_LINE
+    a = ds["period_amplitude"].values.reshape(p["pixels"], p["per_pixel"])
+    phi = np.radians(ds["period_phase"].values.reshape(p["pixels"], p["per_pixel"]))
+    expected = np.degrees(np.arctan2((a * np.sin(phi)).sum(axis=1), (a * np.cos(phi)).sum(axis=1)))
+    np.testing.assert_allclose(ds["phase"].sel(direction="trace").values, expected, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("bad, message", [
+    (dict(setpoint_ratio=0.96), "is under 10 thermal rms sigma"),
+    (dict(solver={"thermal_noise": 1, "method": "rk4_paper"}), "thermal_noise = 1"),
+])
+def test_noisy_scans_that_cannot_work_are_refused_in_one_line(bad, message):
+    # A setpoint so close to A0 that the approach's secant (over 0.1 (A0 - A_set)) would measure
+    # the noise, not dA/dZ; a method that does not take the noise.
+    keywords = dict(scan_length=10e-9, pixels=2, line_rate=1e3, physical=FAST, model=ONE_MODE, solver=noisy(1),
+                    lockin_bandwidth=20e3, feedback_bandwidth=2e3, setpoint_ratio=0.8)
+    keywords.update(bad)
+    with pytest.raises(tmafm.InputError) as info:
+        scan_line("tapping_polystyrene", **keywords)
+    assert message in str(info.value)
+    assert "\n" not in str(info.value)

@@ -51,7 +51,7 @@ module tmafm
    use tmafm_scan_settings, only: scan_settings_t, check_scan_settings, scan_height
    use tmafm_am_scan, only: run_am_scan, scan_period_count, n_scan_columns, scan_column_names, &
       scan_column_units, scan_column_meanings, n_scan_info, scan_info_names, scan_info_units, &
-      n_record_columns, record_column_names, record_column_units
+      n_record_columns, record_column_names, record_column_units, mean_phase
    use tmafm_fm_settings, only: fm_settings_t
    use tmafm_fm, only: fm_loop_t, init_fm_loop, fm_point, check_fm_settings, n_fm_columns, n_fm_trace, &
       fm_column_names, fm_column_units
@@ -87,7 +87,7 @@ module tmafm
    public :: period_stepper_t, init_period_stepper, with_distance, lowpass_t, pi_controller_t
    public :: scan_settings_t, check_scan_settings, scan_height, run_am_scan, scan_period_count, n_scan_columns, &
              scan_column_names, scan_column_units, scan_column_meanings, n_scan_info, scan_info_names, &
-             scan_info_units, n_record_columns, record_column_names, record_column_units
+             scan_info_units, n_record_columns, record_column_names, record_column_units, mean_phase
    public :: fm_settings_t, fm_loop_t, init_fm_loop, fm_point, check_fm_settings, n_fm_columns, n_fm_trace
    ! The instrument in the executable (&scan, &fm): its inputs and its table.
    public :: fm_column_names, fm_column_units, material_b_physical, fm_z_points, write_table

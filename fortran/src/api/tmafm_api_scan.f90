@@ -4,13 +4,14 @@
 module tmafm_api_scan
    use tmafm, only: dp, ok, scan_settings_t, check_scan_settings, run_am_scan, scan_period_count, n_scan_columns, &
       scan_column_names, scan_column_units, scan_column_meanings, n_scan_info, scan_info_names, scan_info_units, &
-      n_record_columns, record_column_names, record_column_units, init_period_stepper, period_stepper_t
+      n_record_columns, record_column_names, record_column_units, init_period_stepper, period_stepper_t, &
+      mean_phase
    use tmafm_config, only: config_t
    use tmafm_api_poll, only: python_interrupted
    implicit none
    private
 
-   public :: am_scan_run, am_scan_shape, am_scan_names
+   public :: am_scan_run, am_scan_shape, am_scan_names, am_scan_mean_phase
 
 contains
 
@@ -57,6 +58,15 @@ contains
       period = stepper%period
       call scan_period_count(scan, period, per_pixel, total)
    end subroutine am_scan_shape
+
+   !> A pixel's phase (deg) from its periods' filtered lock-in outputs x, y (the scan's own
+   !> average: the angle of their mean).
+   subroutine am_scan_mean_phase(x, y, phase)
+      real(dp), intent(in) :: x(:)
+      real(dp), intent(in) :: y(:)
+      real(dp), intent(out) :: phase
+      phase = mean_phase(x, y)
+   end subroutine am_scan_mean_phase
 
    !> The names, units and meanings of a table ('pixels', 'info' or 'record'), each list joined
    !> by '|'.

@@ -12,6 +12,10 @@
 !> then the feedback engages at x = 0 and settles.  Gains from a closed-loop bandwidth B_fb:
 !> K_i = 2 pi B_fb/(dA/dZ), K_p = K_i tau_c (the PI's zero cancels the cantilever's lag), so
 !> the closed loop is first order with time constant 1/(2 pi B_fb) while the lock-in is fast.
+!> A pixel's phase is the angle of its periods' mean filtered (X, Y) (mean_phase: a circular
+!> mean).  With thermal noise (&solver thermal_noise = 1) the amplitude scatters by the thermal
+!> rms sigma = sqrt(k_B T/k): the ring-up lasts until its transient is below sigma/e, the engage's
+!> band is at least 4 sigma, and gains designed on a slope measured within the noise are refused.
 module tmafm_am_scan
    use tmafm_kinds, only: dp, i8
    use tmafm_errors, only: ok, err_input, err_runtime
@@ -23,10 +27,11 @@ module tmafm_am_scan
    use tmafm_observers, only: obs_amplitude, obs_phase, obs_peak_force, obs_dissipated, obs_contacts
    use tmafm_trajectory, only: stop_poll
    use tmafm_text, only: real_text, int_text
+   use tmafm_calibration, only: tip_compliance, first_mode
    implicit none
    private
 
-   public :: run_am_scan, scan_period_count
+   public :: run_am_scan, scan_period_count, mean_phase
    public :: n_scan_columns, scan_column_names, scan_column_units, scan_column_meanings
    public :: n_scan_info, scan_info_names, scan_info_units
    public :: n_record_columns, record_column_names, record_column_units
@@ -46,7 +51,7 @@ module tmafm_am_scan
    character(len=*), parameter :: scan_column_meanings(n_scan_columns) = [character(len=90) :: &
       'apparent height: the piezo Z, the tip rest position above the plane h = 0', &
       'amplitude error A_set - A (A the lock-in filtered amplitude)', &
-      'lock-in filtered phase at the drive', &
+      'lock-in filtered phase at the drive: the angle of the mean filtered (X, Y)', &
       'peak repulsive force per period', &
       'energy dissipated per period', &
       'lock-in filtered amplitude', &
@@ -79,6 +84,11 @@ module tmafm_am_scan
       type(lowpass_t) :: x, y
       real(dp) :: amplitude = 0, phase = 0
    end type lockin_t
+
+   !> With thermal noise, the engage's band is this many times the thermal rms sigma (where
+   !> that is wider than 1e-3 A_set): the filtered amplitude's error scatters by at most about
+   !> sigma, so a band of 4 sigma is left by chance once in ~10^4 independent samples.
+   real(dp), parameter :: engage_noise_band = 4
 
 contains
 
@@ -114,10 +124,15 @@ contains
       type(pi_controller_t) :: feedback
       type(physical_t) :: base
       real(dp) :: period, a0, a_set, tau_c, slope, z, z_start, tau_cl, x, h, dx, raw, sums(n_scan_columns)
+      real(dp) :: sigma, band, tau_d
+      real(dp), allocatable :: pixel_x(:), pixel_y(:)
+      complex(dp) :: lambda1
+      logical :: under
       real(dp), allocatable :: ring(:)
       integer :: passes, per_pixel, total, k, j, p, q, pixel, n_ring, n_engage, n_ramp, on_b, inside
       integer(i8) :: row
       integer :: material, cap
+      logical :: noisy
 
       ierr = ok
       errmsg = ''
@@ -150,8 +165,22 @@ contains
       call move_to(0.0_dp, ierr, errmsg)
       if (ierr /= ok) return
 
-      ! Ring-up at the start distance, feedback off: until the amplitude changes by at most
-      ! 1e-6 of itself in a period.  tau_c = the time the amplitude took to reach 1 - 1/e of A0.
+      ! Ring-up at the start distance, feedback off.  Without noise: until the amplitude changes
+      ! by at most 1e-6 of itself in a period.  With thermal noise the amplitude scatters by the
+      ! thermal rms sigma = sqrt(k_B T/k) (docs/model.md §21) and never settles to 1e-6; the
+      ! transient from rest decays as exp(-t/tau_d), tau_d = 1/|Re lambda1| the free mode 1's
+      ! decay time (2Q/omega0), from about the amplitude A itself, so the ring-up lasts until it
+      ! is below sigma/e: t >= tau_d (1 + ln(A/sigma)), and at least 3 tau_d; A0 is then the
+      ! mean over the last tau_d.  tau_c = the time the amplitude took to reach 1 - 1/e of A0.
+      noisy = stepper%config%solver%thermal_noise == 1
+      sigma = 0
+      tau_d = 0
+      if (noisy) then
+         sigma = stepper%scales%length*sqrt(stepper%model%scene%thermal_energy*tip_compliance(stepper%model))
+         call first_mode(stepper%model, stepper%model%scene%alpha3, lambda1, under, ierr, errmsg)
+         if (ierr /= ok) return
+         tau_d = stepper%scales%time/abs(real(lambda1))
+      end if
       cap = 2000000
       allocate (ring(1024))
       n_ring = 0
@@ -161,7 +190,9 @@ contains
          n_ring = n_ring + 1
          if (n_ring > size(ring)) ring = [ring, ring]
          ring(n_ring) = raw
-         if (n_ring > 2) then
+         if (noisy) then
+            if (n_ring*period >= tau_d*max(3.0_dp, 1 + log(raw/sigma))) exit
+         else if (n_ring > 2) then
             if (abs(ring(n_ring) - ring(n_ring - 1)) <= 1.0e-6_dp*ring(n_ring)) exit
          end if
          if (n_ring >= cap) then
@@ -171,6 +202,10 @@ contains
          end if
       end do
       a0 = ring(n_ring)
+      if (noisy) then
+         k = min(n_ring, max(1, nint(tau_d/period)))
+         a0 = sum(ring(n_ring - k + 1:n_ring))/k
+      end if
       if (stepper%values(obs_contacts) > 0) then
          ierr = err_input
          errmsg = '&physical tip_sample_distance = '//real_text(z_start)//': the tip touches the sample there; '// &
@@ -191,6 +226,18 @@ contains
          ierr = err_input
          errmsg = 'scan: setpoint = '//real_text(a_set)//' must be below the free amplitude A0 = '// &
                   real_text(a0)//' (m) measured at the start distance'
+         return
+      end if
+
+      ! With thermal noise the slope below is a secant over 0.1 (A0 - A_set), read from the
+      ! filtered amplitude, which scatters by up to sigma: its relative error is about
+      ! sqrt(2) sigma/(0.1 (A0 - A_set)).  Gains designed on it need that under ~0.14.
+      if (noisy .and. scan%feedback_bandwidth > 0 .and. 0.1_dp*(a0 - a_set) < 10*sigma) then
+         ierr = err_input
+         errmsg = 'scan: setpoint = '//real_text(a_set)//' (m): 0.1 (A0 - A_set) = '// &
+                  real_text(0.1_dp*(a0 - a_set))//' (m) is under 10 thermal rms sigma = '//real_text(10*sigma)// &
+                  ' (m), so the slope dA/dZ the gains are designed on would be the noise''s; '// &
+                  'give a setpoint further below A0, or the gains'
          return
       end if
 
@@ -247,7 +294,10 @@ contains
       ! Bumpless transfer: the integrator starts at the Z the approach stopped at.
       feedback%integrator = z - feedback%proportional*(a_set - lockin%amplitude)
 
-      ! Engage at x = 0 until the error stays within 1e-3 A_set for 3 closed-loop times.
+      ! Engage at x = 0 until the error stays within 1e-3 A_set (with thermal noise, within
+      ! engage_noise_band sigma where that is wider) for 3 closed-loop times.
+      band = 1.0e-3_dp*a_set
+      if (noisy) band = max(band, engage_noise_band*sigma)
       n_engage = 0
       inside = 0
       do while (inside < max(1, ceiling(3*tau_cl/period)))
@@ -258,7 +308,7 @@ contains
          if (ierr /= ok) return
          call filter(lockin, raw, stepper%values(obs_phase), period)
          n_engage = n_engage + 1
-         inside = merge(inside + 1, 0, abs(a_set - lockin%amplitude) <= 1.0e-3_dp*a_set)
+         inside = merge(inside + 1, 0, abs(a_set - lockin%amplitude) <= band)
          if (n_engage >= cap) then
             ierr = err_runtime
             errmsg = 'scan: the feedback did not settle at the setpoint within '//int_text(cap)//' drive periods'
@@ -269,6 +319,7 @@ contains
               real(per_pixel, dp), real(n_ring, dp), real(n_engage, dp), z*1.0e9_dp, period]
 
       ! The line: trace from x = 0 to L, retrace back; x at each period's middle.
+      allocate (pixel_x(per_pixel), pixel_y(per_pixel))
       dx = scan%scan_length/(per_pixel*scan%pixels)
       row = 0
       do p = 1, passes
@@ -286,8 +337,10 @@ contains
                call step(ierr, errmsg)
                if (ierr /= ok) return
                call filter(lockin, raw, stepper%values(obs_phase), period)
-               sums = sums + [z, a_set - lockin%amplitude, lockin%phase, stepper%values(obs_peak_force), &
+               sums = sums + [z, a_set - lockin%amplitude, 0.0_dp, stepper%values(obs_peak_force), &
                               stepper%values(obs_dissipated), lockin%amplitude, h, z - h, real(material - 1, dp)]
+               pixel_x(q) = lockin%x%value
+               pixel_y(q) = lockin%y%value
                if (size(record, 1) > 0) then
                   row = row + 1
                   record(row, :) = [stepper%time, x*1.0e9_dp, z*1.0e9_dp, (z - h)*1.0e9_dp, &
@@ -296,6 +349,7 @@ contains
                z = feedback%update(a_set - lockin%amplitude, period)
             end do
             pixels(pixel, :, p) = sums/per_pixel
+            pixels(pixel, 3, p) = mean_phase(pixel_x, pixel_y)
             pixels(pixel, [1, 2, 6, 7, 8], p) = pixels(pixel, [1, 2, 6, 7, 8], p)*1.0e9_dp
          end do
       end do
@@ -335,6 +389,16 @@ contains
       end subroutine step
 
    end subroutine run_am_scan
+
+   !> The phase (deg) of the mean of lock-in outputs (x(k), y(k)) = A_k (cos phi_k, sin phi_k):
+   !> a circular mean of the phases phi_k weighted by A_k, which holds where they wrap across
+   !> +-180 deg (their arithmetic mean would not: 179 and -179 deg average to 180, not 0).
+   !> 0 when the mean is the origin.
+   pure real(dp) function mean_phase(x, y)
+      real(dp), intent(in) :: x(:), y(:)
+      mean_phase = 0
+      if (sum(x) /= 0 .or. sum(y) /= 0) mean_phase = atan2(sum(y), sum(x))*180/pi
+   end function mean_phase
 
    !> The lock-in's output filters over one period of amplitude a (m) and phase phase (deg).
    subroutine filter(lockin, a, phase, period)

@@ -186,6 +186,10 @@ contains
       loop%stepper%y(1:n) = real(x)
       loop%stepper%y(n + 1:2*n) = real(i*omega*x)
       loop%stepper%phase = -1
+      ! E_free is the noiseless free cantilever's, as phi_set and f_free are: with thermal noise
+      ! on, one period's drive work would carry that period's fluctuation into every point's
+      ! dissipation channel.  (The settings come back from the configuration at the next setting.)
+      loop%stepper%settings%thermal_noise = 0
       call loop%stepper%advance(ierr, errmsg, poll)
       if (ierr /= ok) return
       loop%free_work = loop%stepper%values(obs_drive_work)

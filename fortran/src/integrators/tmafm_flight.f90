@@ -84,8 +84,7 @@ module tmafm_flight
       logical :: held = .false.
       real(dp), allocatable :: held_state(:)
       real(dp) :: held_tip = 0
-      !> (M^-1 K)^-1: the static response K^-1 xi = (M^-1 K)^-1 (M^-1 xi) (allocated for a model
-      !> with thermal noise only).
+      !> (M^-1 K)^-1: the static response K^-1 xi = (M^-1 K)^-1 (M^-1 xi).
       real(dp), allocatable :: static_response(:, :)
       !> Start of the flight under way.
       real(dp) :: tau0 = 0
@@ -374,22 +373,21 @@ contains
       self%held = .false.
       self%held_tip = 0
       allocate (self%held_state(m), source=0.0_dp)
-      if (model%thermal%on) then
-         ! (M^-1 K)^-1 by LU with the identity on the right: once per run, for `hold`.
-         allocate (self%static_response(n, n), source=0.0_dp)
-         do j = 1, n
-            self%static_response(j, j) = 1
-         end do
-         block
-            real(dp) :: factors(n, n)
-            factors = model%inv_mass_eigen
-            call dgesv(n, n, factors, n, ipiv, self%static_response, n, info)
-         end block
-         if (info /= 0 .or. .not. all(ieee_is_finite(self%static_response))) then
-            ierr = err_runtime
-            errmsg = 'flight_exact: the free beam has no static response (its stiffness is singular)'
-            return
-         end if
+      ! (M^-1 K)^-1 by LU with the identity on the right: once per run, for `hold` (any flight may
+      ! hold a force; the clamped beam's K is positive definite).
+      allocate (self%static_response(n, n), source=0.0_dp)
+      do j = 1, n
+         self%static_response(j, j) = 1
+      end do
+      block
+         real(dp) :: factors(n, n)
+         factors = model%inv_mass_eigen
+         call dgesv(n, n, factors, n, ipiv, self%static_response, n, info)
+      end block
+      if (info /= 0 .or. .not. all(ieee_is_finite(self%static_response))) then
+         ierr = err_runtime
+         errmsg = 'flight_exact: the free beam has no static response (its stiffness is singular)'
+         return
       end if
 
    contains
@@ -480,7 +478,6 @@ contains
 
    !> The flights to come feel the constant force xi, given as accel = M^-1 xi: their particular
    !> solution gains y_c = (a_c, 0) with K a_c = xi (A y_c + (0, M^-1 xi) = 0), and V_T p.a_c.
-   !> Needs a model with thermal noise (static_response).
    pure subroutine flight_hold(self, model, accel)
       class(free_flight_t), intent(inout) :: self
       type(model_t), intent(in) :: model

@@ -680,6 +680,7 @@ def check_performance(ck, group="performance"):
     _off_cost_rows(ck, group, "off_cost_window.json")
     _off_cost_rows(ck, group, "off_cost_thermal.json")
     _off_cost_rows(ck, group, "off_cost_noise_flight.json")
+    check_noise_methods(ck, group)
     check_compose_cost(ck, group)
     check_longrange(ck, group)
     check_etd_flight(ck, group)
@@ -1099,6 +1100,36 @@ def _off_cost_rows(ck, group, name):
         sign = "+" if run["change_percent"] >= 0 else "−"
         ck.text(group, doc, f"| {label} | {{}} | {{}} | {sign}{{}} % |",
                 [f"{run['base']:,}", f"{run['head']:,}", f"{abs(run['change_percent']):.3f}"], sec)
+
+
+def check_noise_methods(ck, group="performance"):
+    """docs/performance.md's methods with thermal noise against
+    benchmarks/results/noise_methods.json (`python benchmarks/noise_methods.py`)."""
+    nm = load(result_path("noise_methods.json"))
+    doc, sec = "docs/performance.md", "The methods with thermal noise"
+    scenes = nm["scenes"]
+    ck.text(group, doc, "which `flight_exact` at rtol 1e-13 meets to\n{} (free) and {} (tapping)",
+            [sci_plain(scenes["free"]["flight_exact_1e-13_against_reference"]),
+             sci_plain(scenes["tapping"]["flight_exact_1e-13_against_reference"])], sec)
+    for name in ("free", "tapping"):
+        for row in scenes[name]["rows"]:
+            ck.text(group, doc, f"| {name} | `{row['method']}` | {row['rtol']:.0e} | {{}} | {{}} | {{}} |",
+                    [sci_plain(row["error"]), f"{1e3 * row['cpu_run_s']:.0f}", f"{1e3 * row['cpu_observe_s']:.0f}"],
+                    sec)
+    free, tap = scenes["free"]["ratios"], scenes["tapping"]["ratios"]
+    ck.text(group, doc, "`dop853` costs {}× `flight_exact`'s CPU on the run and\n  {}× on the observe at rtol 1e-8 (runs",
+            [f"{free['dop853_over_flight_exact_run_1e-08']:.2f}", f"{free['dop853_over_flight_exact_observe_1e-08']:.2f}"],
+            sec)
+    ck.text(group, doc, "`dop853` costs {}× `flight_exact`'s CPU on the run and {}× on the observe at\n  rtol 1e-8.",
+            [f"{tap['dop853_over_flight_exact_run_1e-08']:.2f}", f"{tap['dop853_over_flight_exact_observe_1e-08']:.2f}"],
+            sec)
+    ck.text(group, doc, "`dopri5` is the cheapest run here ({}× `flight_exact` at rtol 1e-6)",
+            [f"{tap['dopri5_over_flight_exact_run_1e-06']:.2f}"], sec)
+
+
+def sci_plain(x):
+    """x as Python's :.1e writes it (5.0e-10), the docs' table form for errors."""
+    return f"{x:.1e}"
 
 
 def check_compose_cost(ck, group="performance"):

@@ -418,6 +418,22 @@ contains
       end do
    end function phi1
 
+   !> The cache for a piece of length h: kept if the last piece was as long (to reuse_within)
+   !> with the same groups, then d = h - its length; else filled for h, and d = 0.
+   pure subroutine cache_for(self, h, lockin, energy, top, d)
+      type(flight_observables_t), intent(inout) :: self
+      real(dp), intent(in) :: h
+      logical, intent(in) :: lockin, energy
+      integer, intent(in) :: top
+      real(dp), intent(out) :: d
+      d = h - self%cached_h
+      if (.not. (abs(d) <= reuse_within*h .and. (lockin .eqv. self%cached_lockin) .and. &
+                 (energy .eqv. self%cached_energy) .and. top == self%cached_top)) then
+         call fill_cache(self, h, lockin, energy, top)
+         d = 0
+      end if
+   end subroutine cache_for
+
    !> Fill the integrals' cache for the interval length h: per exponent mu whether the integral
    !> takes the series for mu h, and where it does h phi1(mu h) and e^{mu h} = 1 + mu h phi1(mu h)
    !> (the exponents as observables_integrate forms them).
@@ -541,12 +557,7 @@ contains
       if (lockin) top = min(self%harmonics, size(acc_sin))
       ! A piece as long as the last one (the noise grid's pieces, to their ends' rounding) takes
       ! its phi1(mu h) from the cache (cached_segment); any other fills the cache (hc = h, d = 0).
-      d = h - self%cached_h
-      if (.not. (abs(d) <= reuse_within*h .and. (lockin .eqv. self%cached_lockin) .and. &
-                 (energy .eqv. self%cached_energy) .and. top == self%cached_top)) then
-         call fill_cache(self, h, lockin, energy, top)
-         d = 0
-      end if
+      call cache_for(self, h, lockin, energy, top, d)
       i_omega = cmplx(0, self%omega, dp)
       ! e^{lambda_k s} and e^{i m Omega tau} at the ends (the scans of the piece take the same
       ! factors): m = 1, 2 here, the next ones by the same products.
@@ -674,12 +685,7 @@ contains
       top = 0
       if (lockin) top = min(size(acc_sin), self%harmonics)
       ! As observables_integrate: a piece as long as the last one takes the cache.
-      d = h - self%cached_h
-      if (.not. (abs(d) <= reuse_within*h .and. (lockin .eqv. self%cached_lockin) .and. &
-                 (energy .eqv. self%cached_energy) .and. top == self%cached_top)) then
-         call fill_cache(self, h, lockin, energy, top)
-         d = 0
-      end if
+      call cache_for(self, h, lockin, energy, top, d)
       call take_end(self, flight, sa, 1)
       call take_end(self, flight, sb, 2)
       do k = 1, nt

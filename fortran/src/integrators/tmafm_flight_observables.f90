@@ -418,6 +418,29 @@ contains
       end do
    end function phi1
 
+   !> Term k's share of the integral of |a'|^2's modal part: its products with terms l >= k
+   !> (l = k once, l > k counted twice), from the ends' factors e_a, e_b and the cache (d).
+   pure complex(dp) function modal_pairs(self, flight, k, d) result(x)
+      type(flight_observables_t), intent(in) :: self
+      type(free_flight_t), intent(in) :: flight
+      integer, intent(in) :: k
+      real(dp), intent(in) :: d
+      complex(dp) :: l_int, m_int, zk
+      integer :: l
+      x = 0
+      zk = flight%z(k)
+      do l = k, self%n_terms
+         l_int = cached_segment(self%e_a(k), self%e_a(l), self%e_b(k), self%e_b(l), self%mu_pair(k, l), d, &
+                                self%int_pair(k, l), self%exp_pair(k, l), self%series_pair(k, l), &
+                                self%inv_pair(k, l))
+         m_int = cached_segment(self%e_a(k), conjg(self%e_a(l)), self%e_b(k), conjg(self%e_b(l)), &
+                                self%mu_herm(k, l), d, self%int_herm(k, l), self%exp_herm(k, l), &
+                                self%series_herm(k, l), self%inv_herm(k, l))
+         x = x + (merge(0.5_dp, 1.0_dp, l == k)*self%mult(k)*self%mult(l)) &
+             *(zk*flight%z(l)*self%gram(k, l)*l_int + zk*conjg(flight%z(l))*self%herm(k, l)*m_int)
+      end do
+   end function modal_pairs
+
    !> The cache for a piece of length h: kept if the last piece was as long (to reuse_within)
    !> with the same groups, then d = h - its length; else filled for h, and d = 0.
    pure subroutine cache_for(self, h, lockin, energy, top, d)
@@ -538,10 +561,10 @@ contains
       !> deflection is p.a as above).
       real(dp), intent(inout), optional :: tone_sin(:), tone_cos(:)
       real(dp) :: h, sa, sb, sq, d
-      complex(dp) :: x, zk, l_int, m_int, pa1, pb1, pa, pb, pa_next, pb_next, k_prev, k_now, k_next, k1, k2
+      complex(dp) :: x, zk, pa1, pb1, pa, pb, pa_next, pb_next, k_prev, k_now, k_next, k1, k2
       complex(dp) :: i_omega, jp, jm
       complex(dp), parameter :: one = (1.0_dp, 0.0_dp)
-      integer :: k, l, m, top, nt
+      integer :: k, m, top, nt
 
       if (.not. (lockin .or. energy)) return
       if (self%general) then
@@ -644,16 +667,7 @@ contains
          do k = 1, nt
             zk = flight%z(k)
             x = x + self%mult(k)*zk*(self%part_plus(k)*self%j_int(k, 1) + self%part_minus(k)*self%j_int(k, -1))
-            do l = k, nt
-               l_int = cached_segment(self%e_a(k), self%e_a(l), self%e_b(k), self%e_b(l), self%mu_pair(k, l), d, &
-                                      self%int_pair(k, l), self%exp_pair(k, l), self%series_pair(k, l), &
-                                      self%inv_pair(k, l))
-               m_int = cached_segment(self%e_a(k), conjg(self%e_a(l)), self%e_b(k), conjg(self%e_b(l)), &
-                                      self%mu_herm(k, l), d, self%int_herm(k, l), self%exp_herm(k, l), &
-                                      self%series_herm(k, l), self%inv_herm(k, l))
-               x = x + (merge(0.5_dp, 1.0_dp, l == k)*self%mult(k)*self%mult(l)) &
-                   *(zk*flight%z(l)*self%gram(k, l)*l_int + zk*conjg(flight%z(l))*self%herm(k, l)*m_int)
-            end do
+            x = x + modal_pairs(self, flight, k, d)
          end do
          sq = sq + real(x, dp)
          beam = beam - self%alpha3*sq
@@ -674,9 +688,9 @@ contains
       real(dp), intent(inout) :: acc_sin(:), acc_cos(:), deflection, drive, beam
       real(dp), intent(inout), optional :: tone_sin(:), tone_cos(:)
       real(dp) :: h, sa, sb, sq, d
-      complex(dp) :: x, w, zk, l_int, m_int, base_a, base_b
+      complex(dp) :: x, w, zk, base_a, base_b
       complex(dp), parameter :: one = (1.0_dp, 0.0_dp)
-      integer :: k, l, m, t, u, nt, top
+      integer :: k, m, t, u, nt, top
 
       nt = self%n_terms
       h = tau_b - tau_a
@@ -752,16 +766,7 @@ contains
                x = x + self%mult(k)*zk*(self%tone_part_plus(k, t)*j_of(k, self%tone_harmonic(t)) &
                                         + self%tone_part_minus(k, t)*j_of(k, -self%tone_harmonic(t)))
             end do
-            do l = k, nt
-               l_int = cached_segment(self%e_a(k), self%e_a(l), self%e_b(k), self%e_b(l), self%mu_pair(k, l), d, &
-                                      self%int_pair(k, l), self%exp_pair(k, l), self%series_pair(k, l), &
-                                      self%inv_pair(k, l))
-               m_int = cached_segment(self%e_a(k), conjg(self%e_a(l)), self%e_b(k), conjg(self%e_b(l)), &
-                                      self%mu_herm(k, l), d, self%int_herm(k, l), self%exp_herm(k, l), &
-                                      self%series_herm(k, l), self%inv_herm(k, l))
-               x = x + (merge(0.5_dp, 1.0_dp, l == k)*self%mult(k)*self%mult(l)) &
-                   *(zk*flight%z(l)*self%gram(k, l)*l_int + zk*conjg(flight%z(l))*self%herm(k, l)*m_int)
-            end do
+            x = x + modal_pairs(self, flight, k, d)
          end do
          sq = sq + real(x, dp)
          beam = beam - self%alpha3*sq
